@@ -1,0 +1,1 @@
+"""Pose-graph optimisation with GTSAM."""

@@ -1,0 +1,1 @@
+"""The study: sequences x pipelines, run locally or on Ray, tabulated and charted."""

@@ -1,0 +1,1 @@
+"""`viewslam benchmark`."""

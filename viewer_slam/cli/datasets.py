@@ -1,0 +1,1 @@
+"""`viewslam download` and `viewslam sequences`."""

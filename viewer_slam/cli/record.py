@@ -1,0 +1,1 @@
+"""`viewslam record` and `viewslam view`."""

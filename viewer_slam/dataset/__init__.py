@@ -1,0 +1,1 @@
+"""RGB-D sequences: TUM folders, known sequences, downloads and synthetic scenarios."""

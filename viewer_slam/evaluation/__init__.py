@@ -1,0 +1,1 @@
+"""Trajectory metrics (ATE, RPE, coverage-aware scores) and reports."""

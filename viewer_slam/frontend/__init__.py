@@ -1,0 +1,1 @@
+"""Feature detection, description, matching and robust motion estimation."""

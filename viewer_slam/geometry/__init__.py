@@ -1,0 +1,1 @@
+"""Poses, cameras, trajectories and alignment."""

@@ -1,0 +1,91 @@
+"""Pinhole camera with the TUM depth convention."""
+
+import json
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+TUM_DEPTH_FACTOR = 5000.0
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Intrinsics of the RGB optical frame (x right, y down, z forward).
+
+    ``depth_factor`` converts the stored uint16 depth to metres (TUM: 5000 per metre).
+    ``distortion`` holds OpenCV's ``(k1, k2, p1, p2, k3)``; the registered TUM depth and
+    colour images are used as they are, so pipelines treat the images as undistorted.
+    """
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int
+    height: int
+    depth_factor: float = TUM_DEPTH_FACTOR
+    distortion: tuple[float, ...] = field(default=(0.0, 0.0, 0.0, 0.0, 0.0))
+
+    @property
+    def K(self) -> np.ndarray:
+        return np.array([[self.fx, 0, self.cx], [0, self.fy, self.cy], [0, 0, 1]], dtype=np.float64)
+
+    def scaled(self, width: int, height: int) -> "Camera":
+        """The same lens at another resolution (pixel-centre convention kept)."""
+        sx, sy = width / self.width, height / self.height
+        return replace(self, fx=self.fx * sx, fy=self.fy * sy,
+                       cx=(self.cx + 0.5) * sx - 0.5, cy=(self.cy + 0.5) * sy - 0.5,
+                       width=width, height=height)
+
+    def backproject(self, uv: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """3D points ``(N, 3)`` in the camera frame from pixels ``(N, 2)`` and depths ``(N,)``."""
+        z = np.asarray(depth, dtype=np.float64)
+        x = (uv[:, 0] - self.cx) / self.fx * z
+        y = (uv[:, 1] - self.cy) / self.fy * z
+        return np.stack([x, y, z], axis=1)
+
+    def project(self, points: np.ndarray) -> np.ndarray:
+        """Pixels ``(N, 2)`` of camera-frame points ``(N, 3)`` (z must be positive)."""
+        z = points[:, 2]
+        return np.stack([self.fx * points[:, 0] / z + self.cx, self.fy * points[:, 1] / z + self.cy], axis=1)
+
+    def depth_to_points(self, depth: np.ndarray, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Points ``(N, 3)`` of every ``step``-th pixel with valid depth, and their ``(row, col)``."""
+        rows, cols = np.mgrid[0:depth.shape[0]:step, 0:depth.shape[1]:step]
+        z = depth[rows, cols]
+        valid = z > 0
+        rows, cols, z = rows[valid], cols[valid], z[valid]
+        uv = np.stack([cols, rows], axis=1).astype(np.float64)
+        return self.backproject(uv, z), np.stack([rows, cols], axis=1)
+
+    def to_json(self) -> dict:
+        data = asdict(self)
+        data["distortion"] = list(self.distortion)
+        return data
+
+    def save(self, path: Path) -> None:
+        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
+
+    @classmethod
+    def load(cls, path: Path) -> "Camera":
+        """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion)."""
+        try:
+            data = json.loads(Path(path).read_text())
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise InputError.at(path, f"cannot read camera calibration: {error}") from None
+        required = ("fx", "fy", "cx", "cy", "width", "height")
+        missing = [key for key in required if key not in data]
+        if missing:
+            raise InputError.at(path, f"camera calibration lacks {', '.join(missing)}")
+        try:
+            return cls(
+                fx=float(data["fx"]), fy=float(data["fy"]), cx=float(data["cx"]), cy=float(data["cy"]),
+                width=int(data["width"]), height=int(data["height"]),
+                depth_factor=float(data.get("depth_factor", TUM_DEPTH_FACTOR)),
+                distortion=tuple(float(v) for v in data.get("distortion", (0.0,) * 5)),
+            )
+        except (TypeError, ValueError) as error:
+            raise InputError.at(path, f"bad camera calibration value: {error}") from None

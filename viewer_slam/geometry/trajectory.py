@@ -1,0 +1,90 @@
+"""Timestamped pose sequences and the TUM trajectory file format."""
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from .se3 import pose_from_tq, pose_to_tq
+
+
+@dataclass
+class Trajectory:
+    """``timestamps (N,)`` in seconds and poses ``(N, 4, 4)`` ``T_world_camera``."""
+
+    timestamps: np.ndarray
+    poses: np.ndarray
+
+    def __post_init__(self):
+        self.timestamps = np.asarray(self.timestamps, dtype=np.float64).reshape(-1)
+        self.poses = np.asarray(self.poses, dtype=np.float64).reshape(-1, 4, 4)
+        if len(self.timestamps) != len(self.poses):
+            raise ValueError("timestamps and poses differ in length")
+
+    def __len__(self) -> int:
+        return len(self.timestamps)
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.poses[:, :3, 3]
+
+    def subset(self, index) -> "Trajectory":
+        return Trajectory(self.timestamps[index], self.poses[index])
+
+    @classmethod
+    def empty(cls) -> "Trajectory":
+        return cls(np.zeros(0), np.zeros((0, 4, 4)))
+
+
+def read_tum(path: Path) -> Trajectory:
+    """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
+
+    Every malformed line raises :class:`InputError` naming the file and line number.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise InputError.at(path, "no such file") from None
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError.at(path, f"cannot read: {error}") from None
+    rows = []
+    for number, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        fields = stripped.replace(",", " ").split()
+        if len(fields) != 8:
+            raise InputError.at(path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number)
+        try:
+            values = [float(v) for v in fields]
+        except ValueError:
+            raise InputError.at(path, "a field is not a number", number) from None
+        if not all(math.isfinite(v) for v in values):
+            raise InputError.at(path, "a field is NaN or infinite", number)
+        if math.sqrt(sum(v * v for v in values[4:])) < 1e-9:
+            raise InputError.at(path, "zero quaternion", number)
+        rows.append(values)
+    if not rows:
+        raise InputError.at(path, "no poses in trajectory file")
+    data = np.array(rows)
+    if np.any(np.diff(data[:, 0]) < 0):
+        order = np.argsort(data[:, 0], kind="stable")
+        data = data[order]
+    return Trajectory(data[:, 0], pose_from_tq(data[:, 1:4], data[:, 4:8]))
+
+
+def format_tum(trajectory: Trajectory) -> str:
+    t, q = pose_to_tq(trajectory.poses)
+    lines = [
+        f"{stamp:.6f} {x:.6f} {y:.6f} {z:.6f} {qx:.6f} {qy:.6f} {qz:.6f} {qw:.6f}"
+        for stamp, (x, y, z), (qx, qy, qz, qw) in zip(trajectory.timestamps, t, q)
+    ]
+    return "".join(line + "\n" for line in lines)
+
+
+def write_tum(path: Path, trajectory: Trajectory) -> None:
+    """Write a trajectory in TUM format (6 decimals: micro-seconds and micro-metres)."""
+    Path(path).write_text(format_tum(trajectory))

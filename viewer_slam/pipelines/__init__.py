@@ -1,0 +1,1 @@
+"""SLAM pipelines and the events they emit."""

@@ -1,0 +1,137 @@
+"""The events a pipeline emits while it runs.
+
+Pipelines know nothing of Rerun or files: they return these plain objects from
+``process``/``finish`` and sinks (trajectory writer, recorder, statistics) consume them.
+Poses are 4x4 ``T_map_camera`` in the pipeline's own map frame; points are in that frame.
+"""
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+
+class TrackingStatus(str, Enum):
+    INITIALISING = "initialising"
+    OK = "ok"
+    LOST = "lost"
+    RELOCALISED = "relocalised"
+
+
+@dataclass
+class FrameTracked:
+    """One per processed frame. ``pose`` is the online estimate (None when lost).
+
+    ``timings_ms`` maps stage names (features, matching, ransac, optimisation, ...) to
+    milliseconds spent on this frame; ``metrics`` holds extra per-frame series a pipeline
+    wants plotted (e.g. memory sizes).
+    """
+
+    frame_index: int
+    timestamp: float
+    pose: np.ndarray | None
+    status: TrackingStatus
+    features: int = 0
+    matches: int = 0
+    inliers: int = 0
+    keyframe_id: int | None = None
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class KeyframeAdded:
+    """A new graph node. ``image``/``depth`` are optional (thumbnails, depth at keyframes)."""
+
+    keyframe_id: int
+    frame_index: int
+    timestamp: float
+    pose: np.ndarray
+    keypoints: np.ndarray
+    image: np.ndarray | None = None
+    depth: np.ndarray | None = None
+
+
+@dataclass
+class FeatureMatches:
+    """Correspondences used to track ``frame_index``.
+
+    ``points_current`` are pixels in the current image; ``points_reference`` are the
+    matched pixels in the reference image (a keyframe) or, for frame-to-map tracking,
+    the matched map points projected into the current image with the estimated pose.
+    """
+
+    frame_index: int
+    reference: str
+    reference_frame_index: int | None
+    points_current: np.ndarray
+    points_reference: np.ndarray
+    inlier_mask: np.ndarray
+
+
+@dataclass
+class LoopClosure:
+    """A loop-closure hypothesis between two keyframes, accepted or rejected (and why)."""
+
+    frame_index: int
+    from_keyframe: int
+    to_keyframe: int
+    accepted: bool
+    reason: str
+    relative_pose: np.ndarray | None = None
+    score: float = 0.0
+    inliers: int = 0
+    kind: str = "appearance"
+
+
+@dataclass
+class GraphOptimized:
+    """Keyframe poses after an optimisation and the graph error before and after it."""
+
+    frame_index: int
+    keyframe_ids: np.ndarray
+    poses: np.ndarray
+    error_before: float
+    error_after: float
+
+
+@dataclass
+class MapUpdated:
+    """Map points ``(N, 3)`` and colours ``(N, 3)`` uint8, added or replacing the map."""
+
+    frame_index: int
+    points: np.ndarray
+    colors: np.ndarray
+    replace: bool = False
+
+
+@dataclass
+class TrackingLost:
+    frame_index: int
+    timestamp: float
+    reason: str
+
+
+@dataclass
+class TrackingRecovered:
+    frame_index: int
+    timestamp: float
+    reason: str
+
+
+@dataclass
+class TrajectoryFinal:
+    """Every frame that has a pose at the end of the run, after the final optimisation.
+
+    ``odometry_poses`` are the same frames' poses before any loop closure corrected them
+    (raw odometry, for contrast), when the pipeline keeps them.
+    """
+
+    frame_indices: np.ndarray
+    timestamps: np.ndarray
+    poses: np.ndarray
+    odometry_poses: np.ndarray | None = None
+
+
+Event = (FrameTracked | KeyframeAdded | FeatureMatches | LoopClosure | GraphOptimized
+         | MapUpdated | TrackingLost | TrackingRecovered | TrajectoryFinal)

@@ -1,0 +1,106 @@
+"""Feed a sequence through a pipeline, fan its events out to sinks, and summarise the run."""
+
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..dataset.frame import Sequence
+from ..geometry.trajectory import Trajectory
+from .base import make_pipeline
+from .events import Event, FrameTracked, KeyframeAdded, LoopClosure, TrackingLost, TrajectoryFinal
+from .params import params_to_dict
+
+Sink = Callable[[Event], None]
+
+
+@dataclass
+class PipelineRun:
+    """What a run produced, independent of any evaluation against groundtruth."""
+
+    pipeline: str
+    parameters: dict[str, Any]
+    seed: int
+    frames: int = 0
+    trajectory: Trajectory = field(default_factory=Trajectory.empty)
+    odometry: Trajectory | None = None
+    frame_indices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    keyframes: int = 0
+    loop_closures_accepted: int = 0
+    loop_closures_rejected: int = 0
+    tracking_lost: list[dict[str, Any]] = field(default_factory=list)
+    stage_ms_total: dict[str, float] = field(default_factory=dict)
+    total_s: float = 0.0
+    interrupted: bool = False
+
+    @property
+    def fps(self) -> float:
+        return self.frames / self.total_s if self.total_s > 0 else 0.0
+
+    @property
+    def per_stage_ms(self) -> dict[str, float]:
+        """Mean milliseconds per processed frame for each stage."""
+        return {stage: total / max(self.frames, 1) for stage, total in self.stage_ms_total.items()}
+
+    def observe(self, event: Event) -> None:
+        """Fold one event into the summary (the run's own statistics sink)."""
+        if isinstance(event, FrameTracked):
+            self.frames += 1
+            for stage, ms in event.timings_ms.items():
+                self.stage_ms_total[stage] = self.stage_ms_total.get(stage, 0.0) + ms
+        elif isinstance(event, KeyframeAdded):
+            self.keyframes += 1
+        elif isinstance(event, LoopClosure):
+            if event.accepted:
+                self.loop_closures_accepted += 1
+            else:
+                self.loop_closures_rejected += 1
+        elif isinstance(event, TrackingLost):
+            self.tracking_lost.append({"frame": event.frame_index, "timestamp": event.timestamp, "reason": event.reason})
+        elif isinstance(event, TrajectoryFinal):
+            self.frame_indices = np.asarray(event.frame_indices, dtype=int)
+            self.trajectory = Trajectory(event.timestamps, event.poses)
+            if event.odometry_poses is not None:
+                self.odometry = Trajectory(event.timestamps, event.odometry_poses)
+
+
+def run_pipeline(
+    sequence: Sequence,
+    pipeline_name: str,
+    params: Any = None,
+    *,
+    seed: int = 0,
+    max_frames: int | None = None,
+    stride: int = 1,
+    sinks: Iterable[Sink] = (),
+    should_stop: Callable[[], bool] = lambda: False,
+) -> PipelineRun:
+    """Run ``pipeline_name`` over ``sequence`` and return its summary.
+
+    Ctrl-C (KeyboardInterrupt) or ``should_stop()`` ends the frame loop early; the
+    pipeline still finishes (final optimisation, final trajectory of the frames seen) and
+    the run is marked interrupted, so everything up to that point is kept.
+    """
+    pipeline = make_pipeline(pipeline_name, sequence.camera, params, seed)
+    run = PipelineRun(pipeline=pipeline_name, parameters=params_to_dict(pipeline.params), seed=seed)
+    sinks = [run.observe, *sinks]
+
+    def emit(events: list[Event]) -> None:
+        for event in events:
+            for sink in sinks:
+                sink(event)
+
+    start = time.perf_counter()
+    try:
+        for frame in sequence.frames(max_frames=max_frames, stride=stride):
+            emit(pipeline.process(frame))
+            if should_stop():
+                run.interrupted = True
+                break
+    except KeyboardInterrupt:
+        run.interrupted = True
+    emit(pipeline.finish())
+    run.total_s = time.perf_counter() - start
+    return run
