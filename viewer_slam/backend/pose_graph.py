@@ -1,0 +1,93 @@
+"""A Pose3 graph optimised with GTSAM's Levenberg-Marquardt.
+
+Nodes and edges are kept in Python and the GTSAM factor graph is rebuilt for each
+optimisation: graphs here hold hundreds of nodes, the rebuild costs far less than the
+optimisation, and it lets a pipeline try an edge and take it back (RTAB-Map rejects a
+loop closure whose optimised error is too large).
+"""
+
+from dataclasses import dataclass
+
+import gtsam
+import numpy as np
+
+from ..geometry.se3 import invert, rotation_angle
+
+
+@dataclass
+class Edge:
+    """``relative = T_from^-1 T_to`` measured with ``information`` (6x6, rotation first)."""
+
+    from_id: int
+    to_id: int
+    relative: np.ndarray
+    information: np.ndarray
+    robust: bool = False
+
+
+def information_from_sigmas(rotation_sigma: float, translation_sigma: float) -> np.ndarray:
+    """Diagonal information in GTSAM's tangent order (rotation, then translation)."""
+    return np.diag([rotation_sigma ** -2] * 3 + [translation_sigma ** -2] * 3)
+
+
+class PoseGraph:
+    """Nodes with initial guesses, between-edges and priors; optimised on demand."""
+
+    def __init__(self, huber_threshold: float = 1.345):
+        self.poses: dict[int, np.ndarray] = {}
+        self.edges: list[Edge] = []
+        self.priors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.huber_threshold = huber_threshold
+
+    def add_node(self, node_id: int, pose: np.ndarray) -> None:
+        self.poses[node_id] = np.array(pose, dtype=np.float64)
+
+    def add_prior(self, node_id: int, pose: np.ndarray, information: np.ndarray) -> None:
+        self.priors[node_id] = (np.array(pose, dtype=np.float64), information)
+
+    def add_edge(self, edge: Edge) -> None:
+        self.edges.append(edge)
+
+    def remove_edge(self, edge: Edge) -> None:
+        self.edges.remove(edge)
+
+    def _noise(self, information: np.ndarray, robust: bool):
+        model = gtsam.noiseModel.Gaussian.Information(information)
+        if robust:
+            return gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(self.huber_threshold), model)
+        return model
+
+    def _build(self) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
+        graph = gtsam.NonlinearFactorGraph()
+        values = gtsam.Values()
+        for node_id, pose in self.poses.items():
+            values.insert(node_id, gtsam.Pose3(pose))
+        for node_id, (pose, information) in self.priors.items():
+            graph.add(gtsam.PriorFactorPose3(node_id, gtsam.Pose3(pose), self._noise(information, False)))
+        for edge in self.edges:
+            graph.add(gtsam.BetweenFactorPose3(edge.from_id, edge.to_id, gtsam.Pose3(edge.relative),
+                                               self._noise(edge.information, edge.robust)))
+        return graph, values
+
+    def error(self) -> float:
+        graph, values = self._build()
+        return graph.error(values)
+
+    def optimize(self, max_iterations: int = 100) -> tuple[float, float]:
+        """Optimise all nodes in place; returns the graph error before and after."""
+        graph, values = self._build()
+        before = graph.error(values)
+        if not self.edges and not self.priors:
+            return before, before
+        parameters = gtsam.LevenbergMarquardtParams()
+        parameters.setMaxIterations(max_iterations)
+        result = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters).optimize()
+        for node_id in self.poses:
+            self.poses[node_id] = result.atPose3(node_id).matrix()
+        return before, graph.error(result)
+
+    def edge_residual(self, edge: Edge) -> tuple[float, float]:
+        """Translation (m) and rotation (rad) by which the current poses disagree with an edge."""
+        predicted = invert(self.poses[edge.from_id]) @ self.poses[edge.to_id]
+        residual = invert(edge.relative) @ predicted
+        return float(np.linalg.norm(residual[:3, 3])), float(rotation_angle(residual[:3, :3]))

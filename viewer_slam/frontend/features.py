@@ -1,0 +1,149 @@
+"""Keypoint detection, description, back-projection to 3D and ratio-test matching.
+
+One :class:`FeatureExtractor` serves both pipelines: RGB-D SLAM's detectors (ORB spread
+with a detector grid, SIFT, and what OpenCV offers cheaply) and RTAB-Map's GFTT corners
+with ORB or BRIEF descriptors (Kp/DetectorStrategy 8 and 6).
+"""
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+from ..geometry.camera import Camera
+
+BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
+DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
+
+
+@dataclass
+class Features:
+    """Keypoints ``(N, 2)`` float32 pixels, descriptors ``(N, D)``, responses ``(N,)``, and
+    camera-frame 3D points ``(N, 3)`` that are NaN where the depth is missing or out of range.
+    """
+
+    keypoints: np.ndarray
+    descriptors: np.ndarray
+    responses: np.ndarray
+    points: np.ndarray
+    binary: bool
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+    @property
+    def has_depth(self) -> np.ndarray:
+        return ~np.isnan(self.points[:, 0])
+
+    def subset(self, index) -> "Features":
+        return Features(self.keypoints[index], self.descriptors[index], self.responses[index],
+                        self.points[index], self.binary)
+
+
+def _make_detector(kind: str, max_features: int):
+    """(detector, describer) pair; ``describer`` None means the detector describes itself."""
+    if kind == "SURF":
+        raise InputError("feature detector SURF is patented and absent from the pip OpenCV builds; "
+                         f"choose one of {', '.join(DETECTORS)}")
+    if kind == "ORB":
+        return cv2.ORB_create(nfeatures=max_features * 2, fastThreshold=10), None
+    if kind == "SIFT":
+        return cv2.SIFT_create(nfeatures=max_features * 2), None
+    if kind == "AKAZE":
+        return cv2.xfeatures2d.AKAZE_create(threshold=0.0005), None
+    if kind == "BRISK":
+        return cv2.xfeatures2d.BRISK_create(thresh=20), None
+    # RTAB-Map defaults: GFTT/QualityLevel 0.001, GFTT/MinDistance 7, GFTT/BlockSize 3.
+    gftt = cv2.GFTTDetector_create(maxCorners=max_features, qualityLevel=0.001, minDistance=7, blockSize=3)
+    if kind == "GFTT_ORB":
+        return gftt, cv2.ORB_create(edgeThreshold=19, patchSize=31)
+    if kind == "GFTT_BRIEF":
+        return gftt, cv2.xfeatures2d.BriefDescriptorExtractor_create(32)
+    raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
+
+
+def _spread_over_grid(points: np.ndarray, responses: np.ndarray, shape: tuple[int, int],
+                      grid: int, limit: int) -> np.ndarray:
+    """Indices of at most ``limit`` keypoints, strongest first, at most limit/grid² per cell
+    while other cells have room, so the features cover the whole image."""
+    order = np.argsort(-responses, kind="stable")
+    if grid <= 1:
+        return order[:limit]
+    height, width = shape
+    cell = (np.minimum((points[order, 1] * grid / height).astype(int), grid - 1) * grid
+            + np.minimum((points[order, 0] * grid / width).astype(int), grid - 1))
+    # Rank of each keypoint within its cell, in decreasing response order.
+    cell_order = np.argsort(cell, kind="stable")
+    sorted_cells = cell[cell_order]
+    starts = np.searchsorted(sorted_cells, sorted_cells, side="left")
+    rank = np.empty(len(order), dtype=int)
+    rank[cell_order] = np.arange(len(order)) - starts
+    quota = max(1, limit // (grid * grid))
+    chosen = order[np.argsort(rank >= quota, kind="stable")]  # in-quota first, then the rest by strength
+    return chosen[:limit]
+
+
+class FeatureExtractor:
+    """Detect, describe and back-project keypoints of one RGB-D frame."""
+
+    def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
+                 min_depth: float = 0.3, max_depth: float = 6.0):
+        self.kind = kind
+        self.max_features = max_features
+        self.camera = camera
+        self.grid = grid
+        self.min_depth = min_depth
+        self.max_depth = max_depth
+        self.detector, self.describer = _make_detector(kind, max_features)
+        self.binary = kind in BINARY_DESCRIPTORS
+
+    def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
+        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+        keypoints = self.detector.detect(gray, None)
+        if keypoints:
+            xy = np.array([k.pt for k in keypoints], dtype=np.float32)
+            strength = np.array([k.response for k in keypoints], dtype=np.float32)
+            keep = _spread_over_grid(xy, strength, gray.shape, self.grid, self.max_features)
+            keypoints = [keypoints[i] for i in keep]
+        describer = self.describer or self.detector
+        keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ((), None)
+        if descriptors is None or not len(keypoints):
+            width = 128 if not self.binary else 32
+            return Features(np.zeros((0, 2), np.float32), np.zeros((0, width), np.float32 if not self.binary else np.uint8),
+                            np.zeros(0, np.float32), np.zeros((0, 3)), self.binary)
+        xy = np.array([k.pt for k in keypoints], dtype=np.float32)
+        responses = np.array([k.response for k in keypoints], dtype=np.float32)
+        return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
+
+    def backproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
+        """3D points of keypoints, NaN where the depth at the rounded pixel is unusable."""
+        cols = np.clip(np.rint(xy[:, 0]).astype(int), 0, depth.shape[1] - 1)
+        rows = np.clip(np.rint(xy[:, 1]).astype(int), 0, depth.shape[0] - 1)
+        z = depth[rows, cols].astype(np.float64)
+        points = self.camera.backproject(xy.astype(np.float64), z)
+        points[(z < self.min_depth) | (z > self.max_depth)] = np.nan
+        return points
+
+
+def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest-neighbour matches that pass Lowe's ratio test (best < ratio * second best).
+
+    Returns index arrays into ``query`` and ``train``; a query whose two nearest neighbours
+    are too alike is dropped, as is a second query claiming an already matched train item.
+    """
+    if len(query) == 0 or len(train) < 2:
+        return np.zeros(0, int), np.zeros(0, int)
+    matcher = cv2.BFMatcher(cv2.NORM_HAMMING if binary else cv2.NORM_L2)
+    pairs = matcher.knnMatch(query, train, k=2)
+    q, t, d = [], [], []
+    for pair in pairs:
+        if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance:
+            q.append(pair[0].queryIdx)
+            t.append(pair[0].trainIdx)
+            d.append(pair[0].distance)
+    q, t, d = np.array(q, int), np.array(t, int), np.array(d)
+    best_first = np.argsort(d, kind="stable")
+    _, unique = np.unique(t[best_first], return_index=True)
+    keep = np.sort(best_first[unique])
+    return q[keep], t[keep]
