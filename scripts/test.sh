@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Installs viewslam with its test extras (and Xvfb + Mesa for the viewer screenshot test) and
+# runs the test suite on both cores.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+source scripts/setup.sh "dev,ray" xvfb mesa-vulkan-drivers
+python -m pytest -n 2 "$@"

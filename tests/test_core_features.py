@@ -1,0 +1,67 @@
+import cv2
+import numpy as np
+import pytest
+
+from viewer_slam.errors import InputError
+from viewer_slam.frontend.features import DETECTORS, FeatureExtractor, _spread_over_grid, match_descriptors
+from viewer_slam.geometry.camera import Camera
+
+CAMERA = Camera(fx=267.7, fy=269.6, cx=159.8, cy=119.6, width=320, height=240)
+
+
+def textured_image(seed=0):
+    rng = np.random.default_rng(seed)
+    noise = cv2.GaussianBlur((rng.random((240, 320)) * 255).astype(np.uint8), (5, 5), 1.5)
+    return np.dstack([noise] * 3)
+
+
+@pytest.mark.parametrize("kind", DETECTORS)
+def test_detectors_find_the_known_shift(kind):
+    rgb = textured_image()
+    depth = np.full((240, 320), 1.5, np.float32)
+    extractor = FeatureExtractor(kind, 300, CAMERA, grid=3)
+    first = extractor.extract(rgb, depth)
+    second = extractor.extract(np.roll(rgb, 4, axis=1), depth)
+    assert 50 <= len(first) <= 300
+    query, train = match_descriptors(first.descriptors, second.descriptors, first.binary, 0.8)
+    assert len(query) > 0.5 * len(first)
+    shift = second.keypoints[train] - first.keypoints[query]
+    np.testing.assert_allclose(np.median(shift, axis=0), [4, 0], atol=0.5)
+    assert len(np.unique(train)) == len(train)
+
+
+def test_points_are_nan_without_depth_and_backprojected_with_it():
+    rgb = textured_image(1)
+    depth = np.full((240, 320), 2.0, np.float32)
+    depth[:, :160] = 0.0
+    features = FeatureExtractor("ORB", 300, CAMERA).extract(rgb, depth)
+    left = features.keypoints[:, 0] < 159
+    right = features.keypoints[:, 0] > 160
+    assert not features.has_depth[left].any()
+    assert features.has_depth[right].all()
+    np.testing.assert_allclose(features.points[right, 2], 2.0)
+    np.testing.assert_allclose(CAMERA.project(features.points[right]), features.keypoints[right], atol=1e-4)
+
+
+def test_grid_spreads_keypoints_over_cells():
+    # 100 strong corners crowd the top-left cell; 9 weak ones sit one per cell.
+    crowded = np.column_stack([np.linspace(1, 50, 100), np.linspace(1, 50, 100)])
+    spread = np.array([[x, y] for y in (40, 120, 200) for x in (50, 160, 270)], float)
+    points = np.vstack([crowded, spread])
+    responses = np.concatenate([np.full(100, 10.0), np.full(9, 1.0)])
+    chosen = _spread_over_grid(points, responses, (240, 320), grid=3, limit=18)
+    assert set(range(101, 109)) <= set(chosen.tolist())  # every other cell represented
+    assert len(chosen) == 18
+    assert _spread_over_grid(points, responses, (240, 320), grid=1, limit=18).max() < 100
+
+
+def test_blank_image_gives_no_features():
+    features = FeatureExtractor("GFTT_ORB", 500, CAMERA).extract(np.zeros((240, 320, 3), np.uint8),
+                                                                 np.zeros((240, 320), np.float32))
+    assert len(features) == 0
+    assert match_descriptors(features.descriptors, features.descriptors, True, 0.8)[0].size == 0
+
+
+def test_surf_is_refused_with_the_reason():
+    with pytest.raises(InputError, match="SURF is patented"):
+        FeatureExtractor("SURF", 500, CAMERA)
