@@ -97,10 +97,16 @@ def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def rotation_angle(R: np.ndarray) -> np.ndarray:
-    """Rotation angle in radians of rotation matrices ``(..., 3, 3)``, in [0, pi]."""
+    """Rotation angle in radians of rotation matrices ``(..., 3, 3)``, in [0, pi].
+
+    atan2 of the sine (from the skew part) and cosine (from the trace) parts stays accurate
+    for the tiny rotations between frames, where arccos of the trace loses half the digits.
+    """
     R = np.asarray(R)
-    cos = (np.trace(R, axis1=-2, axis2=-1) - 1.0) / 2.0
-    return np.arccos(np.clip(cos, -1.0, 1.0))
+    skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
+    sine = 0.5 * np.linalg.norm(skew, axis=-1)
+    cosine = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
+    return np.arctan2(sine, cosine)
 
 
 def slerp(q0: np.ndarray, q1: np.ndarray, s: np.ndarray) -> np.ndarray:

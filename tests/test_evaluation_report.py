@@ -1,0 +1,83 @@
+"""The report's per-pipeline block, its envelope and strict JSON output."""
+
+import json
+from importlib import metadata
+
+import numpy as np
+import pytest
+from fixtures_eval import TUM_RPY, perturbed
+
+from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.evaluation import evaluate
+from viewer_slam.evaluation.report import build_report, pipeline_report, write_report
+from viewer_slam.geometry.trajectory import Trajectory
+from viewer_slam.pipelines.run import PipelineRun
+
+PIPELINE_KEYS = {"frames_with_pose", "ate", "rpe", "coverage", "penalized_ate", "odometry_ate", "loop_closures",
+                 "keyframes", "tracking_lost", "timing", "parameters"}
+STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
+
+
+@pytest.fixture(scope="module")
+def sequence():
+    return open_sequence(TUM_RPY)
+
+
+def finished_run(sequence) -> PipelineRun:
+    groundtruth_poses, _ = sequence.groundtruth_at(sequence.timestamps[:60])
+    run = PipelineRun(pipeline="rgbdslam", parameters={"predecessor_candidates": 4, "ratio": float("nan")}, seed=0,
+                      frames=87, trajectory=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 1),
+                      odometry=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 2),
+                      frame_indices=np.arange(60), keyframes=9, loop_closures_accepted=2, loop_closures_rejected=5,
+                      tracking_lost=[{"frame": 60, "timestamp": np.float64(sequence.timestamps[60]),
+                                      "reason": "too few inliers"}],
+                      stage_ms_total={"features": 870.0, "ransac": 174.0}, total_s=2.9)
+    return run
+
+
+def test_pipeline_block_has_exactly_the_documented_keys(sequence):
+    run = finished_run(sequence)
+    evaluation = evaluate(sequence.groundtruth, run.trajectory)
+    odometry = evaluate(sequence.groundtruth, run.odometry)
+    block = pipeline_report(run, evaluation, odometry)
+    assert set(block) == PIPELINE_KEYS
+    assert block["frames_with_pose"] == 60
+    assert set(block["ate"]) == set(block["penalized_ate"]) == set(block["odometry_ate"]) == STATS_KEYS
+    assert set(block["rpe"]) == {"trans", "rot", "delta", "delta_unit"}
+    assert set(block["rpe"]["trans"]) == set(block["rpe"]["rot"]) == STATS_KEYS
+    assert block["odometry_ate"] == odometry.ate.stats()
+    assert block["loop_closures"] == {"accepted": 2, "rejected": 5}
+    assert block["keyframes"] == 9
+    assert block["timing"] == {"total_s": 2.9, "fps": 87 / 2.9, "per_stage_ms": {"features": 10.0, "ransac": 2.0}}
+    # The estimate stops at frame 59 of 87: the rest of the groundtruth time is lost.
+    assert block["coverage"]["ratio"] < 0.8 and len(block["coverage"]["lost_intervals"]) == 2
+
+
+def test_without_groundtruth_the_metric_blocks_are_null(sequence):
+    block = pipeline_report(finished_run(sequence), None, None)
+    assert set(block) == PIPELINE_KEYS
+    assert [block[key] for key in ("ate", "rpe", "coverage", "penalized_ate", "odometry_ate")] == [None] * 5
+
+
+def test_report_envelope_and_strict_json(sequence, tmp_path):
+    run = finished_run(sequence)
+    block = pipeline_report(run, evaluate(sequence.groundtruth, run.trajectory), None)
+    report = build_report(sequence, {"rgbdslam": block}, interrupted=False)
+    assert report["sequence"] == {"name": "rgbd_dataset_freiburg1_rpy", "path": str(TUM_RPY), "frames": 87,
+                                  "duration_s": sequence.duration_s}
+    assert report["interrupted"] is False
+    assert set(report["versions"]) == {"viewslam", "rerun", "opencv", "gtsam", "open3d"}
+    assert report["versions"]["viewslam"] == metadata.version("viewer-slam")
+    assert report["versions"]["gtsam"] == metadata.version("gtsam")
+
+    write_report(tmp_path / "report.json", report)
+    text = (tmp_path / "report.json").read_text()
+
+    def refuse(constant):
+        raise AssertionError(f"non-standard JSON constant {constant}")
+
+    parsed = json.loads(text, parse_constant=refuse)
+    assert parsed["pipelines"]["rgbdslam"]["parameters"] == {"predecessor_candidates": 4, "ratio": None}
+    assert parsed["pipelines"]["rgbdslam"]["tracking_lost"][0]["timestamp"] == float(sequence.timestamps[60])
+    write_report(tmp_path / "again.json", report)
+    assert (tmp_path / "again.json").read_text() == text

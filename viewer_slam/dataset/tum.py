@@ -1,0 +1,193 @@
+"""TUM RGB-D sequence folders: rgb.txt, depth.txt, groundtruth.txt, accelerometer.txt.
+
+Colour and depth images are associated as TUM's ``associate.py rgb.txt depth.txt`` does
+(greedy one-to-one, 0.02 s). Frames are read lazily, one at a time, from the PNG files.
+"""
+
+import logging
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from ..errors import InputError
+from ..geometry.association import associate
+from ..geometry.camera import Camera
+from ..geometry.interpolation import interpolate_poses
+from ..geometry.trajectory import Trajectory, read_tum
+from .frame import Frame
+
+log = logging.getLogger(__name__)
+
+ASSOCIATION_MAX_DIFFERENCE_S = 0.02
+
+# Published with the dataset (cvg.cit.tum.de/data/datasets/rgbd-dataset/file_formats).
+FREIBURG_CAMERAS = {
+    "freiburg1": Camera(517.3, 516.5, 318.6, 255.3, 640, 480, distortion=(0.2624, -0.9531, -0.0054, 0.0026, 1.1633)),
+    "freiburg2": Camera(520.9, 521.0, 325.1, 249.7, 640, 480, distortion=(0.2312, -0.7849, -0.0033, -0.0001, 0.9172)),
+    "freiburg3": Camera(535.4, 539.2, 320.1, 247.6, 640, 480),
+}
+ROS_DEFAULT_CAMERA = Camera(525.0, 525.0, 319.5, 239.5, 640, 480)
+
+_PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+_PNG_END = b"IEND\xaeB`\x82"
+
+
+@dataclass(frozen=True)
+class _Listing:
+    """One of TUM's ``timestamp value...`` text files, parsed."""
+
+    stamps: np.ndarray
+    values: list[list[str]]
+
+
+class TumSequence:
+    """A TUM RGB-D folder as a :class:`~viewer_slam.dataset.frame.Sequence`.
+
+    ``timestamps`` are the associated colour stamps (one per frame), ``depth_timestamps``
+    the depth stamps paired with them.
+    """
+
+    def __init__(self, path: Path, camera: Camera, rgb: _Listing, depth: _Listing,
+                 groundtruth: Trajectory | None, accelerometer: np.ndarray | None):
+        self.path = path
+        self.name = path.resolve().name
+        self.camera = camera
+        self.groundtruth = groundtruth
+        self.accelerometer = accelerometer
+        rgb_index, depth_index = associate(rgb.stamps, depth.stamps, 0.0, ASSOCIATION_MAX_DIFFERENCE_S)
+        if len(rgb_index) == 0:
+            raise InputError.at(path / "rgb.txt", f"no colour image has a depth image within "
+                                f"{ASSOCIATION_MAX_DIFFERENCE_S} s in depth.txt")
+        self.timestamps = rgb.stamps[rgb_index]
+        self.depth_timestamps = depth.stamps[depth_index]
+        self._rgb_files = [rgb.values[i][0] for i in rgb_index]
+        self._depth_files = [depth.values[i][0] for i in depth_index]
+
+    def __len__(self) -> int:
+        return len(self.timestamps)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.timestamps[-1] - self.timestamps[0])
+
+    def frame(self, index: int) -> Frame:
+        """The ``index``-th associated frame, read from disk now."""
+        rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]
+        rgb = cv2.cvtColor(self._read_image(rgb_path, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+        raw_depth = self._read_image(depth_path, cv2.IMREAD_UNCHANGED)
+        if raw_depth.dtype != np.uint16 or raw_depth.ndim != 2:
+            raise InputError.at(depth_path, f"depth image must be single-channel 16-bit, "
+                                f"found {raw_depth.dtype} with shape {raw_depth.shape}")
+        expected = (self.camera.height, self.camera.width)
+        for path, image in ((rgb_path, rgb), (depth_path, raw_depth)):
+            if image.shape[:2] != expected:
+                raise InputError.at(path, f"image is {image.shape[1]}x{image.shape[0]} but the camera "
+                                    f"is {self.camera.width}x{self.camera.height} (add a camera.json)")
+        depth = (raw_depth / self.camera.depth_factor).astype(np.float32)
+        return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
+
+    def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
+        if stride < 1:
+            raise ValueError(f"stride must be at least 1, got {stride}")
+        indices = range(0, len(self), stride)
+        for index in indices if max_frames is None else indices[:max_frames]:
+            yield self.frame(index)
+
+    def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""
+        if self.groundtruth is None:
+            stamps = np.asarray(stamps, dtype=np.float64).reshape(-1)
+            return np.full((len(stamps), 4, 4), np.nan), np.zeros(len(stamps), dtype=bool)
+        return interpolate_poses(self.groundtruth, stamps)
+
+    def frames_outside_groundtruth(self) -> np.ndarray:
+        """Indices of the frames at which no groundtruth pose can be interpolated."""
+        return np.flatnonzero(~self.groundtruth_at(self.timestamps)[1])
+
+    @staticmethod
+    def _read_image(path: Path, flags: int) -> np.ndarray:
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            raise InputError.at(path, "image listed in the sequence is missing") from None
+        except OSError as error:
+            raise InputError.at(path, f"cannot read image: {error.strerror}") from None
+        # libpng prints its own complaint on truncated files; catch the common case first.
+        if data.startswith(_PNG_SIGNATURE) and not data.rstrip(b"\0").endswith(_PNG_END):
+            raise InputError.at(path, "truncated PNG")
+        image = cv2.imdecode(np.frombuffer(data, np.uint8), flags) if data else None
+        if image is None:
+            raise InputError.at(path, "not a readable image")
+        return image
+
+
+def open_sequence(path: Path) -> TumSequence:
+    """Open a TUM RGB-D folder; :class:`InputError` if it is not one."""
+    path = Path(path)
+    if not path.is_dir():
+        raise InputError.at(path, "no such folder" if not path.exists() else "not a folder")
+    for required in ("rgb.txt", "depth.txt"):
+        if not (path / required).is_file():
+            raise InputError.at(path, f"not a TUM RGB-D sequence (no {required})")
+    groundtruth_path = path / "groundtruth.txt"
+    accelerometer_path = path / "accelerometer.txt"
+    return TumSequence(
+        path=path,
+        camera=_camera_for(path),
+        rgb=_read_listing(path / "rgb.txt", value_fields=1),
+        depth=_read_listing(path / "depth.txt", value_fields=1),
+        groundtruth=read_tum(groundtruth_path) if groundtruth_path.is_file() else None,
+        accelerometer=_accelerations(accelerometer_path) if accelerometer_path.is_file() else None,
+    )
+
+
+def _camera_for(path: Path) -> Camera:
+    """camera.json, else the published calibration named by the folder, else ROS's default."""
+    if (path / "camera.json").is_file():
+        return Camera.load(path / "camera.json")
+    match = re.search(r"freiburg[123]", path.resolve().name)
+    if match:
+        return FREIBURG_CAMERAS[match.group(0)]
+    log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
+                "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
+    return ROS_DEFAULT_CAMERA
+
+
+def _read_listing(path: Path, value_fields: int) -> _Listing:
+    """Lines ``timestamp v1 .. vk``, ``#`` comments skipped; InputError with the line number."""
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError.at(path, f"cannot read: {error}") from None
+    stamps, values = [], []
+    for number, line in enumerate(text.splitlines(), start=1):
+        fields = line.replace(",", " ").split()
+        if not fields or fields[0].startswith("#"):
+            continue
+        if len(fields) != 1 + value_fields:
+            raise InputError.at(path, f"expected {1 + value_fields} fields, found {len(fields)}", number)
+        try:
+            stamp = float(fields[0])
+        except ValueError:
+            raise InputError.at(path, f"timestamp {fields[0]!r} is not a number", number) from None
+        if not np.isfinite(stamp):
+            raise InputError.at(path, "timestamp is NaN or infinite", number)
+        stamps.append(stamp)
+        values.append(fields[1:])
+    if not stamps:
+        raise InputError.at(path, "lists no entries")
+    return _Listing(np.array(stamps), values)
+
+
+def _accelerations(path: Path) -> np.ndarray:
+    """``(N, 4)`` rows ``timestamp ax ay az`` (m/s^2) from accelerometer.txt."""
+    listing = _read_listing(path, value_fields=3)
+    try:
+        values = np.array(listing.values, dtype=np.float64)
+    except ValueError:
+        raise InputError.at(path, "an acceleration is not a number") from None
+    return np.column_stack([listing.stamps, values])

@@ -1,0 +1,13 @@
+"""Absolute trajectory error (Sturm et al. 2012, eq. 2-3)."""
+
+import numpy as np
+
+
+def absolute_errors(reference_positions: np.ndarray, estimate_positions: np.ndarray,
+                    alignment: np.ndarray) -> np.ndarray:
+    """``||trans(Q_i^-1 S P_i)||`` for every associated pair, computed as ``||S p_i - q_i||``.
+
+    ``alignment`` is S (estimate frame → reference frame), rigid or a similarity.
+    """
+    aligned = estimate_positions @ alignment[:3, :3].T + alignment[:3, 3]
+    return np.linalg.norm(aligned - reference_positions, axis=1)

@@ -1,0 +1,81 @@
+"""Coverage-aware scores: how much of the groundtruth time a method had a pose for.
+
+ATE and RPE only look at the poses a method produced, so a method that gives up early
+can look better than one that keeps going. Coverage measures the time without a pose,
+and the penalised ATE charges that time with the error of the pose the method last had.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.interpolation import interpolate_poses
+from ..geometry.trajectory import Trajectory
+from .ate import absolute_errors
+
+MIN_LOST_GAP_S = 0.1
+LOST_GAP_PERIODS = 3.0
+
+
+@dataclass
+class Coverage:
+    """Share of the evaluated time span with a pose, and the maximal stretches without."""
+
+    ratio: float
+    lost_intervals: list[tuple[float, float]]
+
+    def to_dict(self) -> dict:
+        return {"ratio": self.ratio, "lost_intervals": [[start, end] for start, end in self.lost_intervals]}
+
+
+def median_period(stamps: np.ndarray) -> float | None:
+    """The median time between consecutive stamps, None with fewer than two."""
+    return float(np.median(np.diff(stamps))) if len(stamps) > 1 else None
+
+
+def lost_gap_threshold(stamps: np.ndarray) -> float:
+    """A stretch without poses longer than this is lost: max(0.1 s, 3 median periods).
+
+    Three periods tolerate a dropped frame or two; the 0.1 s floor keeps the jitter of
+    fast cameras from counting as tracking loss.
+    """
+    period = median_period(stamps)
+    return MIN_LOST_GAP_S if period is None else max(MIN_LOST_GAP_S, LOST_GAP_PERIODS * period)
+
+
+def coverage(span: tuple[float, float], stamps: np.ndarray) -> Coverage:
+    """Coverage of ``span`` (start, end) by pose ``stamps`` (sorted, on the span's clock).
+
+    The span's ends and the stamps inside it form a chain of instants; every gap in that
+    chain longer than :func:`lost_gap_threshold` is a lost interval, and the ratio is one
+    minus their total length over the span's length.
+    """
+    start, end = span
+    inside = stamps[(stamps >= start) & (stamps <= end)]
+    if len(inside) == 0:
+        return Coverage(0.0, [(float(start), float(end))])
+    instants = np.concatenate([[start], inside, [end]])
+    gaps = np.diff(instants)
+    lost = np.flatnonzero(gaps > lost_gap_threshold(stamps))
+    intervals = [(float(instants[k]), float(instants[k + 1])) for k in lost]
+    duration = end - start
+    ratio = 1.0 - float(gaps[lost].sum() / duration) if duration > 0 else 1.0
+    return Coverage(ratio, intervals)
+
+
+def held_pose_errors(groundtruth: Trajectory, estimate: Trajectory, alignment: np.ndarray,
+                     lost_intervals: list[tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """Stamps and errors of the penalty samples inside the lost intervals.
+
+    Samples lie every median estimate period inside each interval (so lost time weighs as
+    much as tracked time); at each, the groundtruth is interpolated and compared with the
+    aligned last estimate pose before it (zero-order hold; the first pose before the
+    first). ``estimate`` stamps are on the groundtruth's clock.
+    """
+    period = median_period(estimate.timestamps) or median_period(groundtruth.timestamps) or MIN_LOST_GAP_S
+    samples = [np.arange(start + period, end, period) for start, end in lost_intervals]
+    stamps = np.concatenate(samples) if samples else np.zeros(0)
+    reference, covered = interpolate_poses(groundtruth, stamps)
+    stamps, reference = stamps[covered], reference[covered]
+    held = np.maximum(np.searchsorted(estimate.timestamps, stamps, side="right") - 1, 0)
+    return stamps, absolute_errors(reference[:, :3, 3], estimate.positions[held], alignment)
