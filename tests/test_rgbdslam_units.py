@@ -1,0 +1,120 @@
+"""Unit tests of the rgbdslam building blocks: candidates, segments, EMM, parameters."""
+
+import numpy as np
+import pytest
+
+from viewer_slam.backend.pose_graph import PoseGraph, information_from_sigmas
+from viewer_slam.errors import InputError
+from viewer_slam.frontend.features import Features
+from viewer_slam.geometry.camera import Camera
+from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
+from viewer_slam.pipelines.base import pipeline_class
+from viewer_slam.pipelines.params import apply_overrides, params_to_dict
+from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
+from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, SAMPLED, graph_neighbourhood, loop_candidates,
+                                                       predecessors)
+from viewer_slam.pipelines.rgbdslam.emm import observability
+from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures
+from viewer_slam.pipelines.rgbdslam.node import MAP_STEP, Node
+from viewer_slam.pipelines.rgbdslam.segments import Segments
+
+CAMERA = Camera(262.5, 262.5, 159.5, 119.5, 320, 240)
+
+
+def chain_graph(count):
+    adjacency = {i: set() for i in range(count)}
+    for i in range(count - 1):
+        adjacency[i].add(i + 1)
+        adjacency[i + 1].add(i)
+    return adjacency
+
+
+def test_registered_under_its_name_with_v2_defaults():
+    assert pipeline_class("rgbdslam") is RgbdSlam
+    defaults = params_to_dict(RgbdSlamParams())
+    assert defaults["feature_detector_type"] == "ORB"
+    assert (defaults["max_keypoints"], defaults["ransac_iterations"], defaults["min_matches"]) == (600, 200, 20)
+    assert (defaults["predecessor_candidates"], defaults["neighbor_candidates"],
+            defaults["min_sampled_candidates"], defaults["geodesic_depth"]) == (4, 4, 4, 3)
+    assert defaults["observability_threshold"] == 0.0
+
+
+def test_surf_is_refused_with_the_reason():
+    with pytest.raises(InputError, match="SURF is patented"):
+        apply_overrides(RgbdSlamParams(), {"feature_detector_type": "SURF"}, "--param")
+
+
+def test_predecessors_are_the_newest_nodes_first():
+    assert predecessors(list(range(10)), 4) == [9, 8, 7, 6]
+    assert predecessors([0, 1], 4) == [1, 0]
+
+
+def test_graph_neighbourhood_is_bounded_by_the_geodesic_depth():
+    adjacency = chain_graph(10)
+    adjacency[9].add(0)
+    adjacency[0].add(9)  # a loop closure
+    assert graph_neighbourhood(adjacency, 9, 2) == [0, 1, 7, 8]
+
+
+def test_loop_candidates_skip_predecessors_and_are_seeded():
+    adjacency = chain_graph(30)
+    adjacency[29].add(5)
+    adjacency[5].add(29)
+    exclude = set(predecessors(list(range(30)), 4))
+
+    def draw(seed):
+        return loop_candidates(list(range(30)), adjacency, 29, exclude, 4, 4, 3, np.random.default_rng(seed))
+
+    candidates = draw(0)
+    neighbours = [n for n, kind in candidates if kind == NEIGHBOUR]
+    sampled = [n for n, kind in candidates if kind == SAMPLED]
+    assert set(neighbours) <= {3, 4, 5, 6, 7}  # within 3 edges of node 29 through the loop edge
+    assert len(neighbours) == 4 and len(sampled) == 4
+    assert not (set(neighbours) | set(sampled)) & exclude
+    assert not set(neighbours) & set(sampled)
+    assert draw(0) == candidates
+    assert any(draw(seed) != candidates for seed in range(1, 5))
+
+
+def test_joining_segments_moves_the_newer_one_onto_the_older():
+    graph = PoseGraph()
+    old = make_pose(exp_so3([0.0, 0.3, 0.0]), [1.0, 0.0, 0.0])
+    graph.add_node(0, np.eye(4))
+    graph.add_node(1, old)
+    guess = make_pose(np.eye(3), [5.0, 5.0, 0.0])
+    graph.add_node(2, guess)
+    graph.add_node(3, guess @ make_pose(np.eye(3), [0.1, 0.0, 0.0]))
+    graph.add_prior(0, np.eye(4), information_from_sigmas(1e-6, 1e-6))
+    graph.add_prior(2, guess, information_from_sigmas(1.0, 1.0))
+    segments = Segments()
+    segments.add(0)
+    segments.add(2)
+    node_segment = {0: 0, 1: 0, 2: 2, 3: 2}
+    relative = make_pose(exp_so3([0.1, 0.0, 0.0]), [0.0, 0.2, 0.0])  # node 1 sees node 3 here
+    assert segments.join(graph, node_segment, 1, 3, relative)
+    np.testing.assert_allclose(invert(graph.poses[1]) @ graph.poses[3], relative, atol=1e-12)
+    np.testing.assert_allclose(invert(graph.poses[2]) @ graph.poses[3],
+                               make_pose(np.eye(3), [0.1, 0.0, 0.0]), atol=1e-12)  # rigidly moved
+    np.testing.assert_array_equal(graph.poses[1], old)  # the older segment stays
+    assert 2 not in graph.priors and 0 in graph.priors
+    assert segments.root(2) == 0
+    assert not segments.join(graph, node_segment, 0, 3, relative)
+
+
+def wall_node(node_id, distance):
+    """A node facing a flat wall ``distance`` metres away."""
+    depth = np.full((CAMERA.height, CAMERA.width), distance, np.float32)
+    rgb = np.zeros((CAMERA.height, CAMERA.width, 3), np.uint8)
+    empty = Features(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros(0, np.float32),
+                     np.zeros((0, 3)), True)
+    return Node.from_frame(node_id, node_id, 0.0, MeasuredFeatures(empty, np.zeros((0, 3))), rgb, depth, 0)
+
+
+def test_environment_model_accepts_the_true_motion_and_rejects_a_contradiction():
+    near, far = wall_node(0, 1.5), wall_node(1, 2.0)
+    truth = make_pose(np.eye(3), [0.0, 0.0, 0.5])  # the far node stands 0.5 m behind the near one
+    assert near.depth.shape == (CAMERA.height // MAP_STEP, CAMERA.width // MAP_STEP)
+    assert observability(near, far, invert(truth), CAMERA, 0.05) == pytest.approx(1.0)
+    # Claiming both stood at the same place puts the near wall in front of the far wall's
+    # measured surface: the far view looked through empty space there.
+    assert observability(near, far, np.eye(4), CAMERA, 0.05) < 0.1

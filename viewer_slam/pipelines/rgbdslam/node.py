@@ -1,0 +1,41 @@
+"""Graph nodes: the frames kept for matching, mapping and the environment measurement model."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...geometry.camera import Camera
+from .motion import MeasuredFeatures
+
+# Nodes keep every MAP_STEP-th pixel of their depth and colour: enough for the EMM and the
+# point-cloud view, small enough that thousands of nodes fit in memory.
+MAP_STEP = 8
+
+
+@dataclass
+class Node:
+    """A graph node. ``measured`` are its keypoints that have a 3D point; ``depth``/``colors``
+    are the frame's depth and colour subsampled by ``MAP_STEP``; ``segment`` names the
+    connected piece of graph the node was created in (a kidnap starts a new one)."""
+
+    node_id: int
+    frame_index: int
+    timestamp: float
+    measured: MeasuredFeatures
+    depth: np.ndarray
+    colors: np.ndarray
+    segment: int
+
+    @classmethod
+    def from_frame(cls, node_id: int, frame_index: int, timestamp: float, measured: MeasuredFeatures,
+                   rgb: np.ndarray, depth: np.ndarray, segment: int) -> "Node":
+        return cls(node_id, frame_index, timestamp, measured, np.ascontiguousarray(depth[::MAP_STEP, ::MAP_STEP]),
+                   np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]), segment)
+
+    def cloud(self, camera: Camera, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
+        """Camera-frame points and their colours from the kept depth, every ``step``-th sample."""
+        rows, cols = np.nonzero(self.depth[::step, ::step] > 0)
+        rows, cols = rows * step, cols * step
+        pixels = np.stack([cols, rows], axis=1) * MAP_STEP
+        points = camera.backproject(pixels.astype(np.float64), self.depth[rows, cols])
+        return points, self.colors[rows, cols]

@@ -1,0 +1,52 @@
+"""RGB-D SLAM's parameters under RGB-D SLAM v2's names, with its defaults where it has them."""
+
+from dataclasses import dataclass
+
+from ...errors import InputError
+from ...frontend.features import DETECTORS
+from ..params import param
+
+SURF_MESSAGE = ("feature_detector_type SURF: SURF is patented and absent from the pip OpenCV builds; "
+                f"choose one of {', '.join(DETECTORS)}")
+
+
+@dataclass
+class RgbdSlamParams:
+    feature_detector_type: str = param(
+        "ORB", help="keypoint detector and descriptor (SURF is named for v2 compatibility and refused)",
+        choices=(*DETECTORS, "SURF"))
+    max_keypoints: int = param(600, help="keypoints kept per frame, strongest first, spread over the grid")
+    detector_grid_resolution: int = param(
+        3, help="the image is split into NxN cells that share the keypoint budget (1 = no grid)")
+    nn_distance_ratio: float = param(
+        0.9, help="ratio test: nearest descriptor distance must be below this times the second nearest")
+    ransac_iterations: int = param(200, help="three-point hypotheses per RANSAC run")
+    max_dist_for_inliers: float = param(
+        3.0, help="Mahalanobis distance below which a correspondence is an inlier (sensor noise model)")
+    keypoint_pixel_sigma: float = param(
+        3.0, help="pixel standard deviation of a keypoint position in the inlier noise model")
+    min_matches: int = param(20, help="RANSAC inliers needed to accept a transformation")
+    predecessor_candidates: int = param(4, help="most recent nodes compared with each frame")
+    neighbor_candidates: int = param(
+        4, help="graph neighbours of the last node (within geodesic_depth) compared with each new node")
+    min_sampled_candidates: int = param(
+        4, help="nodes sampled from the whole graph for each new node and each lost frame (loop closure)")
+    geodesic_depth: int = param(3, help="graph distance searched for neighbor_candidates")
+    min_translation_meter: float = param(0.05, help="translation from its node that makes a frame a new node")
+    min_rotation_degree: float = param(2.5, help="rotation from its node that makes a frame a new node")
+    observability_threshold: float = param(
+        0.0, help="environment measurement model: minimum share of consistent depth (0 = off)")
+    emm_depth_tolerance: float = param(
+        0.05, help="relative depth difference within which the EMM counts a point as consistent")
+    optimizer_iterations: int = param(
+        10, help="Levenberg-Marquardt iterations of each online optimisation (the final one runs to convergence)")
+    optimizer_skip_step: int = param(
+        1, help="optimise online after every N-th new node (at least every 5 % of the graph size)")
+    maximum_depth: float = param(6.0, help="keypoints farther than this (metres) get no 3D point")
+    minimum_depth: float = param(0.3, help="keypoints nearer than this (metres) get no 3D point")
+    segment_after_lost_frames: int = param(
+        3, help="consecutive lost frames that match each other but not the map before a new graph segment starts")
+
+    def __post_init__(self):
+        if self.feature_detector_type == "SURF":
+            raise InputError(SURF_MESSAGE)
