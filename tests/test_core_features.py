@@ -65,3 +65,19 @@ def test_blank_image_gives_no_features():
 def test_surf_is_refused_with_the_reason():
     with pytest.raises(InputError, match="SURF is patented"):
         FeatureExtractor("SURF", 500, CAMERA)
+
+
+def test_distorted_keypoints_are_backprojected_along_the_undistorted_ray():
+    distorted = Camera(fx=517.3, fy=516.5, cx=318.6, cy=255.3, width=640, height=480,
+                       distortion=(0.2624, -0.9531, -0.0054, 0.0026, 1.1633))
+    rng = np.random.default_rng(2)
+    points = np.column_stack([rng.uniform(-1, 1, 50), rng.uniform(-0.7, 0.7, 50), rng.uniform(1, 3, 50)])
+    pixels, _ = cv2.projectPoints(points, np.zeros(3), np.zeros(3), distorted.K, np.array(distorted.distortion))
+    pixels = pixels.reshape(-1, 2)
+    inside = (pixels[:, 0] > 1) & (pixels[:, 0] < 638) & (pixels[:, 1] > 1) & (pixels[:, 1] < 478)
+    depth = np.zeros((480, 640), np.float32)
+    extractor = FeatureExtractor("ORB", 10, distorted)
+    for (u, v), z in zip(pixels[inside], points[inside, 2]):
+        depth[int(np.rint(v)), int(np.rint(u))] = z
+    back = extractor.backproject(pixels[inside].astype(np.float32), depth)
+    np.testing.assert_allclose(back, points[inside], atol=2e-3 * points[inside, 2:].max())

@@ -45,6 +45,9 @@ class PoseGraph:
     def add_prior(self, node_id: int, pose: np.ndarray, information: np.ndarray) -> None:
         self.priors[node_id] = (np.array(pose, dtype=np.float64), information)
 
+    def remove_prior(self, node_id: int) -> None:
+        self.priors.pop(node_id, None)
+
     def add_edge(self, edge: Edge) -> None:
         self.edges.append(edge)
 

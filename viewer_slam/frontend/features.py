@@ -117,11 +117,20 @@ class FeatureExtractor:
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
     def backproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
-        """3D points of keypoints, NaN where the depth at the rounded pixel is unusable."""
+        """3D points of keypoints, NaN where the depth at the rounded pixel is unusable.
+
+        TUM's freiburg1/2 images are not rectified and their depth is registered to the
+        distorted colour image, so the depth is read at the keypoint itself and the ray is
+        taken through the undistorted pixel.
+        """
         cols = np.clip(np.rint(xy[:, 0]).astype(int), 0, depth.shape[1] - 1)
         rows = np.clip(np.rint(xy[:, 1]).astype(int), 0, depth.shape[0] - 1)
         z = depth[rows, cols].astype(np.float64)
-        points = self.camera.backproject(xy.astype(np.float64), z)
+        pixels = xy.astype(np.float64)
+        if any(self.camera.distortion):
+            pixels = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion),
+                                         P=self.camera.K).reshape(-1, 2)
+        points = self.camera.backproject(pixels, z)
         points[(z < self.min_depth) | (z > self.max_depth)] = np.nan
         return points
 

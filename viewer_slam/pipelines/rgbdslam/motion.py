@@ -2,7 +2,6 @@
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from ...frontend.features import Features, match_descriptors
@@ -15,14 +14,6 @@ from .params import RgbdSlamParams
 MIN_RESIDUAL_M = 0.002
 
 
-def undistorted_points(keypoints: np.ndarray, depth: np.ndarray, camera: Camera) -> np.ndarray:
-    """3D points of keypoints seen through a distorting lens (TUM's freiburg1/2 images are
-    not rectified; their depth is registered to the distorted colour image)."""
-    pixels = cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), camera.K,
-                                 np.asarray(camera.distortion), P=camera.K).reshape(-1, 2)
-    return camera.backproject(pixels, depth)
-
-
 @dataclass
 class MeasuredFeatures:
     """Keypoints that have a 3D point, with the per-axis variances of those points."""
@@ -33,8 +24,6 @@ class MeasuredFeatures:
     @classmethod
     def from_features(cls, features: Features, params: RgbdSlamParams, camera: Camera) -> "MeasuredFeatures":
         usable = features.subset(features.has_depth)
-        if any(camera.distortion) and len(usable):
-            usable.points = undistorted_points(usable.keypoints, usable.points[:, 2], camera)
         focal = 0.5 * (camera.fx + camera.fy)
         return cls(usable, point_variances(usable.points, params.keypoint_pixel_sigma, focal))
 

@@ -42,6 +42,6 @@ class Segments:
         for node_id, segment in node_segment.items():
             if self.root(segment) == newer:
                 graph.poses[node_id] = correction @ graph.poses[node_id]
-        graph.priors.pop(newer, None)
+        graph.remove_prior(newer)
         self.parent[newer] = older
         return True
