@@ -1,0 +1,143 @@
+"""Generation speed of the synthetic scenarios, and the contact sheet of docs/scenarios.md.
+
+    /work/venv/bin/python benchmarks/synth.py [--frames 150] [--resolution 640x480]
+        [--scenarios NAME ...] [--sheet docs/images/scenarios_contact_sheet.png] [--no-speed]
+        [--stages SCENARIO]
+
+For each scenario: the time to build the scene (textures, atlas; measured as a 2-frame
+run), and the steady frame rate of a longer run (rendering, sensor model, PNG encoding),
+as medians over ``--repeats`` runs, in wall-clock time and in CPU time of all the
+process's threads per frame. The machine's load average is printed with the figures: on a
+shared machine the wall-clock rate reflects the share of the cores the run got, while
+2 / (CPU seconds per frame) is the rate two idle cores would give at best. ``--stages``
+splits the CPU time of one scenario's frames by stage.
+"""
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from viewer_slam.cli.synth import parse_resolution
+from viewer_slam.dataset.synth import SCENARIOS, generate_scenario, preview_frames
+
+
+def timed_run(name, frames, resolution, folder) -> tuple[float, float]:
+    """Wall-clock and CPU seconds of one generation."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    generate_scenario(name, folder, frames=frames, resolution=resolution, force=True)
+    return time.perf_counter() - wall, time.process_time() - cpu
+
+
+def contact_sheet(names, out: Path, resolution, fractions=(0.2, 0.5, 0.8), tile_width: int = 240) -> None:
+    """A grid: one row per scenario at its default length, frames at ``fractions`` of the run,
+    colour beside depth (rendered alone with ``preview_frames``, as a full run writes them)."""
+    rows = []
+    for name in names:
+        tiles = []
+        for _, rgb, depth in preview_frames(name, fractions, resolution=resolution):
+            height = int(tile_width * rgb.shape[0] / rgb.shape[1])
+            colour = cv2.resize(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), (tile_width, height),
+                                interpolation=cv2.INTER_AREA)
+            coloured = cv2.applyColorMap(np.clip(depth / 5.0 * 255, 0, 255).astype(np.uint8), cv2.COLORMAP_TURBO)
+            coloured[depth == 0] = 0
+            tiles += [colour, cv2.resize(coloured, (tile_width, height), interpolation=cv2.INTER_NEAREST)]
+        row = np.hstack(tiles)
+        label = np.full((22, row.shape[1], 3), 255, np.uint8)
+        cv2.putText(label, f"{name}   (colour | depth 0-5 m, black = none)", (6, 16), cv2.FONT_HERSHEY_SIMPLEX,
+                    0.5, (0, 0, 0), 1, cv2.LINE_AA)
+        rows += [label, row]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(out), np.vstack(rows), [cv2.IMWRITE_PNG_COMPRESSION, 9])
+
+
+def measure_speed(names, frames: int, resolution, repeats: int) -> None:
+    print(f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}")
+    print(f"{'scenario':40s} {'setup s':>8s} {'frames/s':>9s} {'CPU s/frame':>12s} {'overall frames/s':>17s}")
+    rates, cpu_per_frame = [], []
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in names:
+            setup = [timed_run(name, 2, resolution, Path(scratch) / "setup") for _ in range(repeats)]
+            total = [timed_run(name, frames, resolution, Path(scratch) / name) for _ in range(repeats)]
+            (setup_wall, setup_cpu), (total_wall, total_cpu) = (
+                tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (setup, total))
+            steady = (frames - 2) / max(total_wall - setup_wall, 1e-9)
+            cpu = (total_cpu - setup_cpu) / (frames - 2)
+            rates.append(steady)
+            cpu_per_frame.append(cpu)
+            print(f"{name:40s} {setup_wall:8.2f} {steady:9.1f} {cpu:12.3f} {frames / total_wall:17.1f}", flush=True)
+    cpu = statistics.median(cpu_per_frame)
+    print(f"median steady frames/s: {statistics.median(rates):.1f}; median CPU s/frame: {cpu:.3f} "
+          f"(two idle cores: at most {2 / cpu:.1f} frames/s); load average after: {os.getloadavg()[0]:.2f}")
+
+
+@contextmanager
+def timed(totals: dict[str, float], stage: str):
+    start = time.process_time()
+    yield
+    totals[stage] = totals.get(stage, 0.0) + time.process_time() - start
+
+
+def stage_profile(name: str, resolution, frames: int = 12) -> None:
+    """CPU milliseconds per frame of each stage, over frames of a default-length run."""
+    from viewer_slam.dataset.synth import writer
+    from viewer_slam.dataset.synth.generate import _Run, _scenario, camera_model
+    from viewer_slam.dataset.synth.sensor import motion_blur
+
+    scenario = _scenario(name)
+    run = _Run(scenario, scenario.default_frames, camera_model("fr3", resolution), seed=0)
+    plan, renderer, sensor, camera = run.plan, run.renderer, run.sensor, run.camera
+    totals: dict[str, float] = {}
+    with tempfile.TemporaryDirectory() as scratch:
+        writer.prepare(Path(scratch))
+        for i in np.flatnonzero(~run.covered)[:frames]:
+            t = run.timing.colour[i] - run.timing.start
+            poses = plan.path.poses([t, t - plan.exposure / 2, t + plan.exposure / 2])
+            rng = np.random.default_rng(int(i))
+            with timed(totals, "ray casting"):
+                hits = renderer.cast(poses[0], t)
+            with timed(totals, "texture lookup and shading"):
+                ideal = renderer.shade(hits)
+            with timed(totals, "motion blur"):
+                ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
+            with timed(totals, "colour noise"):
+                rgb = sensor.colour(rng, ideal)
+            with timed(totals, "depth cast and upsampling"):
+                ideal_depth, cos_incidence = renderer.depth(poses[0], t)
+            with timed(totals, "depth noise"):
+                depth = sensor.depth(rng, ideal_depth, cos_incidence)
+            with timed(totals, "PNG encoding"):
+                writer.write_frame(Path(scratch), float(i), rgb, float(i), depth, camera.depth_factor)
+    print(f"CPU ms per frame by stage ({name}, {resolution[0]}x{resolution[1]}, {frames} frames):")
+    for stage, seconds in totals.items():
+        print(f"  {stage:28s} {1000 * seconds / frames:7.1f}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--frames", type=int, default=150)
+    parser.add_argument("--resolution", default="640x480")
+    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--scenarios", nargs="*", default=list(SCENARIOS))
+    parser.add_argument("--sheet", type=Path, help="also write the contact sheet (PNG) of the scenarios")
+    parser.add_argument("--no-speed", action="store_true", help="skip the speed measurement")
+    parser.add_argument("--stages", metavar="SCENARIO", help="also time each stage of rendering SCENARIO's frames")
+    args = parser.parse_args()
+    resolution = parse_resolution(args.resolution)
+    if not args.no_speed:
+        measure_speed(args.scenarios, args.frames, resolution, args.repeats)
+    if args.stages:
+        stage_profile(args.stages, resolution)
+    if args.sheet:
+        contact_sheet(args.scenarios, args.sheet, resolution)
+        print(f"contact sheet: {args.sheet}")
+
+
+if __name__ == "__main__":
+    main()

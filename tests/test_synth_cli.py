@@ -1,0 +1,67 @@
+"""`viewslam synth` errors and the generation cache."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+from viewer_slam.cli import main
+from viewer_slam.dataset.synth import GENERATOR_VERSION, SCENARIOS, cached_scenario, read_info
+from viewer_slam.dataset.tum import open_sequence
+
+TINY = ["--frames", "6", "--resolution", "64x48"]
+
+
+def test_unknown_scenario_exits_2_listing_the_scenarios(tmp_path, capsys):
+    assert main(["synth", "office_party", "--out", str(tmp_path / "x")]) == 2
+    error = capsys.readouterr().err.strip()
+    assert error.startswith("viewslam: error: unknown scenario 'office_party'; valid: ")
+    assert all(name in error for name in SCENARIOS) and "\n" not in error
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("resolution", ["640by480", "0x480", "640x", "99999x10"])
+def test_bad_resolution_exits_2_naming_the_form(tmp_path, capsys, resolution):
+    assert main(["synth", "360_kidnap", "--out", str(tmp_path / "x"), "--resolution", resolution]) == 2
+    error = capsys.readouterr().err
+    assert "WIDTHxHEIGHT" in error and error.count("\n") == 1
+
+
+def test_unknown_camera_exits_2(tmp_path, capsys):
+    assert main(["synth", "360_kidnap", "--out", str(tmp_path / "x"), "--camera", "kinect2", *TINY]) == 2
+    assert "valid: fr1, fr2, fr3" in capsys.readouterr().err
+
+
+def test_non_empty_folder_is_refused_without_force(tmp_path, capsys):
+    out = tmp_path / "seq"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["synth", "sitting_static", "--out", str(out), *TINY]) == 2
+    assert "not empty; use --force" in capsys.readouterr().err
+    assert main(["synth", "sitting_static", "--out", str(out), *TINY, "--force"]) == 0
+    assert (out / "keep.txt").read_text() == "mine"
+    assert len(open_sequence(out)) == 6
+    assert main(["synth", "sitting_static", "--out", str(out), "--frames", "4", "--resolution", "64x48",
+                 "--force", "--camera", "fr1"]) == 0
+    sequence = open_sequence(out)
+    assert len(sequence) == 4 and len(list((out / "rgb").iterdir())) == 4
+    assert sequence.camera.fx == pytest.approx(517.3 / 10)
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
+
+
+def test_console_script_writes_a_sequence(tmp_path):
+    result = subprocess.run(["/work/venv/bin/viewslam", "synth", "pioneer_360", "--out", str(tmp_path / "p"), *TINY,
+                             "--seed", "2"], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert read_info(tmp_path / "p")["seed"] == 2
+
+
+def test_cached_scenario_generates_once(tmp_path, monkeypatch):
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path))
+    folder = cached_scenario("nostructure_texture_near_withloop", frames=5, resolution=(64, 48), seed=1)
+    assert folder == tmp_path / "synth" / f"nostructure_texture_near_withloop-5-64x48-s1-v{GENERATOR_VERSION}"
+    stamp = (folder / "scenario.json").stat().st_mtime_ns
+    assert cached_scenario("nostructure_texture_near_withloop", frames=5, resolution=(64, 48), seed=1) == folder
+    assert (folder / "scenario.json").stat().st_mtime_ns == stamp
+    assert [p.name for p in (tmp_path / "synth").iterdir()] == [folder.name]
+    assert np.mean(open_sequence(folder).frame(0).depth > 0) > 0.97  # the plane fills the view

@@ -1,0 +1,219 @@
+"""Generate a scenario into a TUM folder, or once into the cache.
+
+Randomness comes from independent streams of one seed (scene, timing, ground-truth noise,
+and one per frame for the sensor), so the output is byte-identical for the same arguments
+whatever the order in which frames are encoded. Frames are encoded by a small thread pool
+while the next frame renders (OpenCV's PNG encoder releases the GIL).
+"""
+
+import json
+import os
+import shutil
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from ...cache import cache_dir
+from ...errors import InputError
+from ...geometry.camera import Camera
+from ...geometry.trajectory import Trajectory
+from . import writer
+from .render import Renderer
+from .scenarios import SCENARIOS_BY_NAME, Plan
+from .sensor import KinectModel, motion_blur
+from .trajectories import noisy_groundtruth, sensor_timing
+
+# Bump whenever the output for the same arguments changes: cached folders carry it in their name.
+GENERATOR_VERSION = 3
+
+SCENARIOS = tuple(SCENARIOS_BY_NAME)
+
+# TUM's published intrinsics at 640x480 (fx, fy, cx, cy); images are rendered undistorted.
+CAMERAS = {
+    "fr1": (517.3, 516.5, 318.6, 255.3),
+    "fr2": (520.9, 521.0, 325.1, 249.7),
+    "fr3": (535.4, 539.2, 320.1, 247.6),
+}
+
+_SCENE, _TIMING, _GROUNDTRUTH, _SENSOR = range(4)  # seed streams
+_WRITTEN = ("rgb", "depth", "rgb.txt", "depth.txt", "groundtruth.txt", "camera.json", "scenario.json")
+
+
+def default_frames(name: str) -> int:
+    """Frames in a run of ``name`` when none are asked for (motion at the mirrored sequence's speed)."""
+    return _scenario(name).default_frames
+
+
+def camera_model(camera: str, resolution: tuple[int, int]) -> Camera:
+    if camera not in CAMERAS:
+        raise InputError(f"unknown camera {camera!r}; valid: {', '.join(CAMERAS)}")
+    fx, fy, cx, cy = CAMERAS[camera]
+    return Camera(fx, fy, cx, cy, 640, 480).scaled(*resolution)
+
+
+def _scenario(name: str):
+    if name not in SCENARIOS_BY_NAME:
+        raise InputError(f"unknown scenario {name!r}; valid: {', '.join(SCENARIOS)}")
+    return SCENARIOS_BY_NAME[name]
+
+
+def _check(frames: int, resolution: tuple[int, int], seed: int) -> None:
+    if frames < 2:
+        raise InputError(f"frames must be at least 2, got {frames}")
+    width, height = resolution
+    if not (16 <= width <= 4096 and 16 <= height <= 4096):
+        raise InputError(f"resolution {width}x{height} out of range; valid: WIDTHxHEIGHT from 16x16 to 4096x4096")
+    if seed < 0:
+        raise InputError(f"seed must be non-negative, got {seed}")
+
+
+def generate_scenario(name: str, out_dir, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
+                      seed: int = 0, camera: str = "fr3", force: bool = False) -> Path:
+    """Render scenario ``name`` into the TUM folder ``out_dir`` and return it.
+
+    An existing non-empty ``out_dir`` is refused unless ``force``; then only what the
+    generator writes is replaced. The folder is assembled beside ``out_dir`` and moved into
+    place at the end, so an interrupted run leaves no half-written sequence.
+    """
+    scenario = _scenario(name)
+    frames = scenario.default_frames if frames is None else int(frames)
+    resolution = (int(resolution[0]), int(resolution[1]))
+    _check(frames, resolution, seed)
+    cam = camera_model(camera, resolution)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError.at(out, "exists and is not a folder")
+    if out.is_dir() and any(out.iterdir()) and not force:
+        raise InputError.at(out, "folder exists and is not empty; use --force to overwrite")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        _Run(scenario, frames, cam, seed).write(staging, camera)
+        if out.is_dir():
+            for entry in _WRITTEN:
+                target = out / entry
+                if target.is_dir():
+                    shutil.rmtree(target)
+                elif target.exists():
+                    target.unlink()
+            for entry in _WRITTEN:
+                os.replace(staging / entry, out / entry)
+            staging.rmdir()
+        else:
+            os.replace(staging, out)
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging)
+    return out
+
+
+def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
+                    seed: int = 0) -> Path:
+    """The folder of scenario ``name`` in the cache, generated on first use (fr3 camera).
+
+    The run is rendered into a temporary folder and renamed into place, so a folder in the
+    cache is always complete; when two processes race, the first rename wins.
+    """
+    frames = _scenario(name).default_frames if frames is None else int(frames)
+    width, height = resolution
+    root = cache_dir("synth")
+    final = root / f"{name}-{frames}-{width}x{height}-s{seed}-v{GENERATOR_VERSION}"
+    if final.is_dir():
+        return final
+    staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=root))
+    try:
+        generate_scenario(name, staging / "run", frames=frames, resolution=resolution, seed=seed)
+        try:
+            os.rename(staging / "run", final)
+        except OSError:
+            if not final.is_dir():
+                raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return final
+
+
+class _Run:
+    """One run of a scenario: its plan, stamps, renderer, and the frames rendered on demand."""
+
+    def __init__(self, scenario, frames: int, camera: Camera, seed: int):
+        self.scenario, self.frames, self.camera, self.seed = scenario, frames, camera, seed
+        self.plan: Plan = scenario.build(np.random.default_rng([seed, _SCENE]), frames)
+        self.timing = sensor_timing(np.random.default_rng([seed, _TIMING]), frames)
+        self.renderer = Renderer(self.plan.scene, camera)
+        self.sensor = KinectModel()
+        self.covered = np.zeros(frames, bool)
+        for first, last in self.plan.covered:
+            self.covered[first:last + 1] = True
+
+    def frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Colour (uint8 RGB) and depth (float32 metres) of frame ``i``; black and empty while covered."""
+        camera, plan, timing = self.camera, self.plan, self.timing
+        if self.covered[i]:
+            return np.zeros((camera.height, camera.width, 3), np.uint8), np.zeros((camera.height, camera.width),
+                                                                                  np.float32)
+        rng = np.random.default_rng([self.seed, _SENSOR, i])
+        t_colour, t_depth = timing.colour[i] - timing.start, timing.depth[i] - timing.start
+        half = plan.exposure / 2
+        poses = plan.path.poses([t_colour, t_colour - half, t_colour + half, t_depth])
+        ideal, hits = self.renderer.colour(poses[0], t_colour)
+        if plan.exposure > 0:
+            ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
+        rgb = self.sensor.colour(rng, ideal)
+        depth, cos_incidence = self.renderer.depth(poses[3], t_depth)
+        return rgb, self.sensor.depth(rng, depth, cos_incidence)
+
+    def write(self, folder: Path, camera_name: str) -> None:
+        timing, plan = self.timing, self.plan
+        writer.prepare(folder)
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            pending = []
+            for i in range(self.frames):
+                rgb, depth = self.frame(i)
+                pending.append(pool.submit(writer.write_frame, folder, timing.colour[i], rgb, timing.depth[i], depth,
+                                           self.camera.depth_factor))
+                if len(pending) > 3:
+                    pending.pop(0).result()
+            for job in pending:
+                job.result()
+        gt_poses = noisy_groundtruth(np.random.default_rng([self.seed, _GROUNDTRUTH]),
+                                     plan.path.poses(timing.groundtruth - timing.start))
+        info = {
+            "scenario": self.scenario.name,
+            "seed": self.seed,
+            "frames": self.frames,
+            "resolution": [self.camera.width, self.camera.height],
+            "camera": camera_name,
+            "mirrors": self.scenario.mirrors,
+            "tests": self.scenario.tests,
+            "covered_intervals": [[float(timing.colour[a]), float(timing.colour[b])] for a, b in plan.covered],
+            "loop": plan.loop,
+            "notes": plan.notes,
+            "generator_version": GENERATOR_VERSION,
+        }
+        source = f"viewslam synth {self.scenario.name} --frames {self.frames} --seed {self.seed}"
+        writer.write_index(folder, source, timing.colour, timing.depth, Trajectory(timing.groundtruth, gt_poses),
+                           self.camera, info)
+
+
+def preview_frames(name: str, fractions, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
+                   seed: int = 0, camera: str = "fr3") -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """``(index, rgb, depth)`` of the frames at ``fractions`` (0 to 1) of a run, exactly as
+    :func:`generate_scenario` would write them, without rendering the rest: a quick look.
+
+    A covered frame is replaced by the next frame that is not covered.
+    """
+    scenario = _scenario(name)
+    frames = scenario.default_frames if frames is None else int(frames)
+    _check(frames, resolution, seed)
+    run = _Run(scenario, frames, camera_model(camera, resolution), seed)
+    visible = np.flatnonzero(~run.covered)
+    picks = [int(visible[np.searchsorted(visible, min(round(f * (frames - 1)), visible[-1]))]) for f in fractions]
+    return [(i, *run.frame(i)) for i in picks]
+
+
+def read_info(folder) -> dict:
+    """The ``scenario.json`` of a generated folder."""
+    return json.loads((Path(folder) / "scenario.json").read_text())
