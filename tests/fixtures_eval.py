@@ -7,8 +7,9 @@ import numpy as np
 from viewer_slam.geometry.se3 import exp_so3, make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
-TRAJECTORIES = Path("/work/shared/data/trajectories")
-TUM_RPY = Path("/work/shared/data/tum/rgbd_dataset_freiburg1_rpy")
+SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+TRAJECTORIES = SHARED_DATA / "trajectories"
+TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 
 
 def random_walk(count: int, seed: int, rate_hz: float = 30.0, start: float = 100.0) -> Trajectory:
