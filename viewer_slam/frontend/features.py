@@ -47,9 +47,9 @@ def _make_detector(kind: str, max_features: int):
         raise InputError("feature detector SURF is patented and absent from the pip OpenCV builds; "
                          f"choose one of {', '.join(DETECTORS)}")
     if kind == "ORB":
-        return cv2.ORB_create(nfeatures=max_features * 2, fastThreshold=10), None
+        return cv2.ORB_create(nfeatures=max_features * 2, fastThreshold=ORB_THRESHOLD.start), None
     if kind == "SIFT":
-        return cv2.SIFT_create(nfeatures=max_features * 2), None
+        return cv2.SIFT_create(nfeatures=max_features * 2, contrastThreshold=SIFT_THRESHOLD.start), None
     if kind == "AKAZE":
         return cv2.xfeatures2d.AKAZE_create(threshold=0.0005), None
     if kind == "BRISK":
@@ -61,6 +61,23 @@ def _make_detector(kind: str, max_features: int):
     if kind == "GFTT_BRIEF":
         return gftt, cv2.xfeatures2d.BriefDescriptorExtractor_create(32)
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
+
+
+@dataclass(frozen=True)
+class AdjustableThreshold:
+    """A detector threshold that RGB-D SLAM v2's detector adjuster may move within bounds."""
+
+    start: float
+    floor: float
+    ceiling: float
+    setter: str
+    integer: bool = False
+
+
+# v2's DetectorAdjuster starts ORB's FAST threshold at 20 and SIFT's contrast at 0.04.
+ORB_THRESHOLD = AdjustableThreshold(20, 1, 80, "setFastThreshold", integer=True)
+SIFT_THRESHOLD = AdjustableThreshold(0.04, 0.0001, 0.16, "setContrastThreshold")
+ADJUSTABLE = {"ORB": ORB_THRESHOLD, "SIFT": SIFT_THRESHOLD}
 
 
 def _spread_over_grid(points: np.ndarray, responses: np.ndarray, shape: tuple[int, int],
@@ -85,10 +102,18 @@ def _spread_over_grid(points: np.ndarray, responses: np.ndarray, shape: tuple[in
 
 
 class FeatureExtractor:
-    """Detect, describe and back-project keypoints of one RGB-D frame."""
+    """Detect, describe and back-project keypoints of one RGB-D frame.
+
+    With ``adjuster_iterations`` > 0 the detector threshold adapts as RGB-D SLAM v2's
+    "video" dynamic adjuster does: when a frame yields fewer than ``max_features``
+    keypoints the threshold is lowered (halved) and detection repeated, at most that many
+    times, and when it yields more than 1.5 times as many the threshold is raised for the
+    next frame. The threshold carries over from frame to frame, so faint texture (a plain
+    wooden plane) still gives keypoints while rich texture is not flooded with them.
+    """
 
     def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
-                 min_depth: float = 0.3, max_depth: float = 6.0):
+                 min_depth: float = 0.3, max_depth: float = 6.0, adjuster_iterations: int = 0):
         self.kind = kind
         self.max_features = max_features
         self.camera = camera
@@ -97,10 +122,31 @@ class FeatureExtractor:
         self.max_depth = max_depth
         self.detector, self.describer = _make_detector(kind, max_features)
         self.binary = kind in BINARY_DESCRIPTORS
+        self.adjustable = ADJUSTABLE.get(kind) if adjuster_iterations > 0 else None
+        self.adjuster_iterations = adjuster_iterations
+        self.threshold = self.adjustable.start if self.adjustable else None
+
+    def _set_threshold(self, value: float) -> None:
+        value = float(np.clip(value, self.adjustable.floor, self.adjustable.ceiling))
+        self.threshold = int(round(value)) if self.adjustable.integer else value
+        getattr(self.detector, self.adjustable.setter)(self.threshold)
+
+    def _detect(self, gray: np.ndarray) -> list:
+        keypoints = self.detector.detect(gray, None)
+        if self.adjustable is None:
+            return keypoints
+        for _ in range(self.adjuster_iterations):
+            if len(keypoints) >= self.max_features or self.threshold <= self.adjustable.floor:
+                break
+            self._set_threshold(self.threshold / 2)
+            keypoints = self.detector.detect(gray, None)
+        if len(keypoints) > 1.5 * self.max_features:
+            self._set_threshold(self.threshold * 1.5)
+        return keypoints
 
     def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        keypoints = self.detector.detect(gray, None)
+        keypoints = self._detect(gray)
         if keypoints:
             xy = np.array([k.pt for k in keypoints], dtype=np.float32)
             strength = np.array([k.response for k in keypoints], dtype=np.float32)

@@ -18,6 +18,8 @@ class RgbdSlamParams:
     max_keypoints: int = param(600, help="keypoints kept per frame, strongest first, spread over the grid")
     detector_grid_resolution: int = param(
         3, help="the image is split into NxN cells that share the keypoint budget (1 = no grid)")
+    adjuster_max_iterations: int = param(
+        5, help="times the detector threshold may be lowered on a frame with fewer than max_keypoints (ORB, SIFT; 0 = fixed)")
     nn_distance_ratio: float = param(
         0.9, help="ratio test: nearest descriptor distance must be below this times the second nearest")
     ransac_iterations: int = param(200, help="three-point hypotheses per RANSAC run")
