@@ -1,0 +1,120 @@
+"""Benchmark tasks, executors, crash isolation, timeouts and the result cache (scripted pipeline)."""
+
+import numpy as np
+import pytest
+
+from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, write_tum_folder
+from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
+from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
+from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
+from viewer_slam.benchmark.suite import run_benchmark
+from viewer_slam.pipelines import base
+
+
+@pytest.fixture(autouse=True)
+def fake_pipeline(monkeypatch, tmp_path):
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+
+
+@pytest.fixture
+def folder(tmp_path):
+    return write_tum_folder(tmp_path / "tiny", frames=30)
+
+
+def task(folder, name="tiny", **parameters):
+    return BenchmarkTask(name=name, sequence=folder, pipeline="fake", parameters=parameters)
+
+
+def test_task_scores_the_run_against_groundtruth(folder):
+    result = execute_task(task(folder, lost_from=10, lost_until=20))
+    assert result.ok and result.error is None
+    report = result.report
+    assert result.frames == 30 and report["frames_with_pose"] == 20
+    assert report["ate"]["rmse"] < 1e-5  # a constant offset is removed by the alignment
+    # Lost from the last pose (frame 9) to the next (frame 20): 11 of 29 frame periods.
+    assert report["coverage"]["ratio"] == pytest.approx(1 - 11 / 29, abs=1e-5)  # stamps have 6 decimals
+    [[start, end]] = report["coverage"]["lost_intervals"]
+    assert (start - 1000.0, end - 1000.0) == pytest.approx((9 / FRAME_RATE_HZ, 20 / FRAME_RATE_HZ), abs=1e-6)
+    assert report["tracking_lost"][0]["reason"] == "scripted loss"
+    assert result.time_span == pytest.approx((1000.0, 1000.0 + 29 / FRAME_RATE_HZ))
+
+
+def test_frame_limit_does_not_count_unprocessed_time_as_lost(folder):
+    result = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", max_frames=12))
+    assert result.frames == 12 and result.report["coverage"]["ratio"] == 1.0
+
+
+def test_failures_are_reported_and_the_other_tasks_finish(folder, tmp_path):
+    corrupt = tmp_path / "corrupt"
+    corrupt.mkdir()
+    (corrupt / "rgb.txt").write_text("1.0 rgb/1.png\n")
+    tasks = [
+        task(folder, name="a"),
+        task(folder, name="raises", fail="raise"),
+        task(folder, name="exits", fail="exit"),
+        BenchmarkTask(name="hangs", sequence=folder, pipeline="fake", parameters={"fail": "hang"}, timeout_s=2),
+        BenchmarkTask(name="corrupt", sequence=corrupt, pipeline="fake"),
+        task(folder, name="b"),
+    ]
+    results = run_tasks(tasks, LocalExecutor(jobs=2))
+    assert [result.sequence for result in results] == ["a", "raises", "exits", "hangs", "corrupt", "b"]
+    assert [result.status for result in results] == ["ok", "failed", "failed", "failed", "failed", "ok"]
+    assert results[1].error == "RuntimeError: scripted failure"
+    assert results[2].error == "worker process died"
+    assert results[3].error == "TaskTimeout: timed out after 2 s"
+    assert results[4].error.startswith("InputError: ") and "depth.txt" in results[4].error
+    assert results[0].report == results[5].report | {"timing": results[0].report["timing"]}
+
+
+def test_rerun_is_served_from_the_cache_until_inputs_change(folder, tmp_path):
+    cache = ResultCache(tmp_path / "results")
+    tasks = [task(folder), task(folder, fail="raise")]
+    first = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False)
+    assert [result.cached for result in first] == [False, False]
+    second = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False)
+    assert [result.cached for result in second] == [True, False]  # failures are retried
+    assert second[0].report == first[0].report and second[0].time_span == first[0].time_span
+    changed = [task(folder, offset_m=0.02)]
+    assert not run_benchmark(changed, LocalExecutor(jobs=1), cache, progress=False)[0].cached
+    (folder / "groundtruth.txt").write_text((folder / "groundtruth.txt").read_text() + "\n")
+    assert not ResultCache(tmp_path / "results").load(tasks[0])  # the next run sees the change
+
+
+def test_fingerprint_follows_image_sizes_and_listings(folder):
+    before = sequence_fingerprint(folder)
+    assert sequence_fingerprint(folder) == before
+    image = sorted((folder / "rgb").iterdir())[3]
+    image.write_bytes(image.read_bytes() + b"\0")
+    assert sequence_fingerprint(folder) != before
+
+
+def test_cached_result_is_not_used_when_its_recording_is_missing(folder, tmp_path):
+    cache = ResultCache(tmp_path / "results")
+    plain = task(folder)
+    cache.store(plain, execute_task(plain))
+    recorded = BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", recording=tmp_path / "x.rrd")
+    assert cache.key(recorded) == cache.key(plain)
+    assert cache.load(plain) is not None and cache.load(recorded) is None
+
+
+def test_results_do_not_depend_on_the_number_of_workers(folder):
+    tasks = [task(folder, name=str(k), wobble_m=0.01 * k, lost_from=5 * k) for k in range(1, 5)]
+    serial = run_tasks(tasks, LocalExecutor(jobs=1))
+    parallel = run_tasks(tasks, LocalExecutor(jobs=2))
+    for one, other in zip(serial, parallel):
+        assert {k: v for k, v in one.report.items() if k != "timing"} == \
+               {k: v for k, v in other.report.items() if k != "timing"}
+    assert np.all(np.diff([result.report["ate"]["rmse"] for result in serial]) > 0)
+
+
+def test_recorded_task_writes_a_recording_and_scores_the_same(folder, tmp_path):
+    recording = tmp_path / "rec" / "tiny.fake.rrd"
+    recorded = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake",
+                                          parameters={"lost_from": 8}, recording=recording))
+    plain = execute_task(task(folder, lost_from=8))
+    assert recorded.ok, recorded.error
+    assert recording.stat().st_size > 0 and recording.with_suffix(".json").is_file()
+    assert {k: v for k, v in recorded.report.items() if k != "timing"} == \
+           {k: v for k, v in plain.report.items() if k != "timing"}
+    assert (recorded.frames, recorded.time_span) == (plain.frames, plain.time_span)

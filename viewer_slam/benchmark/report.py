@@ -1,0 +1,136 @@
+"""The benchmark's outputs: results.csv/json, charts, and report.md with auto-written findings.
+
+The findings make the study's point with numbers: who lost tracking, where, for how long
+and whether it came back, and every pair of pipelines that classic ATE ranks one way while
+the coverage-aware scores (penalised ATE, coverage) rank or qualify it the other way.
+"""
+
+from collections import defaultdict
+from itertools import combinations
+from pathlib import Path
+
+from .. import __version__
+from .plots import CHARTS, plot_all
+from .runner import TaskResult
+from .tables import result_row, write_csv, write_json
+
+# Coverages closer than this (one percentage point) count as equal when ranking.
+COVERAGE_TIE = 0.01
+
+
+def write_outputs(results: list[TaskResult], out_dir: Path) -> dict[str, Path]:
+    """Write every output into ``out_dir``; returns the main files by kind."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    rows = [result_row(result) for result in results]
+    paths = {"csv": out_dir / "results.csv", "json": out_dir / "results.json", "report": out_dir / "report.md"}
+    write_csv(paths["csv"], rows)
+    write_json(paths["json"], rows)
+    plot_all(rows, out_dir)
+    paths["report"].write_text(markdown_report(results))
+    return paths
+
+
+def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_") -> str:
+    pipelines = ", ".join(dict.fromkeys(result.pipeline for result in results))
+    sequences = len(dict.fromkeys(result.sequence for result in results))
+    failed = [result for result in results if not result.ok]
+    lines = [
+        "# Benchmark results", "",
+        f"{sequences} sequences x pipelines {pipelines}; viewslam {__version__}. ATE and RPE follow Sturm et al. "
+        "(RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
+        "that lost time with the error of the last pose held.", "",
+        "## Results", "",
+        results_table(results), "",
+    ]
+    if failed:
+        lines += ["## Failed tasks", ""]
+        lines += [f"- {result.sequence} / {result.pipeline}: {result.error}" for result in failed]
+        lines.append("")
+    lines += ["## Findings", ""]
+    lines += [f"- {finding}" for finding in findings(results)]
+    lines += ["", "## Charts", ""]
+    lines += [f"![{title}]({chart_prefix}{metric}.png)" for metric, title in CHARTS.items()]
+    return "\n".join(lines) + "\n"
+
+
+def _number(value, digits: int) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def results_table(results: list[TaskResult]) -> str:
+    """The study's columns (ATE, RPE, time) followed by the coverage-aware ones."""
+    header = ("| Sequence | Pipeline | ATE RMSE [m] | RPE trans RMSE [m] | RPE rot RMSE [deg] | Time [s] | FPS "
+              "| Coverage | Penalised ATE RMSE [m] | Poses / frames | Loop closures | Status |")
+    lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
+    for result in results:
+        row = result_row(result)
+        coverage = "-" if row["coverage"] is None else f"{100 * row['coverage']:.1f} %"
+        poses = "-" if row["frames"] is None else f"{row['frames_with_pose']} / {row['frames']}"
+        cells = (row["sequence"], row["pipeline"], _number(row["ate_rmse"], 3), _number(row["rpe_trans_rmse"], 3),
+                 _number(row["rpe_rot_rmse"], 2), _number(row["time_s"], 1), _number(row["fps"], 1), coverage,
+                 _number(row["penalized_ate_rmse"], 3), poses, _number(row["loop_closures"], 0), row["status"])
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def findings(results: list[TaskResult]) -> list[str]:
+    ok = [result for result in results if result.ok]
+    found = [text for result in ok if (text := tracking_finding(result))]
+    if not found and any(result_row(result)["coverage"] is not None for result in ok):
+        found.append("No pipeline lost tracking on any sequence.")
+    by_sequence = defaultdict(list)
+    for result in ok:
+        by_sequence[result.sequence].append(result)
+    for sequence, group in by_sequence.items():
+        for first, second in combinations(group, 2):
+            if (text := ranking_finding(sequence, first, second)):
+                found.append(text)
+    return found
+
+
+def tracking_finding(result: TaskResult) -> str | None:
+    """Where ``result``'s pipeline had no pose, for how long, and whether it came back."""
+    row = result_row(result)
+    start, end = result.time_span
+    who = f"**{result.pipeline}** on *{result.sequence}*"
+    if not row["frames_with_pose"]:
+        return f"{who} produced no pose at all."
+    intervals = row["lost_intervals"] or []
+    if not intervals:
+        return None
+    events = result.report.get("tracking_lost") or []
+    parts = []
+    for lost_from, lost_to in intervals:
+        reasons = [event["reason"] for event in events if lost_from <= event["timestamp"] <= lost_to]
+        outcome = "never recovered" if lost_to >= end else f"recovered at {lost_to - start:.1f} s"
+        because = f" [{reasons[0]}]" if reasons else ""
+        parts.append(f"at {lost_from - start:.1f} s for {lost_to - lost_from:.1f} s{because}, {outcome}")
+    total = sum(lost_to - lost_from for lost_from, lost_to in intervals)
+    return (f"{who} lost tracking {len(intervals)} time{'s' if len(intervals) > 1 else ''} "
+            f"({total:.1f} s of {end - start:.1f} s; coverage {100 * row['coverage']:.1f} %): " + "; ".join(parts) + ".")
+
+
+def ranking_finding(sequence: str, first: TaskResult, second: TaskResult) -> str | None:
+    """The classic-ATE order of two pipelines on one sequence, when coverage-aware scores disagree."""
+    a, b = result_row(first), result_row(second)
+    if a["ate_rmse"] is None and b["ate_rmse"] is None:
+        return None
+    if a["ate_rmse"] is None or b["ate_rmse"] is None:
+        scored, unscored = (a, b) if b["ate_rmse"] is None else (b, a)
+        return (f"On *{sequence}*, classic ATE has no score for {unscored['pipeline']} (no pose) and so cannot rank "
+                f"it against {scored['pipeline']} (ATE {scored['ate_rmse']:.3f} m).")
+    better, worse = (a, b) if a["ate_rmse"] <= b["ate_rmse"] else (b, a)
+    penalised_flips = (better["penalized_ate_rmse"] is not None and worse["penalized_ate_rmse"] is not None
+                       and better["penalized_ate_rmse"] > worse["penalized_ate_rmse"])
+    covers_less = better["coverage"] < worse["coverage"] - COVERAGE_TIE
+    if not (penalised_flips or covers_less):
+        return None
+    text = (f"On *{sequence}*, classic ATE ranks {better['pipeline']} ahead of {worse['pipeline']} "
+            f"({better['ate_rmse']:.3f} m vs {worse['ate_rmse']:.3f} m)")
+    if covers_less:
+        text += (f", although {better['pipeline']} has a pose for {100 * better['coverage']:.1f} % of the time "
+                 f"and {worse['pipeline']} for {100 * worse['coverage']:.1f} %")
+    verdict = "reverses" if penalised_flips else "keeps"
+    text += (f"; penalised ATE {verdict} the order ({better['penalized_ate_rmse']:.3f} m vs "
+             f"{worse['penalized_ate_rmse']:.3f} m).")
+    return text

@@ -1,0 +1,159 @@
+"""One benchmark task: a pipeline over a sequence, evaluated, optionally recorded.
+
+``execute_task`` is what the executors ship to worker processes (local or Ray). It never
+raises: any error, including running past the task's time limit, becomes a failed
+:class:`TaskResult` carrying the error's one-line description, so one bad task cannot
+take the others down.
+"""
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dataset.tum import open_sequence
+from ..evaluation.report import pipeline_report
+from ..pipelines import base
+from ..pipelines.params import apply_overrides
+from ..pipelines.run import run_pipeline
+from ..recording.session import RecordOptions, evaluate_run, frame_count, record
+
+
+@dataclass(frozen=True)
+class BenchmarkTask:
+    """Run ``pipeline`` over the TUM folder ``sequence``, shown in tables as ``name``.
+
+    ``parameters`` is the pipeline's complete parameter set under its external keys.
+    ``pipeline_modules`` is the pipeline registry the task was planned with, so worker
+    processes (which may not share the planner's interpreter) build the same pipelines.
+    """
+
+    name: str
+    sequence: Path
+    pipeline: str
+    parameters: dict[str, Any] = field(default_factory=dict)
+    seed: int = 0
+    max_frames: int | None = None
+    timeout_s: float | None = None
+    recording: Path | None = None
+    pipeline_modules: dict[str, str] = field(default_factory=lambda: dict(base.PIPELINE_MODULES))
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}/{self.pipeline}"
+
+
+@dataclass
+class TaskResult:
+    """The outcome of one task.
+
+    ``report`` is the per-pipeline block of DESIGN's report (metrics, timing, parameters);
+    ``time_span`` the first and last processed frame's timestamps, against which lost
+    intervals are read.
+    """
+
+    sequence: str
+    pipeline: str
+    status: str
+    error: str | None = None
+    report: dict[str, Any] | None = None
+    frames: int = 0
+    time_span: tuple[float, float] | None = None
+    cached: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @classmethod
+    def failure(cls, task: BenchmarkTask, error: str) -> "TaskResult":
+        return cls(sequence=task.name, pipeline=task.pipeline, status="failed", error=error)
+
+    def to_json(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> "TaskResult":
+        span = data.get("time_span")
+        return cls(**{**data, "time_span": tuple(span) if span is not None else None})
+
+
+class TaskTimeout(BaseException):
+    """A task ran past its time limit (a BaseException, so pipelines' ``except Exception`` cannot swallow it)."""
+
+
+@contextmanager
+def time_limit(seconds: float | None) -> Iterator[None]:
+    """Raise :class:`TaskTimeout` inside the block once ``seconds`` have passed.
+
+    Uses SIGALRM, so it only acts in a process's main thread, which is where both the
+    process pool and Ray run tasks; elsewhere the block runs unlimited.
+    """
+    if not seconds or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expire(signum, frame):
+        raise TaskTimeout(f"timed out after {seconds:g} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def execute_task(task: BenchmarkTask) -> TaskResult:
+    """Run, evaluate and (optionally) record one task; errors become a failed result."""
+    try:
+        with time_limit(task.timeout_s):
+            return _run(task)
+    except (Exception, TaskTimeout) as error:  # crash isolation: report, never propagate
+        message = " ".join(str(error).split()) or "no message"
+        return TaskResult.failure(task, f"{type(error).__name__}: {message}")
+
+
+def _run(task: BenchmarkTask) -> TaskResult:
+    base.PIPELINE_MODULES.update(task.pipeline_modules)
+    sequence = open_sequence(task.sequence)
+    if task.recording is not None:
+        report = _record(task)
+        frames = frame_count(sequence, task.max_frames, stride=1)
+    else:
+        params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
+        run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames)
+        frames = run.frames
+        report = pipeline_report(run, *evaluate_run(sequence, run, list(sequence.timestamps[:frames])))
+    if frames == 0:
+        raise ValueError(f"{task.sequence}: no frames")
+    time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
+    return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(report),
+                      frames=frames, time_span=time_span)
+
+
+def _record(task: BenchmarkTask) -> dict[str, Any]:
+    """Run through `viewslam record` (recording, report and trajectory beside it); the pipeline's block."""
+    assignments = [f"{key}={value}" for key, value in task.parameters.items()]
+    options = RecordOptions(sequence=str(task.sequence), pipeline=task.pipeline, out=task.recording,
+                            max_frames=task.max_frames, params=assignments, seed=task.seed, quiet=True)
+    return record(options).report["pipelines"][task.pipeline]
+
+
+def _plain(value: Any) -> Any:
+    """The report with numpy scalars and arrays turned into JSON types (it crosses processes and the cache)."""
+    if isinstance(value, dict):
+        return {str(key): _plain(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(item) for item in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

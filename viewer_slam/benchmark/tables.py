@@ -1,0 +1,61 @@
+"""The results table: one row per (sequence, pipeline), written as CSV and JSON."""
+
+import csv
+import json
+from pathlib import Path
+from typing import Any
+
+from .runner import TaskResult
+
+COLUMNS = ("sequence", "pipeline", "ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s", "fps", "coverage",
+           "penalized_ate_rmse", "frames", "frames_with_pose", "loop_closures", "lost_intervals", "status")
+
+
+def _lookup(block: dict | None, *keys: str) -> Any:
+    """``block[k1][k2]...`` or None where a level is missing or null (no pose, no pairs)."""
+    for key in keys:
+        if not isinstance(block, dict):
+            return None
+        block = block.get(key)
+    return block
+
+
+def result_row(result: TaskResult) -> dict[str, Any]:
+    """The table row of one result; metrics are None for a failed task or a missing score.
+
+    ``rpe_rot_rmse`` is in degrees, lengths in metres, ``lost_intervals`` are
+    ``[start, end]`` pairs of dataset timestamps.
+    """
+    report = result.report
+    return {
+        "sequence": result.sequence,
+        "pipeline": result.pipeline,
+        "ate_rmse": _lookup(report, "ate", "rmse"),
+        "rpe_trans_rmse": _lookup(report, "rpe", "trans", "rmse"),
+        "rpe_rot_rmse": _lookup(report, "rpe", "rot", "rmse"),
+        "time_s": _lookup(report, "timing", "total_s"),
+        "fps": _lookup(report, "timing", "fps"),
+        "coverage": _lookup(report, "coverage", "ratio"),
+        "penalized_ate_rmse": _lookup(report, "penalized_ate", "rmse"),
+        "frames": result.frames if result.ok else None,
+        "frames_with_pose": _lookup(report, "frames_with_pose"),
+        "loop_closures": _lookup(report, "loop_closures", "accepted"),
+        "lost_intervals": _lookup(report, "coverage", "lost_intervals"),
+        "status": result.status,
+    }
+
+
+def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
+    """Empty cells for missing values; ``lost_intervals`` as JSON text."""
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            cells = {key: "" if value is None else value for key, value in row.items()}
+            if row["lost_intervals"] is not None:
+                cells["lost_intervals"] = json.dumps(row["lost_intervals"])
+            writer.writerow(cells)
+
+
+def write_json(path: Path, rows: list[dict[str, Any]]) -> None:
+    Path(path).write_text(json.dumps(rows, indent=2) + "\n")
