@@ -98,3 +98,16 @@ def test_time_offset_is_applied_to_the_estimate():
     shifted = evaluate(GROUNDTRUTH, late, offset=50.0)
     assert shifted.ate.stats() == pytest.approx(evaluate(GROUNDTRUTH, estimate).ate.stats())
     assert shifted.coverage.ratio == pytest.approx(1.0, abs=0.01)
+
+
+def test_sparse_poses_are_lost_time_at_the_sequence_frame_rate():
+    # Two poses over 40 frames of a 30 Hz sequence: by their own spacing they look covered,
+    # at the sequence's frame period nearly everything between them is lost.
+    groundtruth = random_walk(40, seed=5)
+    sparse = groundtruth.subset(np.array([0, 39]))
+    span = (groundtruth.timestamps[0], groundtruth.timestamps[-1])
+    assert evaluate(groundtruth, sparse, span=span).coverage.ratio == 1.0
+    at_frame_rate = evaluate(groundtruth, sparse, span=span, frame_period=1 / 30)
+    assert at_frame_rate.coverage.ratio == 0.0
+    assert at_frame_rate.coverage.lost_intervals == [(span[0], span[1])]
+    assert at_frame_rate.penalized_ate.stats()["n"] > 30

@@ -48,10 +48,11 @@ def evaluate_command(
     """ATE, RPE, coverage and penalised ATE of ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
         raise typer.BadParameter(f"a delta in frames must be a whole number, got {delta}", param_hint="--delta")
-    reference, span = _groundtruth_and_span(groundtruth)
+    reference, span, frame_period = _groundtruth_and_clock(groundtruth)
     estimated = read_tum(estimate)
     evaluation = evaluate(reference, estimated, max_difference=max_difference, offset=offset, scale=scale,
-                          delta=delta, delta_unit=delta_unit.value, all_deltas=all_deltas, span=span)
+                          delta=delta, delta_unit=delta_unit.value, all_deltas=all_deltas, span=span,
+                          frame_period=frame_period)
     if evaluation.ate is None:
         raise InputError.at(estimate, _why_no_pairs(reference, estimated, offset, max_difference))
     Console().print(_table(evaluation))
@@ -74,18 +75,19 @@ def _writing(path: Path) -> Iterator[None]:
         raise InputError.at(path, f"cannot write: {error.strerror}") from None
 
 
-def _groundtruth_and_span(path: Path) -> tuple[Trajectory, tuple[float, float] | None]:
-    """A trajectory file, or a sequence folder's groundtruth with its frames' time span.
+def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, tuple[float, float] | None, float | None]:
+    """A trajectory file, or a sequence folder's groundtruth with its frames' time span and period.
 
     With a folder, coverage is measured over the time the camera recorded, not over the
-    groundtruth recorded before the first and after the last image.
+    groundtruth recorded before the first and after the last image, in units of its frame
+    period.
     """
     if not path.is_dir():
-        return read_tum(path), None
+        return read_tum(path), None, None
     sequence = open_sequence(path)
     if sequence.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
-    return sequence.groundtruth, (float(sequence.timestamps[0]), float(sequence.timestamps[-1]))
+    return sequence.groundtruth, (float(sequence.timestamps[0]), float(sequence.timestamps[-1])), sequence.frame_period
 
 
 def _why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float, max_difference: float) -> str:

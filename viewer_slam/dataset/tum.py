@@ -74,6 +74,11 @@ class TumSequence:
     def duration_s(self) -> float:
         return float(self.timestamps[-1] - self.timestamps[0])
 
+    @property
+    def frame_period(self) -> float | None:
+        """Median time between associated frames (None for a single frame)."""
+        return float(np.median(np.diff(self.timestamps))) if len(self.timestamps) > 1 else None
+
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
         rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]

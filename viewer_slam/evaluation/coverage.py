@@ -33,17 +33,18 @@ def median_period(stamps: np.ndarray) -> float | None:
     return float(np.median(np.diff(stamps))) if len(stamps) > 1 else None
 
 
-def lost_gap_threshold(stamps: np.ndarray) -> float:
-    """A stretch without poses longer than this is lost: max(0.1 s, 3 median periods).
+def lost_gap_threshold(stamps: np.ndarray, frame_period: float | None = None) -> float:
+    """A stretch without poses longer than this is lost: max(0.1 s, 3 frame periods).
 
     Three periods tolerate a dropped frame or two; the 0.1 s floor keeps the jitter of
-    fast cameras from counting as tracking loss.
+    fast cameras from counting as tracking loss. The period is the sequence's own when the
+    caller knows it, else the estimate's median spacing (a bare trajectory file).
     """
-    period = median_period(stamps)
+    period = frame_period or median_period(stamps)
     return MIN_LOST_GAP_S if period is None else max(MIN_LOST_GAP_S, LOST_GAP_PERIODS * period)
 
 
-def coverage(span: tuple[float, float], stamps: np.ndarray) -> Coverage:
+def coverage(span: tuple[float, float], stamps: np.ndarray, frame_period: float | None = None) -> Coverage:
     """Coverage of ``span`` (start, end) by pose ``stamps`` (sorted, on the span's clock).
 
     The span's ends and the stamps inside it form a chain of instants; every gap in that
@@ -56,7 +57,7 @@ def coverage(span: tuple[float, float], stamps: np.ndarray) -> Coverage:
         return Coverage(0.0, [(float(start), float(end))])
     instants = np.concatenate([[start], inside, [end]])
     gaps = np.diff(instants)
-    lost = np.flatnonzero(gaps > lost_gap_threshold(stamps))
+    lost = np.flatnonzero(gaps > lost_gap_threshold(stamps, frame_period))
     intervals = [(float(instants[k]), float(instants[k + 1])) for k in lost]
     duration = end - start
     ratio = 1.0 - float(gaps[lost].sum() / duration) if duration > 0 else 1.0
@@ -64,15 +65,16 @@ def coverage(span: tuple[float, float], stamps: np.ndarray) -> Coverage:
 
 
 def held_pose_errors(groundtruth: Trajectory, estimate: Trajectory, alignment: np.ndarray,
-                     lost_intervals: list[tuple[float, float]]) -> tuple[np.ndarray, np.ndarray]:
+                     lost_intervals: list[tuple[float, float]],
+                     frame_period: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Stamps and errors of the penalty samples inside the lost intervals.
 
-    Samples lie every median estimate period inside each interval (so lost time weighs as
+    Samples lie every frame period (else median estimate period) inside each interval (so lost time weighs as
     much as tracked time); at each, the groundtruth is interpolated and compared with the
     aligned last estimate pose before it (zero-order hold; the first pose before the
     first). ``estimate`` stamps are on the groundtruth's clock.
     """
-    period = median_period(estimate.timestamps) or median_period(groundtruth.timestamps) or MIN_LOST_GAP_S
+    period = frame_period or median_period(estimate.timestamps) or median_period(groundtruth.timestamps) or MIN_LOST_GAP_S
     samples = [np.arange(start + period, end, period) for start, end in lost_intervals]
     stamps = np.concatenate(samples) if samples else np.zeros(0)
     reference, covered = interpolate_poses(groundtruth, stamps)

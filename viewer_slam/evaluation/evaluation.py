@@ -59,6 +59,7 @@ def evaluate(
     all_deltas: bool = False,
     seed: int = 0,
     span: tuple[float, float] | None = None,
+    frame_period: float | None = None,
 ) -> Evaluation:
     """Score ``estimate`` against ``groundtruth``, both in time order (definitions in docs/metrics.md).
 
@@ -67,6 +68,8 @@ def evaluate(
     ``all_deltas``, a seeded sample over every distance. ``span`` is the time window that
     coverage measures (default: the groundtruth's; a sequence's first and last frame
     stamps avoid charging a method for groundtruth recorded before the camera started).
+    ``frame_period`` is the sequence's frame period, the unit of the lost-gap threshold and
+    of the penalty sampling (default: the estimate's median spacing).
     """
     if delta_unit not in DELTA_UNITS:
         raise ValueError(f"delta_unit must be one of {DELTA_UNITS}, got {delta_unit!r}")
@@ -75,7 +78,7 @@ def evaluate(
     on_groundtruth_clock = Trajectory(estimate.timestamps + offset, estimate.poses)
     if span is None:
         span = (groundtruth.timestamps[0], groundtruth.timestamps[-1])
-    covered = coverage(span, on_groundtruth_clock.timestamps)
+    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period)
     reported_delta = None if all_deltas else (int(delta) if delta_unit == "frames" else float(delta))
     reported_unit = "all" if all_deltas else delta_unit
 
@@ -101,7 +104,7 @@ def evaluate(
     has_pairs = len(first) > 0
 
     penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, alignment,
-                                                      covered.lost_intervals)
+                                                      covered.lost_intervals, frame_period)
     penalized_stamps = np.concatenate([stamps, penalty_stamps - offset])
     order = np.argsort(penalized_stamps, kind="stable")
     penalized = ErrorSeries(penalized_stamps[order], np.concatenate([ate_errors, penalty_errors])[order])
