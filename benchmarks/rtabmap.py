@@ -1,0 +1,104 @@
+"""Speed, memory and accuracy of the rtabmap pipeline (the figures of docs/pipelines/rtabmap.md).
+
+    /work/venv/bin/python benchmarks/rtabmap.py            # all cases
+    /work/venv/bin/python benchmarks/rtabmap.py speed      # one case: speed, accuracy or memory
+
+Synthetic scenarios are generated into the cache on first use (minutes at 640x480).
+Times are wall-clock on this machine; per-stage figures are medians over the frames or
+locations on which the stage ran, and means per frame (the stage's share of the frame rate).
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from viewer_slam.dataset.synth.generate import cached_scenario
+from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.evaluation import evaluate
+from viewer_slam.pipelines.events import FrameTracked, LoopClosure
+from viewer_slam.pipelines.params import apply_overrides
+from viewer_slam.pipelines.rtabmap import RtabmapParams
+from viewer_slam.pipelines.run import run_pipeline
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from test_rtabmap_scenarios import RestingStart  # noqa: E402  (the camera rests on its first view)
+
+REST_FRAMES = 60
+
+
+def run(name: str, frames: int, resolution: tuple[int, int], rest: int = 0, **overrides):
+    sequence = open_sequence(cached_scenario(name, frames=frames, resolution=resolution, seed=0))
+    events = []
+    params = apply_overrides(RtabmapParams(), overrides, "benchmark")
+    fed = RestingStart(sequence, rest) if rest else sequence
+    result = run_pipeline(fed, "rtabmap", params, seed=0, sinks=[events.append])
+    return sequence, result, events
+
+
+def ate(sequence, trajectory) -> float | None:
+    if trajectory is None or len(trajectory) < 2:
+        return None
+    return evaluate(sequence.groundtruth, trajectory).ate.stats()["rmse"]
+
+
+def stage_table(events) -> str:
+    tracked = [e for e in events if isinstance(e, FrameTracked)]
+    total = np.array([sum(e.timings_ms.values()) for e in tracked])
+    lines = ["| stage | median ms (when run) | runs | mean ms per frame | share |", "|---|---|---|---|---|"]
+    for stage in tracked[0].timings_ms:
+        values = np.array([e.timings_ms[stage] for e in tracked])
+        ran = values[values > 0]
+        lines.append(f"| {stage} | {np.median(ran) if len(ran) else 0:.2f} | {len(ran)} | {values.mean():.2f} "
+                     f"| {values.sum() / total.sum():.0%} |")
+    lines.append(f"| all | {np.median(total):.2f} | {len(total)} | {total.mean():.2f} | 100% |")
+    return "\n".join(lines)
+
+
+def speed() -> None:
+    sequence, result, events = run("long_office_household", 300, (640, 480))
+    print("## Speed: long_office_household, 300 frames, 640x480, default parameters\n")
+    print(stage_table(events))
+    print(f"\nfps {result.fps:.1f} (wall, including image loading), median frame "
+          f"{np.median([sum(e.timings_ms.values()) for e in events if isinstance(e, FrameTracked)]):.1f} ms, "
+          f"locations {result.keyframes}, ATE {ate(sequence, result.trajectory):.3f} m\n")
+
+
+def accuracy() -> None:
+    print("## Accuracy (320x240, Rtabmap/DetectionRate 10)\n")
+    print("| scenario | frames | ATE RMSE m | odometry ATE m | closures accepted/rejected | coverage |")
+    print("|---|---|---|---|---|---|")
+    for name, frames in (("nostructure_texture_near_withloop", 150), ("nostructure_texture_near_withloop", 300),
+                         ("long_office_household", 300)):
+        sequence, result, _ = run(name, frames, (320, 240), **{"Rtabmap/DetectionRate": 10})
+        coverage = evaluate(sequence.groundtruth, result.trajectory).coverage.ratio
+        print(f"| {name} | {frames} | {ate(sequence, result.trajectory):.4f} | {ate(sequence, result.odometry):.4f} "
+              f"| {result.loop_closures_accepted}/{result.loop_closures_rejected} | {coverage:.2f} |")
+    print()
+
+
+def memory() -> None:
+    print("## Memory: long_office_household, 2,500 frames, 320x240, default parameters\n")
+    print("| Rtabmap/MemoryThr | start | max WM | final WM / LTM | words | vocabulary+bayes ms per location (median) "
+          "| loop closures to the first 10 locations | ATE m | fps |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for threshold, rest in ((0, 0), (30, 0), (30, REST_FRAMES)):
+        sequence, result, events = run("long_office_household", 2500, (320, 240), rest,
+                                       **{"Rtabmap/MemoryThr": threshold})
+        tracked = [e for e in events if isinstance(e, FrameTracked)]
+        per_location = [e.timings_ms["vocabulary"] + e.timings_ms["bayes"] for e in tracked
+                        if e.timings_ms["bayes"] > 0]
+        early = [e for e in events if isinstance(e, LoopClosure) and e.accepted and e.from_keyframe < 10]
+        last = tracked[-1].metrics
+        start = f"rests {rest} frames" if rest else "moving"
+        print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
+              f"| {last['words']} | {np.median(per_location):.1f} | {len(early)} "
+              f"| {ate(sequence, result.trajectory):.3f} | {result.fps:.1f} |")
+    print()
+
+
+CASES = {"speed": speed, "accuracy": accuracy, "memory": memory}
+
+if __name__ == "__main__":
+    for case in sys.argv[1:] or CASES:
+        CASES[case]()

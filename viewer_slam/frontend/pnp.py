@@ -1,0 +1,52 @@
+"""3D-2D registration: OpenCV's PnP RANSAC, seeded, refined on its inliers."""
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ..geometry.se3 import invert, make_pose
+
+RANSAC_CONFIDENCE = 0.99
+
+
+@dataclass
+class PnpResult:
+    """``pose`` is the camera in the frame of the 3D points (``T_points_camera``)."""
+
+    pose: np.ndarray
+    inliers: np.ndarray
+
+    @property
+    def inlier_count(self) -> int:
+        return int(self.inliers.sum())
+
+
+def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
+                     reprojection_error: float, iterations: int, min_inliers: int, seed: int) -> PnpResult | None:
+    """Camera pose from 3D points ``(N, 3)`` seen at pixels ``(N, 2)``, or None when fewer
+    than ``min_inliers`` correspondences agree.
+
+    RANSAC hypotheses come from the minimal AP3P solver (four points, so far fewer
+    iterations than EPnP's five at the same confidence); the winner is refined by
+    Levenberg-Marquardt on its inliers, which are then recounted. OpenCV draws its samples
+    from its global generator, reseeded on every call so that the same input and seed give
+    the same pose.
+    """
+    if len(object_points) < max(min_inliers, 4):
+        return None
+    object_points = np.ascontiguousarray(object_points, dtype=np.float64)
+    image_points = np.ascontiguousarray(image_points, dtype=np.float64)
+    cv2.setRNGSeed(seed)
+    ok, rvec, tvec, inliers = cv2.solvePnPRansac(
+        object_points, image_points, K, None, iterationsCount=iterations, reprojectionError=reprojection_error,
+        confidence=RANSAC_CONFIDENCE, flags=cv2.SOLVEPNP_AP3P)
+    if not ok or inliers is None or len(inliers) < min_inliers:
+        return None
+    inliers = inliers.ravel()
+    rvec, tvec = cv2.solvePnPRefineLM(object_points[inliers], image_points[inliers], K, None, rvec, tvec)
+    projected = cv2.projectPoints(object_points, rvec, tvec, K, None)[0].reshape(-1, 2)
+    mask = np.linalg.norm(projected - image_points, axis=1) <= reprojection_error
+    if mask.sum() < min_inliers:
+        return None
+    return PnpResult(invert(make_pose(cv2.Rodrigues(rvec)[0], tvec.ravel())), mask)

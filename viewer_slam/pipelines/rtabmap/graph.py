@@ -1,0 +1,123 @@
+"""The location graph: odometry links, loop closure links, map sessions, GTSAM.
+
+Each odometry session (a new one starts when odometry resets) is its own chain anchored by
+a prior at its first location. A loop closure between two sessions re-expresses the newer
+one in the older one's frame and drops its anchor, joining the maps as RTAB-Map does in
+multi-session mapping. A closure inside a map is kept only if, after optimisation, no link
+disagrees with the graph by more than RGBD/OptimizeMaxError of its standard deviation.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...backend.pose_graph import Edge, PoseGraph, information_from_sigmas
+from ...geometry.se3 import invert
+
+MIN_LINK_SIGMA = 0.001          # floor of a link's standard deviation (m, and rad)
+ANCHOR_SIGMA = 1e-4
+ANCHOR_INFORMATION = information_from_sigmas(ANCHOR_SIGMA, ANCHOR_SIGMA)
+
+
+def registration_variance(reference: np.ndarray, registered: np.ndarray) -> float:
+    """Variance of a registration as RTAB-Map estimates it: the median squared distance
+    between the inliers' 3D points and their registered counterparts (NaN pairs skipped)."""
+    squared = np.sum((reference - registered) ** 2, axis=1)
+    squared = squared[~np.isnan(squared)]
+    return float(np.median(squared)) if len(squared) else 0.0
+
+
+def link_information(variance: float) -> np.ndarray:
+    """Information of a link; like RTAB-Map, one variance serves rotation (rad²) and translation (m²)."""
+    sigma = max(np.sqrt(variance), MIN_LINK_SIGMA)
+    return information_from_sigmas(sigma, sigma)
+
+
+@dataclass
+class ClosureOutcome:
+    """Whether a loop closure link was kept, why, and the graph error around the optimisation."""
+
+    accepted: bool
+    reason: str
+    error_before: float = 0.0
+    error_after: float = 0.0
+
+
+class LocationGraph:
+    """Locations as GTSAM pose nodes, their odometry, and which map each session belongs to."""
+
+    def __init__(self, iterations: int, max_error: float):
+        self.pose_graph = PoseGraph()
+        self.iterations = iterations
+        self.max_error = max_error
+        self.odometry: dict[int, np.ndarray] = {}
+        self.session: dict[int, int] = {}
+        self.map_of_session: dict[int, int] = {}    # session -> the map (oldest session) it joined
+        self.last_of_session: dict[int, int] = {}
+
+    @property
+    def poses(self) -> dict[int, np.ndarray]:
+        return self.pose_graph.poses
+
+    def correction(self, location: int) -> np.ndarray:
+        """``T_map_odom`` of the location's session, as the optimised graph sees it there."""
+        return self.poses[location] @ invert(self.odometry[location])
+
+    def map_of(self, location: int) -> int:
+        return self.map_of_session[self.session[location]]
+
+    def add_location(self, location: int, session: int, odometry_pose: np.ndarray, variance: float) -> None:
+        """Chain a location to the previous one of its session (or anchor a new session);
+        ``variance`` is the odometry's accumulated since the previous location."""
+        previous = self.last_of_session.get(session)
+        self.odometry[location] = odometry_pose
+        self.session[location] = session
+        self.last_of_session[session] = location
+        if previous is None:
+            self.map_of_session[session] = session
+            self.pose_graph.add_node(location, odometry_pose)
+            self.pose_graph.add_prior(location, odometry_pose, ANCHOR_INFORMATION)
+            return
+        self.pose_graph.add_node(location, self.correction(previous) @ odometry_pose)
+        self.pose_graph.add_edge(Edge(previous, location, invert(self.odometry[previous]) @ odometry_pose,
+                                      link_information(variance)))
+
+    def close_loop(self, old: int, new: int, relative: np.ndarray, variance: float) -> ClosureOutcome:
+        """Add the link ``relative = T_old^-1 T_new``, optimise, and keep it if consistent."""
+        edge = Edge(old, new, relative, link_information(variance))
+        if self.map_of(old) != self.map_of(new):
+            self._join_maps(old, new, relative)
+            self.pose_graph.add_edge(edge)
+            return ClosureOutcome(True, "maps joined")
+        saved = dict(self.poses)
+        self.pose_graph.add_edge(edge)
+        before, after = self.pose_graph.optimize(self.iterations)
+        error = self.largest_link_error()
+        if self.max_error > 0 and error > self.max_error:
+            self.pose_graph.remove_edge(edge)
+            self.pose_graph.poses.update(saved)
+            return ClosureOutcome(False, f"optimisation error {error:.1f} > {self.max_error:g}", before, after)
+        return ClosureOutcome(True, "accepted", before, after)
+
+    def largest_link_error(self) -> float:
+        """Largest disagreement of a link with the graph, in units of its standard deviation."""
+        worst = 0.0
+        for edge in self.pose_graph.edges:
+            translation, rotation = self.pose_graph.edge_residual(edge)
+            sigma_rotation, sigma_translation = np.diag(edge.information)[[0, 3]] ** -0.5
+            worst = max(worst, translation / sigma_translation, rotation / sigma_rotation)
+        return worst
+
+    def _join_maps(self, old: int, new: int, relative: np.ndarray) -> None:
+        """Move the newer map rigidly so that the link holds, and drop its anchors."""
+        keep, moved = sorted((self.map_of(old), self.map_of(new)))
+        if self.map_of(new) == keep:
+            relative, old, new = invert(relative), new, old
+        shift = self.poses[old] @ relative @ invert(self.poses[new])
+        for location, session in self.session.items():
+            if self.map_of_session[session] == moved:
+                self.poses[location] = shift @ self.poses[location]
+                self.pose_graph.priors.pop(location, None)
+        for session, joined in self.map_of_session.items():
+            if joined == moved:
+                self.map_of_session[session] = keep

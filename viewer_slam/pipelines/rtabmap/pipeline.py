@@ -1,0 +1,297 @@
+"""The RTAB-Map pipeline: frame-to-map odometry feeding a graph of locations with
+appearance-based loop closure detection under memory management."""
+
+import time
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from ...dataset.frame import Frame
+from ...frontend.features import FeatureExtractor, Features
+from ...geometry.camera import Camera
+from ...geometry.se3 import invert, rotation_angle, transform_points
+from ..base import Pipeline
+from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+                      MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+from .graph import LocationGraph
+from .loop_closure import AppearanceDetector, Hypothesis, nearby_locations, register
+from .memory import Location, Memory, similarity
+from .odometry import FrameToMapOdometry, OdometryResult
+from .params import RtabmapParams
+from .vocabulary import Vocabulary
+
+STAGES = ("features", "odometry", "vocabulary", "bayes", "verification", "optimisation", "memory")
+THUMBNAIL_WIDTH = 160
+CLOUD_POINTS_ACROSS = 64         # coarse cloud per location: this many depth samples per image row
+MAP_POINTS_LIMIT = 200_000       # a rebuilt map is subsampled to at most this many points
+
+
+@dataclass
+class _FrameRecord:
+    """A frame with odometry and the location its final pose hangs from."""
+
+    index: int
+    timestamp: float
+    odometry_pose: np.ndarray
+    location: int
+
+
+class _Stopwatch:
+    """Milliseconds per stage for the current frame."""
+
+    def __init__(self):
+        self.ms = dict.fromkeys(STAGES, 0.0)
+
+    def __call__(self, stage: str, function, *args):
+        start = time.perf_counter()
+        result = function(*args)
+        self.ms[stage] += (time.perf_counter() - start) * 1e3
+        return result
+
+
+class Rtabmap(Pipeline):
+    """Frame-to-map odometry; a location every Rtabmap/DetectionRate seconds once the camera
+    moved RGBD/LinearUpdate or RGBD/AngularUpdate; loop closures by appearance and by
+    proximity, verified by PnP and kept if the optimised graph agrees with them."""
+
+    name = "rtabmap"
+    Params = RtabmapParams
+
+    def __init__(self, camera: Camera, params: RtabmapParams | None = None, seed: int = 0):
+        super().__init__(camera, params, seed)
+        p = self.params
+        self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera)
+        self.odometry = FrameToMapOdometry(camera, p, seed)
+        self.vocabulary = Vocabulary(p.word_nndr, seed)
+        self.memory = Memory(self.vocabulary, p.stm_size)
+        self.graph = LocationGraph(p.optimizer_iterations, p.optimize_max_error)
+        self.detector = AppearanceDetector()
+        self.session = -1
+        self.current_location: int | None = None
+        self.last_tick = -np.inf
+        self.last_hypothesis = 0.0
+        self.posterior_max = 0.0
+        self.lost = False
+        self.odometry_variance = 0.0     # accumulated since the last location
+        self.records: list[_FrameRecord] = []
+        self.cloud_step = max(1, camera.width // CLOUD_POINTS_ACROSS)
+
+    # -- per frame ---------------------------------------------------------------------
+
+    def process(self, frame: Frame) -> list[Event]:
+        watch = _Stopwatch()
+        features = watch("features", self.extractor.extract, frame.rgb, frame.depth)
+        odometry = watch("odometry", self.odometry.process, features)
+        events: list[Event] = []
+        if odometry.matched_pixels is not None and len(odometry.matched_pixels):
+            events.append(FeatureMatches(frame.index, "local map", None, odometry.matched_pixels,
+                                         odometry.projected_pixels, odometry.inlier_mask))
+        pose = None
+        if odometry.pose is None:
+            status = TrackingStatus.LOST if self.odometry.initialised or self.lost else TrackingStatus.INITIALISING
+            if not self.lost and self.odometry.initialised:
+                self.lost = True
+                events.append(TrackingLost(frame.index, frame.timestamp,
+                                           f"odometry registration failed: {odometry.matches} matches to the "
+                                           f"local map, fewer than Vis/MinInliers {self.params.min_inliers} agree"))
+        else:
+            status = self._track_status(frame, odometry, events)
+            self.odometry_variance += odometry.variance
+            if odometry.new_session or self._detection_due(frame.timestamp):
+                if odometry.new_session or self._moved(odometry.pose):
+                    events += self._update_map(frame, features, odometry.pose, watch)
+                else:
+                    watch("vocabulary", self._rehearse, features)
+            self.records.append(_FrameRecord(frame.index, frame.timestamp, odometry.pose, self.current_location))
+            pose = self.graph.correction(self.current_location) @ odometry.pose
+        metrics = {"stm": len(self.memory.stm), "wm": len(self.memory.wm), "ltm": len(self.memory.ltm),
+                   "words": len(self.vocabulary), "posterior_max": self.posterior_max}
+        events.insert(0, FrameTracked(frame.index, frame.timestamp, pose, status, len(features), odometry.matches,
+                                      odometry.inliers, self.current_location if pose is not None else None,
+                                      watch.ms, metrics))
+        return events
+
+    def _track_status(self, frame: Frame, odometry: OdometryResult, events: list[Event]) -> TrackingStatus:
+        if odometry.new_session:
+            self.session += 1
+            self.last_tick = frame.timestamp
+            if odometry.reset:
+                events.append(TrackingRecovered(frame.index, frame.timestamp,
+                                                f"odometry reset after Odom/ResetCountdown "
+                                                f"{self.params.reset_countdown} lost frames: new map {self.session}"))
+            self.lost = False
+            return TrackingStatus.INITIALISING
+        if self.lost:
+            self.lost = False
+            events.append(TrackingRecovered(frame.index, frame.timestamp, "registered to the local map again"))
+            return TrackingStatus.RELOCALISED
+        return TrackingStatus.OK
+
+    def _detection_due(self, timestamp: float) -> bool:
+        """Rtabmap/DetectionRate: at most one map update per period."""
+        rate = self.params.detection_rate
+        if rate > 0 and timestamp - self.last_tick < 1.0 / rate:
+            return False
+        self.last_tick = timestamp
+        return True
+
+    def _moved(self, odometry_pose: np.ndarray) -> bool:
+        """RGBD/LinearUpdate, RGBD/AngularUpdate: motion since the last location."""
+        motion = invert(self.memory.locations[self.current_location].odometry_pose) @ odometry_pose
+        return (np.linalg.norm(motion[:3, 3]) >= self.params.linear_update
+                or rotation_angle(motion[:3, :3]) >= self.params.angular_update)
+
+    def _rehearse(self, features: Features) -> None:
+        """The camera stayed: a view similar to the last location strengthens it (weight)."""
+        last = self.memory.locations[self.current_location]
+        words = self.vocabulary.quantize(self._strongest(features).descriptors)
+        if similarity(last.words, words) > self.params.rehearsal_similarity:
+            last.weight += 1
+
+    def _strongest(self, features: Features) -> Features:
+        """The Kp/MaxFeatures strongest features, which a location keeps as its words."""
+        order = np.argsort(-features.responses, kind="stable")[:self.params.words_per_location]
+        return features.subset(np.sort(order))
+
+    # -- per location ------------------------------------------------------------------
+
+    def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray,
+                    watch: _Stopwatch) -> list[Event]:
+        """Add a location, look for a loop closure, and keep memory within its budget."""
+        p = self.params
+        start = time.perf_counter()
+        kept = self._strongest(features)
+        location_id = len(self.memory.locations)
+        words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
+        location = Location(location_id, self.session, frame.index, frame.timestamp, odometry_pose,
+                            kept.keypoints, kept.descriptors, kept.points, words, *self._cloud(frame))
+        previous = self.current_location
+        continues_chain = previous is not None and self.graph.session[previous] == self.session
+        if continues_chain:
+            self._pass_weight(self.memory.locations[previous], location)
+        self.memory.add(location)
+        if continues_chain:
+            self.memory.link(previous, location_id)
+        self.graph.add_location(location_id, self.session, odometry_pose, self.odometry_variance)
+        self.odometry_variance = 0.0
+        self.current_location = location_id
+        pose = self.graph.poses[location_id]
+        events: list[Event] = [
+            KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), kept.keypoints,
+                          *self._thumbnails(frame)),
+            MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
+                       location.cloud_colors),
+        ]
+        hypothesis = watch("bayes", self.detector.detect, self.memory, words, self.graph.session)
+        closed, retrieved = False, []
+        if hypothesis is not None:
+            self.posterior_max = hypothesis.posterior
+            if p.memory_threshold > 0 or p.time_threshold > 0:
+                retrieved = watch("memory", self.memory.retrieve, hypothesis.location, p.max_retrieved)
+            closed = self._consider(frame, location, hypothesis, watch, events)
+        if not closed and p.proximity_by_space:
+            self._proximity(frame, location, watch, events)
+        protected = set(retrieved) | ({hypothesis.location} if hypothesis is not None else set())
+        watch("memory", self._keep_budget, protected, (time.perf_counter() - start) * 1e3)
+        return events
+
+    def _pass_weight(self, previous: Location, location: Location) -> None:
+        """Rehearsal while moving: a new location that looks like the previous one inherits its
+        weight (plus one), so a place seen for long keeps one heavy node."""
+        if similarity(previous.words, location.words) > self.params.rehearsal_similarity:
+            location.weight = previous.weight + 1
+            previous.weight = 0
+
+    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, watch: _Stopwatch,
+                  events: list[Event]) -> bool:
+        """Verify the Bayes filter's best hypothesis if its posterior is high enough."""
+        p = self.params
+        previous, self.last_hypothesis = self.last_hypothesis, hypothesis.posterior
+        reason = None
+        if hypothesis.posterior <= p.loop_threshold:
+            reason = f"posterior {hypothesis.posterior:.2f} < Rtabmap/LoopThr {p.loop_threshold:g}"
+        elif hypothesis.posterior < p.loop_ratio * previous:
+            reason = f"posterior {hypothesis.posterior:.2f} < Rtabmap/LoopRatio {p.loop_ratio:g} x {previous:.2f}"
+        if reason is None:
+            return self._close(frame, self.memory.locations[hypothesis.location], location, "appearance",
+                               hypothesis.posterior, watch, events)
+        if hypothesis.posterior > hypothesis.new_place_posterior:
+            events.append(LoopClosure(frame.index, hypothesis.location, location.id, False, reason,
+                                      score=hypothesis.posterior))
+        return False
+
+    def _proximity(self, frame: Frame, location: Location, watch: _Stopwatch, events: list[Event]) -> None:
+        """RGBD/ProximityBySpace: link to the nearest location of the map off the recent path."""
+        recent = location.id - 2 * self.params.stm_size
+        map_id = self.graph.map_of(location.id)
+        nearby = nearby_locations(self.memory, self.graph.poses, location.id,
+                                  lambda i: self.graph.map_of(i) == map_id and (
+                                      self.graph.session[i] != location.session or i < recent),
+                                  self.params)
+        if nearby:
+            self._close(frame, self.memory.locations[nearby[0]], location, "proximity", 0.0, watch, events)
+
+    def _close(self, frame: Frame, old: Location, new: Location, kind: str, score: float, watch: _Stopwatch,
+               events: list[Event]) -> bool:
+        """Register two locations by PnP and, if the optimised graph agrees, link them."""
+        registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
+        if registration.relative is None:
+            events.append(LoopClosure(frame.index, old.id, new.id, False,
+                                      f"too few inliers (< Vis/MinInliers {self.params.min_inliers}) "
+                                      f"among {registration.matches} matches", None, score, 0, kind))
+            return False
+        outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
+                        registration.variance)
+        events.append(LoopClosure(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
+                                  registration.relative, score, registration.inliers, kind))
+        if not outcome.accepted:
+            return False
+        self.memory.link(old.id, new.id)
+        ids = np.array(sorted(self.graph.poses))
+        events.append(GraphOptimized(frame.index, ids, np.stack([self.graph.poses[i] for i in ids]),
+                                     outcome.error_before, outcome.error_after))
+        events.append(watch("optimisation", self._rebuilt_map, frame.index))
+        return True
+
+    def _keep_budget(self, protected: set[int], elapsed_ms: float) -> None:
+        """Rtabmap/MemoryThr and Rtabmap/TimeThr: move locations to LTM when over budget."""
+        p = self.params
+        limit = p.memory_threshold if p.memory_threshold > 0 else None
+        if p.time_threshold > 0 and elapsed_ms > p.time_threshold:
+            shrunk = int(len(self.memory.wm) * p.time_threshold / elapsed_ms)
+            limit = shrunk if limit is None else min(limit, shrunk)
+        if limit is not None:
+            self.memory.transfer(limit, protected)
+
+    # -- map and images ----------------------------------------------------------------
+
+    def _cloud(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        points, pixels = self.camera.depth_to_points(frame.depth, self.cloud_step)
+        return points.astype(np.float32), frame.rgb[pixels[:, 0], pixels[:, 1]]
+
+    def _thumbnails(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        width = min(THUMBNAIL_WIDTH, frame.rgb.shape[1])
+        size = (width, round(frame.rgb.shape[0] * width / frame.rgb.shape[1]))
+        return (cv2.resize(frame.rgb, size, interpolation=cv2.INTER_AREA),
+                cv2.resize(frame.depth, size, interpolation=cv2.INTER_NEAREST))
+
+    def _rebuilt_map(self, frame_index: int) -> MapUpdated:
+        """Every location's cloud at its optimised pose, subsampled to MAP_POINTS_LIMIT."""
+        locations = [self.memory.locations[i] for i in sorted(self.memory.locations)]
+        points = np.concatenate([transform_points(self.graph.poses[loc.id], loc.cloud_points) for loc in locations])
+        colors = np.concatenate([loc.cloud_colors for loc in locations])
+        stride = -(-len(points) // MAP_POINTS_LIMIT)
+        return MapUpdated(frame_index, points[::stride].astype(np.float32), colors[::stride], replace=True)
+
+    # -- end of run --------------------------------------------------------------------
+
+    def finish(self) -> list[Event]:
+        """Every frame with odometry, moved by its location's optimised correction."""
+        if not self.records:
+            return [TrajectoryFinal(np.zeros(0, int), np.zeros(0), np.zeros((0, 4, 4)), np.zeros((0, 4, 4)))]
+        corrections = {i: self.graph.correction(i) for i in {r.location for r in self.records}}
+        odometry = np.stack([r.odometry_pose for r in self.records])
+        poses = np.stack([corrections[r.location] for r in self.records]) @ odometry
+        return [TrajectoryFinal(np.array([r.index for r in self.records]), np.array([r.timestamp for r in self.records]),
+                                poses, odometry)]
