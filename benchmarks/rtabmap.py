@@ -9,10 +9,10 @@ locations on which the stage ran, and means per frame (the stage's share of the 
 """
 
 import sys
-from pathlib import Path
 
 import numpy as np
 
+from viewer_slam.dataset.resting import RestingStart
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
@@ -21,8 +21,6 @@ from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.run import run_pipeline
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_rtabmap_scenarios import RestingStart  # noqa: E402  (the camera rests on its first view)
 
 REST_FRAMES = 60
 

@@ -6,12 +6,12 @@ loop uses 150 frames, so the camera moves twice as fast as over 300 and the odom
 drifts enough for the loop closure to matter.
 """
 
-import dataclasses
 import json
 
 import numpy as np
 import pytest
 
+from viewer_slam.dataset.resting import RestingStart
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
@@ -123,23 +123,6 @@ def test_texture_less_plane_loses_tracking_and_the_report_shows_the_lost_interva
     assert report["coverage"]["ratio"] < 0.5 and lost_intervals
     assert lost_intervals[0][0] <= of_type(events, TrackingLost)[0].timestamp + 0.05
     assert report["tracking_lost"][0]["frame"] == of_type(events, TrackingLost)[0].frame_index
-
-
-class RestingStart:
-    """A sequence whose camera first rests on its opening view for ``frames`` frames,
-    as a hand-held recording often begins; rehearsal gives that place its weight."""
-
-    def __init__(self, sequence, frames: int):
-        self.sequence, self.rest = sequence, frames
-        self.camera, self.groundtruth = sequence.camera, None
-
-    def frames(self, max_frames=None, stride=1):
-        inner = self.sequence.frames()
-        first = next(inner)
-        for i in range(self.rest):
-            yield dataclasses.replace(first, index=i, timestamp=first.timestamp - (self.rest - i) / 30.0)
-        for frame in [first, *inner]:
-            yield dataclasses.replace(frame, index=frame.index + self.rest)
 
 
 def test_memory_threshold_bounds_working_memory_and_the_loop_is_still_closed(textured_loop):

@@ -117,7 +117,7 @@ class LocationGraph:
         for location, session in self.session.items():
             if self.map_of_session[session] == moved:
                 self.poses[location] = shift @ self.poses[location]
-                self.pose_graph.priors.pop(location, None)
+                self.pose_graph.remove_prior(location)
         for session, joined in self.map_of_session.items():
             if joined == moved:
                 self.map_of_session[session] = keep
