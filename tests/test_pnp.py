@@ -1,5 +1,6 @@
 """PnP RANSAC: exact poses from clean correspondences, outliers flagged, seeded repeatability."""
 
+import cv2
 import numpy as np
 import pytest
 
@@ -41,3 +42,15 @@ def test_same_seed_gives_the_same_result(seed):
     first = solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=50, min_inliers=20, seed=seed)
     second = solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=50, min_inliers=20, seed=seed)
     assert np.array_equal(first.pose, second.pose) and np.array_equal(first.inliers, second.inliers)
+
+
+def test_distorted_pixels_give_the_true_pose():
+    distortion = (0.2624, -0.9531, -0.0054, 0.0026, 1.1633)
+    points, _, pose = scene(outliers=0)
+    in_camera = transform_points(invert(pose), points)
+    pixels = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, np.array(distortion))[0].reshape(-1, 2)
+    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0,
+                              distortion=distortion)
+    assert np.abs(result.pose - pose).max() < 1e-6
+    ignored = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0)
+    assert ignored is None or np.abs(ignored.pose - pose).max() > 1e-3

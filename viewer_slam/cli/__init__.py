@@ -17,7 +17,7 @@ EXIT_INTERRUPTED = 130
 
 def main(argv: list[str] | None = None) -> int:
     try:
-        result = app(args=argv, standalone_mode=False)
+        result = app(args=argv, prog_name="viewslam", standalone_mode=False)
     except InputError as error:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -23,7 +23,8 @@ class PnpResult:
 
 
 def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
-                     reprojection_error: float, iterations: int, min_inliers: int, seed: int) -> PnpResult | None:
+                     reprojection_error: float, iterations: int, min_inliers: int, seed: int,
+                     distortion: tuple[float, ...] | None = None) -> PnpResult | None:
     """Camera pose from 3D points ``(N, 3)`` seen at pixels ``(N, 2)``, or None when fewer
     than ``min_inliers`` correspondences agree.
 
@@ -31,21 +32,23 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
     iterations than EPnP's five at the same confidence); the winner is refined by
     Levenberg-Marquardt on its inliers, which are then recounted. OpenCV draws its samples
     from its global generator, reseeded on every call so that the same input and seed give
-    the same pose.
+    the same pose. ``distortion`` (OpenCV's k1, k2, p1, p2, k3) is the lens model of the
+    pixels: TUM's freiburg1/2 images are not rectified.
     """
     if len(object_points) < max(min_inliers, 4):
         return None
     object_points = np.ascontiguousarray(object_points, dtype=np.float64)
     image_points = np.ascontiguousarray(image_points, dtype=np.float64)
+    lens = np.asarray(distortion, dtype=np.float64) if distortion is not None and any(distortion) else None
     cv2.setRNGSeed(seed)
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
-        object_points, image_points, K, None, iterationsCount=iterations, reprojectionError=reprojection_error,
+        object_points, image_points, K, lens, iterationsCount=iterations, reprojectionError=reprojection_error,
         confidence=RANSAC_CONFIDENCE, flags=cv2.SOLVEPNP_AP3P)
     if not ok or inliers is None or len(inliers) < min_inliers:
         return None
     inliers = inliers.ravel()
-    rvec, tvec = cv2.solvePnPRefineLM(object_points[inliers], image_points[inliers], K, None, rvec, tvec)
-    projected = cv2.projectPoints(object_points, rvec, tvec, K, None)[0].reshape(-1, 2)
+    rvec, tvec = cv2.solvePnPRefineLM(object_points[inliers], image_points[inliers], K, lens, rvec, tvec)
+    projected = cv2.projectPoints(object_points, rvec, tvec, K, lens)[0].reshape(-1, 2)
     mask = np.linalg.norm(projected - image_points, axis=1) <= reprojection_error
     if mask.sum() < min_inliers:
         return None

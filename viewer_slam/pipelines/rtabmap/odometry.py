@@ -180,7 +180,7 @@ class FrameToMapOdometry:
                                                   params.correspondence_nndr)
         map_index = visible[map_index]
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
-                                    reprojection_error=params.pnp_reprojection_error,
+                                    reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
                                     iterations=params.ransac_iterations, min_inliers=params.min_inliers,
                                     seed=self.seed)
         pose = solution.pose if solution is not None else None
