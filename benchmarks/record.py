@@ -1,0 +1,167 @@
+"""What a recording costs: size per frame, time next to the pipelines', peak memory.
+
+    python benchmarks/record.py [--scenario 360_kidnap] [--frames 200] [--memory-frames 2500]
+
+1. Size and time: records ``--frames`` frames of a synthetic scenario at 640x480 with both
+   pipelines. Size is the .rrd's bytes per frame. Time is measured two ways: the time spent
+   inside the recorder's calls (events, images, evaluation series) as a share of the
+   pipelines' own time, and the wall time of `record` against the same pipelines run with
+   no sink at all (this also charges Rerun's background encoder and writer threads).
+2. Memory: both pipelines recorded over ``--memory-frames`` frames in a child process,
+   which reports its peak RSS. Rendering thousands of synthetic frames takes longer than
+   the measurement itself, so the long sequence plays the short one forwards, backwards,
+   forwards... (continuous motion, time running on, groundtruth following the frames).
+   ``--memory-frames 0`` skips it.
+"""
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from viewer_slam.dataset.frame import Frame
+from viewer_slam.dataset.synth import cached_scenario
+from viewer_slam.dataset.tum import TumSequence, open_sequence
+from viewer_slam.geometry.trajectory import Trajectory
+from viewer_slam.pipelines.base import PIPELINE_MODULES
+from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.recording import session
+from viewer_slam.recording.session import RecordOptions, record, record_sequence
+
+RESOLUTION = (640, 480)
+
+
+class Stopwatch:
+    """Accumulates the time spent in the functions it wraps."""
+
+    def __init__(self):
+        self.seconds = 0.0
+
+    def wrap(self, function):
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds += time.perf_counter() - start
+        return timed
+
+
+def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict, float, float]:
+    """Record with every recorder entry point timed; (report, recorder seconds, wall seconds)."""
+    watch = Stopwatch()
+    recorder_class = session.PipelineRecorder
+
+    class TimedRecorder(recorder_class):
+        __call__ = watch.wrap(recorder_class.__call__)
+        begin_frame = watch.wrap(recorder_class.begin_frame)
+
+    originals = (session.PipelineRecorder, session.log_frame_image, session.log_evaluation)
+    session.PipelineRecorder = TimedRecorder
+    session.log_frame_image = watch.wrap(session.log_frame_image)
+    session.log_evaluation = watch.wrap(session.log_evaluation)
+    try:
+        start = time.perf_counter()
+        result = record(RecordOptions(sequence=str(folder), out=out, max_frames=frames, quiet=True))
+        wall = time.perf_counter() - start
+    finally:
+        session.PipelineRecorder, session.log_frame_image, session.log_evaluation = originals
+    return result.report, watch.seconds, wall
+
+
+def bare_pipelines(folder: Path, frames: int) -> float:
+    sequence = open_sequence(folder)
+    start = time.perf_counter()
+    for name in PIPELINE_MODULES:
+        run_pipeline(sequence, name, max_frames=frames)
+    return time.perf_counter() - start
+
+
+class PingPong:
+    """``length`` frames of ``sequence`` played forwards, backwards, forwards, ... at its frame rate."""
+
+    def __init__(self, sequence: TumSequence, length: int):
+        period = 2 * len(sequence) - 2
+        step = np.arange(length)
+        phase = step % period
+        self._sequence = sequence
+        self._source = np.where(phase < len(sequence), phase, period - phase)
+        self.timestamps = sequence.timestamps[0] + step * np.median(np.diff(sequence.timestamps))
+        poses, _ = sequence.groundtruth_at(sequence.timestamps[self._source])
+        self.groundtruth = Trajectory(self.timestamps, poses)
+        self.name, self.path, self.camera = f"{sequence.name}-pingpong-{length}", sequence.path, sequence.camera
+
+    def __len__(self) -> int:
+        return len(self.timestamps)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.timestamps[-1] - self.timestamps[0])
+
+    def frames(self, max_frames=None, stride=1):
+        indices = range(0, len(self), stride)
+        for index in indices if max_frames is None else indices[:max_frames]:
+            source = self._sequence.frame(int(self._source[index]))
+            yield Frame(index, float(self.timestamps[index]), source.rgb, source.depth)
+
+
+def measure_memory(folder: Path, frames: int, out: Path) -> None:
+    """Child process: record both pipelines over the ping-pong sequence, print peak RSS in GiB."""
+    sequence = PingPong(open_sequence(folder), frames)
+    params = {name: None for name in PIPELINE_MODULES}
+    result = record_sequence(sequence, params, out, RecordOptions(quiet=True))
+    print(json.dumps({"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+                      "kib_per_frame": out.stat().st_size / 1024 / frames,
+                      "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}))
+
+
+def peak_memory(folder: Path, frames: int, out: Path) -> dict:
+    command = [sys.executable, __file__, "--memory-child", str(folder), "--memory-frames", str(frames),
+               "--out", str(out)]
+    return json.loads(subprocess.run(command, check=True, capture_output=True, text=True).stdout)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default="360_kidnap")
+    parser.add_argument("--frames", type=int, default=200)
+    parser.add_argument("--memory-frames", type=int, default=2500)
+    parser.add_argument("--memory-child", type=Path, help=argparse.SUPPRESS)
+    parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.memory_child:
+        measure_memory(args.memory_child, args.memory_frames, args.out)
+        return
+
+    results = {"scenario": args.scenario, "resolution": list(RESOLUTION), "frames": args.frames}
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = cached_scenario(args.scenario, frames=args.frames, resolution=RESOLUTION)
+        out = Path(scratch) / "size.rrd"
+        report, recorder_s, record_wall_s = timed_recording(folder, args.frames, out)
+        pipeline_s = sum(block["timing"]["total_s"] for block in report["pipelines"].values()) - recorder_s
+        bare_s = bare_pipelines(folder, args.frames)
+        print(f"size and time done: {out.stat().st_size / 1024 / args.frames:.1f} KiB/frame", file=sys.stderr)
+        results.update({
+            "kib_per_frame": out.stat().st_size / 1024 / args.frames,
+            "recorder_s": recorder_s,
+            "pipelines_s": pipeline_s,
+            "recorder_share_of_pipelines": recorder_s / pipeline_s,
+            "record_wall_s": record_wall_s,
+            "bare_pipelines_wall_s": bare_s,
+            "wall_overhead": record_wall_s / bare_s - 1.0,
+            "fps": {name: block["timing"]["fps"] for name, block in report["pipelines"].items()},
+        })
+        if args.memory_frames:
+            results["memory"] = {"frames": args.memory_frames,
+                                 **peak_memory(folder, args.memory_frames, Path(scratch) / "memory.rrd")}
+    print(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()

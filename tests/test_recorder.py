@@ -1,0 +1,379 @@
+"""The recorder and `viewslam record` on a tiny TUM folder with scripted pipelines.
+
+The scripted pipeline follows a known circular groundtruth in its own map frame (a fixed
+rigid offset from the world), with seeded noise, a lost interval, keyframes, matches, map
+points and loop closures, so every number the recording holds has an independent value.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import types
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from rerun.chunk import RrdReader
+
+from viewer_slam.cli import main
+from viewer_slam.geometry.camera import Camera
+from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, pose_to_tq
+from viewer_slam.geometry.trajectory import read_tum
+from viewer_slam.pipelines import base
+from viewer_slam.pipelines.base import Pipeline
+from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+                                          MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus,
+                                          TrajectoryFinal)
+from viewer_slam.pipelines.params import param
+from viewer_slam.recording.budget import SnapshotBudget
+from viewer_slam.recording.images import depth_png
+from viewer_slam.recording.session import RecordOptions, record
+from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
+from viewer_slam.recording.viewer import viewer_binary
+from viewer_slam.recording.voxel_map import VoxelMap
+
+RERUN = Path(sys.executable).with_name("rerun")
+CAMERA = Camera(fx=50.0, fy=50.0, cx=31.5, cy=23.5, width=64, height=48)
+FRAMES = 40
+RATE_HZ = 30.0
+START = 1305031100.0
+LOST = range(12, 18)  # frames without a pose
+NOISE_M = 0.004
+MAP_FROM_WORLD = make_pose(exp_so3(np.array([0.1, -0.3, 0.6])), np.array([0.5, -1.0, 0.2]))
+
+
+def true_pose(timestamp: float) -> np.ndarray:
+    """A camera on a 1 m circle, looking outwards."""
+    angle = 0.5 * (timestamp - START)
+    position = np.array([np.cos(angle), np.sin(angle), 0.3 * angle])
+    return make_pose(exp_so3(np.array([0.0, 0.0, angle])), position)
+
+
+def write_tum_folder(folder: Path) -> Path:
+    (folder / "rgb").mkdir(parents=True)
+    (folder / "depth").mkdir()
+    rng = np.random.default_rng(7)
+    stamps = START + np.arange(FRAMES) / RATE_HZ
+    for index, stamp in enumerate(stamps):
+        rgb = rng.integers(0, 255, (CAMERA.height, CAMERA.width, 3), dtype=np.uint8)
+        depth = np.full((CAMERA.height, CAMERA.width), 2.0 * 5000, dtype=np.uint16)
+        cv2.imwrite(str(folder / "rgb" / f"{stamp:.6f}.png"), rgb)
+        cv2.imwrite(str(folder / "depth" / f"{stamp:.6f}.png"), depth)
+    (folder / "rgb.txt").write_text("".join(f"{s:.6f} rgb/{s:.6f}.png\n" for s in stamps))
+    (folder / "depth.txt").write_text("".join(f"{s:.6f} depth/{s:.6f}.png\n" for s in stamps))
+    gt_stamps = START - 0.5 + np.arange(int((FRAMES / RATE_HZ + 1) * 100)) / 100.0
+    t, q = pose_to_tq(np.stack([true_pose(s) for s in gt_stamps]))
+    (folder / "groundtruth.txt").write_text("".join(
+        f"{s:.4f} {' '.join(f'{v:.6f}' for v in (*ti, *qi))}\n" for s, ti, qi in zip(gt_stamps, t, q)))
+    CAMERA.save(folder / "camera.json")
+    return folder
+
+
+@dataclass(frozen=True)
+class ScriptedParams:
+    keyframe_every: int = param(5, key="Scripted/KeyframeEvery", help="frames between keyframes")
+    interrupt_at: int = param(-1, key="Scripted/InterruptAt", help="frame at which to send SIGINT to itself")
+
+
+class ScriptedPipeline(Pipeline):
+    """Emits what a real pipeline would, computed from the true circle (see module docstring)."""
+
+    name = "scripted"
+    Params = ScriptedParams
+
+    def __init__(self, camera, params=None, seed=0):
+        super().__init__(camera, params, seed)
+        self.rng = np.random.default_rng(seed)
+        self.tracked = []
+        self.keyframe_poses = []
+
+    def process(self, frame):
+        if frame.index == self.params.interrupt_at:
+            os.kill(os.getpid(), signal.SIGINT)
+        if frame.index in LOST:
+            lost = [TrackingLost(frame.index, frame.timestamp, "sensor covered")] if frame.index == LOST[0] else []
+            return lost + [FrameTracked(frame.index, frame.timestamp, None, TrackingStatus.LOST, features=3)]
+        pose = MAP_FROM_WORLD @ true_pose(frame.timestamp)
+        pose[:3, 3] += self.rng.normal(0.0, NOISE_M, 3)
+        self.tracked.append((frame.index, frame.timestamp, pose))
+        events = []
+        if frame.index == LOST[-1] + 1:
+            events.append(TrackingRecovered(frame.index, frame.timestamp, "relocalised on keyframe 0"))
+        current = self.rng.uniform(0, [self.camera.width, self.camera.height], (20, 2))
+        inliers = np.arange(20) < 15
+        events.append(FeatureMatches(frame.index, "keyframe", frame.index - 1, current, current + 1.5, inliers))
+        if frame.index % self.params.keyframe_every == 0:
+            keyframe_id = len(self.keyframe_poses)
+            self.keyframe_poses.append(pose)
+            events.append(KeyframeAdded(keyframe_id, frame.index, frame.timestamp, pose, current))
+            points = pose[:3, 3] + self.rng.normal(0.0, 0.3, (200, 3))
+            events.append(MapUpdated(frame.index, points, np.full((200, 3), 128, np.uint8)))
+            if keyframe_id == 6:
+                events.append(LoopClosure(frame.index, 6, 0, accepted=True, reason="geometric check passed",
+                                          score=0.9, inliers=40))
+                events.append(LoopClosure(frame.index, 6, 2, accepted=False, reason="too few inliers",
+                                          score=0.2, inliers=4))
+        status = TrackingStatus.RELOCALISED if frame.index == LOST[-1] + 1 else TrackingStatus.OK
+        return events + [FrameTracked(frame.index, frame.timestamp, pose, status, features=40, matches=20,
+                                      inliers=15, timings_ms={"features": 2.0, "ransac": 1.0})]
+
+    def finish(self):
+        indices, stamps, poses = (np.array(values) for values in zip(*self.tracked))
+        odometry = poses.copy()
+        odometry[:, :3, 3] += np.linspace(0, 0.2, len(poses))[:, None]  # drift that loop closure removed
+        keyframes = np.stack(self.keyframe_poses)
+        return [GraphOptimized(int(indices[-1]), np.arange(len(keyframes)), keyframes, 2.0, 0.1),
+                TrajectoryFinal(indices, stamps, poses, odometry)]
+
+
+def serve_scripted_pipeline(monkeypatch) -> None:
+    """`rgbdslam` and `rtabmap` both served by the scripted pipeline."""
+    module = types.ModuleType("scripted_pipeline")
+    module.PIPELINE = ScriptedPipeline
+    monkeypatch.setitem(sys.modules, "scripted_pipeline", module)
+    for name in ("rgbdslam", "rtabmap"):
+        monkeypatch.setitem(base.PIPELINE_MODULES, name, "scripted_pipeline")
+
+
+@pytest.fixture
+def scripted_pipelines(monkeypatch):
+    serve_scripted_pipeline(monkeypatch)
+
+
+@pytest.fixture(scope="module")
+def tum_folder(tmp_path_factory):
+    return write_tum_folder(tmp_path_factory.mktemp("tum") / "scripted_circle")
+
+
+def chunk_rows(path: Path) -> dict[str, list[tuple[bool, int]]]:
+    """Entity path -> (static, rows) of every chunk."""
+    rows: dict[str, list[tuple[bool, int]]] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        rows.setdefault(chunk.entity_path, []).append((chunk.is_static, chunk.num_rows))
+    return rows
+
+
+def column(path: Path, entity: str, name: str) -> dict[int, list]:
+    """Frame index -> values of component column ``name`` logged at ``entity`` on the frame timeline
+    (the values of every row at that frame, concatenated)."""
+    values: dict[int, list] = {}
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == entity and not chunk.is_static:
+            batch = chunk.to_record_batch().to_pydict()
+            for frame, value in zip(batch["frame"], batch.get(name, [])):
+                if value is not None:
+                    values.setdefault(frame, []).extend(value)
+    return values
+
+
+def static_column(path: Path, entity: str, name: str) -> list:
+    for chunk in RrdReader(path).stream().to_chunks():
+        if chunk.entity_path == entity and chunk.is_static:
+            batch = chunk.to_record_batch().to_pydict()
+            if name in batch:
+                return batch[name][-1]
+    raise AssertionError(f"no static {name} at {entity}")
+
+
+@pytest.fixture(scope="module")
+def recorded(tum_folder, tmp_path_factory):
+    out = tmp_path_factory.mktemp("out") / "circle.rrd"
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        serve_scripted_pipeline(monkeypatch)
+        result = record(RecordOptions(sequence=str(tum_folder), out=out, quiet=True))
+    return result
+
+
+def test_the_recording_has_every_entity_of_the_layout(recorded):
+    rows = chunk_rows(recorded.recording)
+    expected = ["/world/groundtruth", "/camera/image"]
+    for name in ("rgbdslam", "rtabmap"):
+        expected += [f"/world/{name}", f"/world/{name}/camera", f"/world/{name}/trajectory",
+                     f"/world/{name}/odometry", f"/world/{name}/keyframes", f"/world/{name}/keyframes/latest",
+                     f"/world/{name}/keyframes/latest/depth", f"/world/{name}/loop_closures",
+                     f"/world/{name}/loop_closures/rejected", f"/world/{name}/map",
+                     f"/{name}/matches", f"/log/{name}"]
+        expected += [f"/metrics/{name}/{series}" for series in (
+            "ate", "rpe_trans", "rpe_rot", "coverage", "inliers", "features", "tracking_state", "graph_error",
+            "time/features", "time/ransac")]
+    assert sorted(set(expected) - set(rows)) == []
+    frames_logged = sum(n for static, n in rows["/camera/image"] if not static)
+    assert frames_logged == FRAMES  # once per frame, shared by both pipelines
+    assert subprocess.run([RERUN, "rrd", "verify", recorded.recording], capture_output=True).returncode == 0
+
+
+def test_ate_is_logged_per_posed_frame_and_matches_the_report(recorded):
+    posed = [i for i in range(FRAMES) if i not in LOST]
+    for name in ("rgbdslam", "rtabmap"):
+        ate = column(recorded.recording, f"/metrics/{name}/ate", "Scalars:scalars")
+        assert sorted(ate) == posed
+        errors = np.array([ate[i][0] for i in posed])
+        block = recorded.report["pipelines"][name]["ate"]
+        assert block["n"] == len(posed)
+        assert np.sqrt(np.mean(errors ** 2)) == pytest.approx(block["rmse"], rel=1e-9)
+        assert block["rmse"] < 3 * NOISE_M * np.sqrt(3)
+        breaks = column(recorded.recording, f"/metrics/{name}/ate", "Clear:is_recursive")
+        assert sorted(breaks) == [LOST[0]]  # the plotted line stops where tracking was lost
+
+
+def test_the_map_frame_is_aligned_onto_groundtruth(recorded):
+    for name in ("rgbdslam", "rtabmap"):
+        translation = np.array(static_column(recorded.recording, f"/world/{name}", "Transform3D:translation"))
+        rotation = np.array(static_column(recorded.recording, f"/world/{name}", "Transform3D:mat3x3"))
+        world_from_map = invert(MAP_FROM_WORLD)
+        assert np.allclose(translation, world_from_map[:3, 3], atol=0.02)
+        assert np.allclose(rotation.reshape(3, 3, order="F"), world_from_map[:3, :3], atol=0.02)
+
+
+def test_coverage_tracking_state_and_log_show_the_loss(recorded):
+    name = "rtabmap"
+    coverage = column(recorded.recording, f"/metrics/{name}/coverage", "Scalars:scalars")
+    final = coverage[FRAMES - 1][0]
+    assert final == pytest.approx(recorded.report["pipelines"][name]["coverage"]["ratio"], abs=1e-9)
+    assert coverage[LOST[0] - 1][0] == 1.0 and final < 1.0
+    states = column(recorded.recording, f"/metrics/{name}/tracking_state", "StateChange:state")
+    assert states == {0: ["ok"], LOST[0]: ["lost"], LOST[-1] + 1: ["relocalised"], LOST[-1] + 2: ["ok"]}
+    log = column(recorded.recording, f"/log/{name}", "TextLog:text")
+    assert "tracking lost (sensor covered)" in log[LOST[0]][0]
+    assert "recovered" in log[LOST[-1] + 1][0]
+    loop_texts = [text for frame in sorted(log) for text in log[frame] if "loop closure" in text]
+    assert len(loop_texts) == 2 and "accepted" in loop_texts[0] and "rejected" in loop_texts[1]
+
+
+def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(recorded):
+    def last_row(entity: str, name: str):
+        rows = column(recorded.recording, entity, name)
+        return rows[max(rows)]
+
+    accepted = last_row("/world/rgbdslam/loop_closures", "LineStrips3D:strips")
+    rejected = last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:strips")
+    assert len(accepted) == len(rejected) == 1
+    assert np.allclose(accepted[0][0], rejected[0][0])  # both start at keyframe 6
+    assert (last_row("/world/rgbdslam/loop_closures", "LineStrips3D:colors")
+            != last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:colors"))
+
+
+def test_matches_are_cleared_while_lost(recorded):
+    inliers = column(recorded.recording, "/rgbdslam/matches", "LineStrips2D:strips")
+    outliers = column(recorded.recording, "/rgbdslam/matches/outliers", "LineStrips2D:strips")
+    assert sorted(inliers) == sorted(outliers) == [i for i in range(FRAMES) if i not in LOST]
+    assert all(len(inliers[i]) == 15 and len(outliers[i]) == 5 for i in inliers)
+    clears = column(recorded.recording, "/rgbdslam/matches", "Clear:is_recursive")
+    assert sorted(clears) == list(LOST)
+
+
+def test_report_and_trajectories_are_written_beside_the_recording(recorded, tum_folder):
+    report = json.loads(recorded.report_path.read_text())
+    assert recorded.report_path == recorded.recording.with_suffix(".json")
+    assert report["interrupted"] is False
+    assert report["sequence"]["name"] == tum_folder.name
+    for name in ("rgbdslam", "rtabmap"):
+        trajectory = read_tum(recorded.recording.with_name(f"circle.{name}.txt"))
+        assert len(trajectory) == FRAMES - len(LOST)
+        assert report["pipelines"][name]["loop_closures"] == {"accepted": 1, "rejected": 1}
+
+
+def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tum_folder, tmp_path):
+    out = tmp_path / "stopped.rrd"
+    handler = signal.getsignal(signal.SIGINT)
+    result = record(RecordOptions(sequence=str(tum_folder), out=out, quiet=True,
+                                  params=["Scripted/InterruptAt=25"]))
+    assert result.interrupted and result.report["interrupted"] is True
+    assert list(result.report["pipelines"]) == ["rgbdslam"]  # the second pipeline never started
+    assert len(read_tum(result.trajectories["rgbdslam"])) == 26 - len(LOST)
+    assert subprocess.run([RERUN, "rrd", "verify", out], capture_output=True).returncode == 0
+    assert signal.getsignal(signal.SIGINT) is handler
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--pipeline", "orbslam"], "valid: rgbdslam, rtabmap, both"),
+    (["--param", "Scripted/Nope=1"], "unknown parameter 'Scripted/Nope'"),
+    (["--param", "Scripted/KeyframeEvery=often"], "expects an integer"),
+    (["--out", "{tmp}/x.txt"], "must have the .rrd extension"),
+    (["--out", "{folder}/rgb.txt/x.rrd"], "cannot write the recording"),
+])
+def test_bad_input_exits_2_with_one_line_before_any_work(scripted_pipelines, tum_folder, tmp_path, capsys,
+                                                         arguments, message):
+    arguments = [a.format(tmp=tmp_path, folder=tum_folder) for a in arguments]
+    assert main(["record", str(tum_folder), *arguments, "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert message in error and error.count("\n") == 1
+    assert not list(tmp_path.glob("*.rrd")) and not (Path("recordings") / f"{tum_folder.name}.rrd").exists()
+
+
+def test_a_folder_that_is_not_a_sequence_is_bad_input(scripted_pipelines, tmp_path, capsys):
+    assert main(["record", str(tmp_path), "--out", str(tmp_path / "x.rrd"), "--quiet"]) == 2
+    assert "not a TUM RGB-D sequence" in capsys.readouterr().err
+    assert not (tmp_path / "x.rrd").exists()
+
+
+def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
+    assert main(["view", str(tmp_path / "none.rrd")]) == 2
+    assert "no such recording" in capsys.readouterr().err
+
+
+def test_view_opens_the_recording_in_the_bundled_viewer(tmp_path, monkeypatch):
+    recording = tmp_path / "x.rrd"
+    recording.write_bytes(b"")
+    commands = []
+    monkeypatch.setattr(subprocess, "call", lambda command: commands.append(command) or 0)
+    assert main(["view", str(recording)]) == 0
+    assert commands == [[str(viewer_binary()), str(recording)]]
+    version = subprocess.run([viewer_binary(), "--version"], capture_output=True, text=True)
+    assert version.returncode == 0 and "0.41" in version.stdout
+
+
+def test_plots_break_after_the_last_frame_with_a_value():
+    present = np.array([True, True, False, False, True, False, True])
+    assert gap_starts(present).tolist() == [2, 5]
+    assert gap_starts(np.array([False, True, True])).tolist() == []
+
+
+def test_coverage_so_far_counts_lost_time_up_to_each_frame():
+    stamps = np.arange(11, dtype=float)
+    coverage = coverage_so_far(stamps, [(2.0, 5.0)])
+    expected = [1.0, 1.0, 1.0, 2 / 3, 2 / 4, 2 / 5, 3 / 6, 4 / 7, 5 / 8, 6 / 9, 7 / 10]
+    assert np.allclose(coverage, expected)
+
+
+def test_frames_at_finds_exact_stamps_only():
+    frames = np.array([1.0, 1.5, 2.0])
+    assert frames_at(np.array([1.5, 2.0, 1.7, 0.5, 3.0]), frames).tolist() == [1, 2, -1, -1, -1]
+
+
+def test_voxel_map_keeps_one_point_per_voxel_and_caps_its_size():
+    rng = np.random.default_rng(0)
+    cloud = VoxelMap(voxel_size=0.1, max_points=10_000)
+    points = rng.uniform(0, 1, (20_000, 3))
+    cloud.update(points, np.full((20_000, 3), 200, np.uint8))
+    grid_origin = points.min(axis=0) - 0.05  # Open3D's voxel grid starts half a voxel below the points
+    assert len(cloud) == len(np.unique(np.floor((points - grid_origin) / 0.1), axis=0))
+    assert np.all(cloud.colors == 200)
+    cloud.update(points + 5.0, np.zeros((20_000, 3), np.uint8), replace=True)
+    assert np.all(cloud.points > 4.9) and np.all(cloud.colors == 0)
+    small = VoxelMap(voxel_size=0.01, max_points=500)
+    small.update(points, np.zeros((20_000, 3), np.uint8))
+    assert len(small) <= 500 and small.voxel_size > 0.01
+
+
+def test_snapshot_budget_keeps_the_cost_of_a_growing_snapshot_linear():
+    budget, frames, logged = SnapshotBudget(bytes_per_frame=1000), 5000, []
+    for frame in range(frames):
+        size = 200 * frame  # grows at every frame: re-logging it each time would cost 2.5 GB
+        budget.dirty = True
+        if budget.due(frame, size):
+            logged.append(size)
+            budget.logged(frame)
+    assert sum(logged) <= 1000 * frames
+    assert len(logged) > 25  # still refreshed, ever more rarely as it grows
+    assert not SnapshotBudget(1000).due(0, 1)  # nothing to log while unchanged
+
+
+def test_depth_png_round_trips_millimetres():
+    depth = np.array([[0.0, 1.2344], [2.5, 70.0]], dtype=np.float32)
+    decoded = cv2.imdecode(np.frombuffer(depth_png(depth), np.uint8), cv2.IMREAD_UNCHANGED)
+    assert decoded.dtype == np.uint16 and decoded.tolist() == [[0, 1234], [2500, 65535]]

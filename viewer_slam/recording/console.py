@@ -1,0 +1,78 @@
+"""What `viewslam record` prints: a progress bar per pipeline while it runs, a summary after."""
+
+import time
+
+from rich import box
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from ..pipelines.events import Event, FrameTracked
+from ..pipelines.run import Sink
+
+_STATE_STYLES = {"ok": "green", "relocalised": "yellow", "lost": "bold red", "initialising": "dim"}
+
+
+class RecordProgress:
+    """A rich progress bar per pipeline with frames/s and the current tracking state.
+
+    Goes to stderr so that stdout stays for the summary; ``quiet`` disables it.
+    """
+
+    def __init__(self, total_frames: int, quiet: bool = False):
+        self.total_frames = total_frames
+        self._progress = Progress(
+            TextColumn("[bold]{task.description:<9}"), BarColumn(), MofNCompleteColumn(),
+            TextColumn("{task.fields[fps]:5.1f} frames/s"), TextColumn("{task.fields[state]}"),
+            TimeElapsedColumn(), console=Console(stderr=True), disable=quiet)
+
+    def __enter__(self) -> "RecordProgress":
+        self._progress.start()
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self._progress.stop()
+
+    def sink(self, pipeline: str) -> Sink:
+        """A sink that advances ``pipeline``'s bar on every tracked frame."""
+        task = self._progress.add_task(pipeline, total=self.total_frames, fps=0.0, state="")
+        start = time.perf_counter()
+        frames = 0
+
+        def advance(event: Event) -> None:
+            nonlocal frames
+            if not isinstance(event, FrameTracked):
+                return
+            frames += 1
+            status = event.status.value
+            self._progress.update(task, advance=1, fps=frames / max(time.perf_counter() - start, 1e-9),
+                                  state=f"[{_STATE_STYLES.get(status, '')}]{status}")
+
+        return advance
+
+
+def _rmse(block: dict | None) -> str:
+    return "—" if not block else f"{block['rmse']:.3f}"
+
+
+def print_summary(report: dict, written: list, console: Console | None = None) -> None:
+    """One row per pipeline with the headline scores, then the files written."""
+    console = console or Console()
+    table = Table(title=f"{report['sequence']['name']}" + ("  (interrupted)" if report["interrupted"] else ""),
+                  box=box.SIMPLE_HEAD, pad_edge=False,
+                  caption="RMSE in m, RPE rot in deg; RPE over 1 s; loops ok/rejected")
+    for column in ("pipeline", "poses", "coverage", "ATE", "penal.\nATE", "RPE\ntrans", "RPE\nrot", "loops",
+                   "fps"):
+        table.add_column(column, justify="left" if column == "pipeline" else "right", no_wrap=True)
+    for name, block in report["pipelines"].items():
+        rpe = block["rpe"] or {}
+        coverage = block["coverage"]
+        table.add_row(
+            name, str(block["frames_with_pose"]),
+            "—" if coverage is None else f"{coverage['ratio']:.0%}",
+            _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot")),
+            f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",
+            f"{block['timing']['fps']:.1f}")
+    console.print(table)
+    for path in written:
+        console.print(f"wrote {path}")

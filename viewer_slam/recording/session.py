@@ -1,0 +1,220 @@
+"""`viewslam record`: run pipelines over a sequence into one Rerun recording, reports beside it.
+
+Everything the user can get wrong (pipeline, parameters, output path, sequence) is checked
+before the first frame is read. Pipelines run one after the other into the same
+recording, sharing the ``frame`` and ``time`` timelines. Ctrl-C stops after the current
+frame: the running pipeline finishes on the frames it saw, no further pipeline starts, and
+the recording, report and trajectories are written as far as they got.
+"""
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+from ..dataset.catalog import resolve_sequence
+from ..dataset.frame import Frame, Sequence
+from ..dataset.tum import TumSequence, open_sequence
+from ..errors import InputError
+from ..evaluation import Evaluation, evaluate
+from ..evaluation.report import build_report, pipeline_report, write_report
+from ..geometry.trajectory import write_tum
+from ..pipelines.base import PIPELINE_MODULES, pipeline_class
+from ..pipelines.params import resolve_params
+from ..pipelines.run import PipelineRun, run_pipeline
+from . import layout
+from .blueprint import default_blueprint
+from .console import RecordProgress
+from .interrupt import StopRequest
+from .recorder import PipelineRecorder, log_frame_image, log_world
+from .timelines import log_evaluation
+from .viewer import viewer_binary
+
+DEMO_SCENARIO = "360_kidnap"
+DEMO_FRAMES = 240
+DEMO_RESOLUTION = (320, 240)
+DEMO_OUT = Path("recordings/demo.rrd")
+# Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
+BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
+BOTH = "both"
+
+
+@dataclass
+class RecordOptions:
+    """The `viewslam record` command line, as data. ``sequence=None`` is the built-in demo."""
+
+    sequence: str | None = None
+    pipeline: str = BOTH
+    out: Path | None = None
+    max_frames: int | None = None
+    stride: int = 1
+    params: list[str] = field(default_factory=list)
+    config: Path | None = None
+    seed: int = 0
+    quiet: bool = False
+    spawn: bool = False
+
+
+@dataclass
+class RecordResult:
+    recording: Path
+    report_path: Path
+    trajectories: dict[str, Path]
+    report: dict[str, Any]
+
+    @property
+    def interrupted(self) -> bool:
+        return self.report["interrupted"]
+
+
+def select_pipelines(choice: str) -> list[str]:
+    if choice == BOTH:
+        return list(PIPELINE_MODULES)
+    if choice not in PIPELINE_MODULES:
+        raise InputError(f"--pipeline {choice!r}: valid: {', '.join([*PIPELINE_MODULES, BOTH])}")
+    return [choice]
+
+
+def output_path(sequence: str | None, out: Path | None) -> Path:
+    """``--out``, else ``recordings/<sequence name>.rrd`` (``recordings/demo.rrd`` for the demo)."""
+    if out is not None:
+        return Path(out)
+    if sequence is None:
+        return DEMO_OUT
+    return Path("recordings") / f"{Path(sequence.rstrip('/')).name}.rrd"
+
+
+def check_writable(out: Path) -> None:
+    """Fail now, not after an hour of processing, if the recording cannot be written."""
+    if out.suffix != ".rrd":
+        raise InputError.at(out, "the recording must have the .rrd extension")
+    if out.is_dir():
+        raise InputError.at(out, "is a folder; --out takes a file name ending in .rrd")
+    existed = out.exists()
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open(out, "ab"):
+            pass
+    except OSError as error:
+        raise InputError.at(out, f"cannot write the recording: {error.strerror or error}") from None
+    if not existed:
+        out.unlink()
+
+
+def open_input(sequence: str | None) -> TumSequence:
+    if sequence is None:
+        from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
+
+        return open_sequence(cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION))
+    return open_sequence(resolve_sequence(sequence))
+
+
+def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]]:
+    """``NAME.json`` and ``NAME.<pipeline>.txt`` beside ``NAME.rrd``."""
+    return out.with_suffix(".json"), {name: out.with_name(f"{out.stem}.{name}.txt") for name in pipelines}
+
+
+class TappedSequence:
+    """A sequence that calls ``on_frame`` with each frame just before the pipeline gets it."""
+
+    def __init__(self, sequence: Sequence, on_frame: Callable[[Frame], None]):
+        self._sequence = sequence
+        self._on_frame = on_frame
+        self.name, self.path = sequence.name, sequence.path
+        self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
+
+    def __len__(self) -> int:
+        return len(self._sequence)
+
+    def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
+        for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
+            self._on_frame(frame)
+            yield frame
+
+
+@contextmanager
+def recording_stream(out: Path, blueprint: rrb.Blueprint, spawn: bool) -> Iterator[rr.RecordingStream]:
+    """A stream saved to ``out`` (and shown live with ``spawn``), closed even on errors."""
+    stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
+    rr.set_log_time_enabled(False, recording=stream)  # the dataset's time is the one that matters
+    if spawn:
+        rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=stream)
+        stream.set_sinks(rr.FileSink(out), rr.GrpcSink(), default_blueprint=blueprint)
+    else:
+        stream.save(out, default_blueprint=blueprint)
+    try:
+        yield stream
+    finally:
+        stream.flush()
+        stream.disconnect()
+
+
+def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
+    count = len(range(0, len(sequence), stride))
+    return count if max_frames is None else min(count, max_frames)
+
+
+def evaluate_run(sequence: Sequence, run: PipelineRun, frame_timestamps: list[float]) -> tuple[
+        Evaluation | None, Evaluation | None]:
+    """The run's scores and its raw odometry's, over the span of the frames it processed."""
+    if sequence.groundtruth is None or not frame_timestamps:
+        return None, None
+    span = (frame_timestamps[0], frame_timestamps[-1])
+    evaluation = evaluate(sequence.groundtruth, run.trajectory, span=span)
+    odometry = evaluate(sequence.groundtruth, run.odometry, span=span) if run.odometry is not None else None
+    return evaluation, odometry
+
+
+def record(options: RecordOptions) -> RecordResult:
+    """Check the options, then record every selected pipeline (see the module docstring)."""
+    pipelines = select_pipelines(options.pipeline)
+    params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
+                            options.config)
+    out = output_path(options.sequence, options.out)
+    check_writable(out)
+    return record_sequence(open_input(options.sequence), params, out, options)
+
+
+def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, options: RecordOptions) -> RecordResult:
+    """Record the pipelines of ``params`` (name -> parameters), in order, over ``sequence``.
+
+    Uses ``options`` for the frame selection, seed, progress and viewer; ``out`` is trusted.
+    """
+    pipelines = list(params)
+    report_path, trajectory_paths = report_paths(out, pipelines)
+    blocks: dict[str, dict] = {}
+    interrupted = False
+    groundtruth = sequence.groundtruth
+    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
+    total = frame_count(sequence, options.max_frames, options.stride)
+    with StopRequest().installed() as stop, recording_stream(out, blueprint, options.spawn) as stream, \
+            RecordProgress(total, quiet=options.quiet) as progress:
+        log_world(stream, groundtruth)
+        for position, name in enumerate(pipelines):
+            if stop.requested:
+                break
+            recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+
+            def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
+                recorder.begin_frame(frame)
+                if first:  # one copy of each image serves every pipeline's view
+                    log_frame_image(stream, frame)
+
+            run = run_pipeline(TappedSequence(sequence, on_frame), name, params[name], seed=options.seed,
+                               max_frames=options.max_frames, stride=options.stride,
+                               sinks=[recorder, progress.sink(name)], should_stop=stop)
+            interrupted = interrupted or run.interrupted
+            evaluation, odometry_evaluation = evaluate_run(sequence, run, recorder.frame_timestamps)
+            if evaluation is not None:
+                log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
+                               np.array(recorder.frame_timestamps))
+            blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
+            write_tum(trajectory_paths[name], run.trajectory)
+        report = build_report(sequence, blocks, interrupted or len(blocks) < len(pipelines))
+        write_report(report_path, report)
+    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report)

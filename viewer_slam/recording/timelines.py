@@ -1,0 +1,77 @@
+"""Evaluation results written back onto the ``frame`` timeline once a run has ended.
+
+ATE needs the final alignment and RPE needs poses a second ahead, so neither exists while
+the pipeline runs; logging them afterwards at each frame's index lets a user scrub to the
+frame where the error grew.
+"""
+
+import numpy as np
+import rerun as rr
+
+from ..evaluation import Evaluation
+from . import layout
+from .recorder import transform
+
+
+def frames_at(stamps: np.ndarray, frame_timestamps: np.ndarray, tolerance: float = 1e-6) -> np.ndarray:
+    """Positions in ``frame_timestamps`` (sorted) of ``stamps``, -1 where no frame has that stamp."""
+    stamps = np.asarray(stamps, dtype=np.float64)
+    if len(frame_timestamps) == 0:
+        return np.full(len(stamps), -1)
+    position = np.clip(np.searchsorted(frame_timestamps, stamps - tolerance), 0, len(frame_timestamps) - 1)
+    return np.where(np.abs(frame_timestamps[position] - stamps) <= tolerance, position, -1)
+
+
+def coverage_so_far(frame_timestamps: np.ndarray, lost_intervals: list[tuple[float, float]]) -> np.ndarray:
+    """At each frame time after the first: share of the time since the first frame with a pose."""
+    start = frame_timestamps[0]
+    lost = np.zeros(len(frame_timestamps))
+    for lost_start, lost_end in lost_intervals:
+        lost += np.clip(np.minimum(frame_timestamps, lost_end) - lost_start, 0.0, None)
+    elapsed = frame_timestamps - start
+    return 1.0 - np.divide(lost, elapsed, out=np.zeros_like(lost), where=elapsed > 0)
+
+
+def gap_starts(present: np.ndarray) -> np.ndarray:
+    """Positions of frames without a value that follow one with a value: where a plot must break."""
+    present = np.asarray(present, dtype=bool)
+    return np.flatnonzero(present[:-1] & ~present[1:]) + 1
+
+
+def _time_columns(frame_indices: np.ndarray, frame_timestamps: np.ndarray) -> list[rr.TimeColumn]:
+    return [rr.TimeColumn("frame", sequence=frame_indices), rr.TimeColumn("time", timestamp=frame_timestamps)]
+
+
+def _send_series(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
+                 values: np.ndarray) -> None:
+    stream.send_columns(path, indexes=_time_columns(frame_indices, frame_timestamps),
+                        columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64)))
+
+
+def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation, frame_indices: np.ndarray,
+                   frame_timestamps: np.ndarray) -> None:
+    """Align the pipeline's map frame to groundtruth and log ATE, RPE and coverage per frame.
+
+    ``frame_indices``/``frame_timestamps`` are the frames the pipeline processed, in order.
+    """
+    frame_indices = np.asarray(frame_indices, dtype=np.int64)
+    frame_timestamps = np.asarray(frame_timestamps, dtype=np.float64)
+    if evaluation.alignment is not None:
+        stream.log(layout.world(name), transform(evaluation.alignment), static=True)
+    for series, errors in (("ate", evaluation.ate), ("rpe_trans", evaluation.rpe_trans),
+                           ("rpe_rot", evaluation.rpe_rot)):
+        if errors is None:
+            continue
+        position = frames_at(errors.timestamps, frame_timestamps)
+        kept = position >= 0
+        path = layout.metric(name, series)
+        _send_series(stream, path, frame_indices[position[kept]], frame_timestamps[position[kept]],
+                     errors.errors[kept])
+        present = np.zeros(len(frame_indices), dtype=bool)
+        present[position[kept]] = True
+        breaks = gap_starts(present)
+        stream.send_columns(path, indexes=_time_columns(frame_indices[breaks], frame_timestamps[breaks]),
+                            columns=rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+    if len(frame_timestamps) > 1:
+        coverage = coverage_so_far(frame_timestamps, evaluation.coverage.lost_intervals)
+        _send_series(stream, layout.metric(name, "coverage"), frame_indices[1:], frame_timestamps[1:], coverage[1:])
