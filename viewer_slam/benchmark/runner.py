@@ -18,10 +18,10 @@ import numpy as np
 
 from ..dataset.tum import open_sequence
 from ..evaluation.report import pipeline_report
+from ..evaluation.run import evaluate_run
 from ..pipelines import base
 from ..pipelines.params import apply_overrides
 from ..pipelines.run import run_pipeline
-from ..recording.session import RecordOptions, evaluate_run, frame_count, record
 
 
 @dataclass(frozen=True)
@@ -125,12 +125,12 @@ def _run(task: BenchmarkTask) -> TaskResult:
     sequence = open_sequence(task.sequence)
     if task.recording is not None:
         report = _record(task)
-        frames = frame_count(sequence, task.max_frames, stride=1)
+        frames = len(sequence) if task.max_frames is None else min(len(sequence), task.max_frames)
     else:
         params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
         run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames)
         frames = run.frames
-        report = pipeline_report(run, *evaluate_run(sequence, run, list(sequence.timestamps[:frames])))
+        report = pipeline_report(run, *evaluate_run(sequence.groundtruth, run, sequence.timestamps[:frames]))
     if frames == 0:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
@@ -140,6 +140,8 @@ def _run(task: BenchmarkTask) -> TaskResult:
 
 def _record(task: BenchmarkTask) -> dict[str, Any]:
     """Run through `viewslam record` (recording, report and trajectory beside it); the pipeline's block."""
+    from ..recording.session import RecordOptions, record  # Rerun is loaded only by tasks that record
+
     assignments = [f"{key}={value}" for key, value in task.parameters.items()]
     options = RecordOptions(sequence=str(task.sequence), pipeline=task.pipeline, out=task.recording,
                             max_frames=task.max_frames, params=assignments, seed=task.seed, quiet=True)

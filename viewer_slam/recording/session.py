@@ -21,7 +21,7 @@ from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..errors import InputError
-from ..evaluation import Evaluation, evaluate
+from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
 from ..pipelines.base import PIPELINE_MODULES, pipeline_class
@@ -159,17 +159,6 @@ def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
     return count if max_frames is None else min(count, max_frames)
 
 
-def evaluate_run(sequence: Sequence, run: PipelineRun, frame_timestamps: list[float]) -> tuple[
-        Evaluation | None, Evaluation | None]:
-    """The run's scores and its raw odometry's, over the span of the frames it processed."""
-    if sequence.groundtruth is None or not frame_timestamps:
-        return None, None
-    span = (frame_timestamps[0], frame_timestamps[-1])
-    evaluation = evaluate(sequence.groundtruth, run.trajectory, span=span)
-    odometry = evaluate(sequence.groundtruth, run.odometry, span=span) if run.odometry is not None else None
-    return evaluation, odometry
-
-
 def record(options: RecordOptions) -> RecordResult:
     """Check the options, then record every selected pipeline (see the module docstring)."""
     pipelines = select_pipelines(options.pipeline)
@@ -209,7 +198,7 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                                max_frames=options.max_frames, stride=options.stride,
                                sinks=[recorder, progress.sink(name)], should_stop=stop)
             interrupted = interrupted or run.interrupted
-            evaluation, odometry_evaluation = evaluate_run(sequence, run, recorder.frame_timestamps)
+            evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, recorder.frame_timestamps)
             if evaluation is not None:
                 log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                np.array(recorder.frame_timestamps))

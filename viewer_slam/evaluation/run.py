@@ -1,0 +1,27 @@
+"""Score a pipeline run against its sequence's groundtruth, over the frames it processed."""
+
+from collections.abc import Sequence as Stamps
+
+import numpy as np
+
+from ..geometry.trajectory import Trajectory
+from ..pipelines.run import PipelineRun
+from .evaluation import Evaluation, evaluate
+
+
+def evaluate_run(groundtruth: Trajectory | None, run: PipelineRun,
+                 frame_timestamps: Stamps[float]) -> tuple[Evaluation | None, Evaluation | None]:
+    """The run's scores and its raw odometry's.
+
+    Coverage spans the first to the last processed frame (a run given the first N frames
+    is not charged for the rest), and a gap counts as lost in units of the processed
+    frames' period, so a run with a few scattered poses is not mistaken for a tracked one.
+    """
+    if groundtruth is None or len(frame_timestamps) == 0:
+        return None, None
+    stamps = np.asarray(frame_timestamps, dtype=np.float64)
+    span = (float(stamps[0]), float(stamps[-1]))
+    period = float(np.median(np.diff(stamps))) if len(stamps) > 1 else None
+    scores = evaluate(groundtruth, run.trajectory, span=span, frame_period=period)
+    odometry = evaluate(groundtruth, run.odometry, span=span, frame_period=period) if run.odometry is not None else None
+    return scores, odometry
