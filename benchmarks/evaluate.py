@@ -5,7 +5,7 @@ milliseconds, so both associate, align (rigid Horn/Umeyama), and compute the ATE
 RPE translation and rotation. Prints the median wall time of each, the ratio, and checks
 that the numbers agree to 1e-9 relative.
 
-    /work/venv/bin/python benchmarks/evaluate.py [--poses N] [--repeats R]
+    .venv/bin/python benchmarks/evaluate.py [--poses N] [--repeats R]
 """
 
 import argparse

@@ -1,7 +1,7 @@
 """Speed, memory and accuracy of the rtabmap pipeline (the figures of docs/pipelines/rtabmap.md).
 
-    /work/venv/bin/python benchmarks/rtabmap.py            # all cases
-    /work/venv/bin/python benchmarks/rtabmap.py speed      # one case: speed, accuracy or memory
+    .venv/bin/python benchmarks/rtabmap.py            # all cases
+    .venv/bin/python benchmarks/rtabmap.py speed      # one case: speed, accuracy or memory
 
 Synthetic scenarios are generated into the cache on first use (minutes at 640x480).
 Times are wall-clock on this machine; per-stage figures are medians over the frames or

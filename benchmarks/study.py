@@ -1,6 +1,6 @@
 """Reproduce the study: the seven synthetic situations x both pipelines, charts into docs/images.
 
-    /work/venv/bin/python benchmarks/study.py [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
+    .venv/bin/python benchmarks/study.py [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
 
 Generates the scenarios first, one process per job (rendering dominates a cold run), then
 runs ``viewslam benchmark`` on them and copies its charts to ``docs/images/``.

@@ -1,16 +1,17 @@
 """Generation speed of the synthetic scenarios, and the contact sheet of docs/scenarios.md.
 
-    /work/venv/bin/python benchmarks/synth.py [--frames 150] [--resolution 640x480]
-        [--scenarios NAME ...] [--sheet docs/images/scenarios_contact_sheet.png] [--no-speed]
+    .venv/bin/python benchmarks/synth.py [--frames 150] [--resolution 640x480]
+        [--scenarios NAME ...] [--workers 2] [--sheet docs/images/scenarios_contact_sheet.png] [--no-speed]
         [--stages SCENARIO]
 
 For each scenario: the time to build the scene (textures, atlas; measured as a 2-frame
-run), and the steady frame rate of a longer run (rendering, sensor model, PNG encoding),
-as medians over ``--repeats`` runs, in wall-clock time and in CPU time of all the
-process's threads per frame. The machine's load average is printed with the figures: on a
-shared machine the wall-clock rate reflects the share of the cores the run got, while
-2 / (CPU seconds per frame) is the rate two idle cores would give at best. ``--stages``
-splits the CPU time of one scenario's frames by stage.
+run, which starts the same worker processes), and the steady frame rate of a longer run
+(rendering, sensor model, PNG encoding), as medians over ``--repeats`` runs, in wall-clock
+time and in CPU time per frame (all threads of the process and of its workers). The
+machine's load average is printed with the figures: on a shared machine the wall-clock
+rate reflects the share of the cores the run got, while 2 / (CPU seconds per frame) is the
+rate two idle cores would give at best. ``--stages`` splits the CPU time of one
+scenario's frames by stage (in-process).
 """
 
 import argparse
@@ -28,11 +29,17 @@ from viewer_slam.cli.synth import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, generate_scenario, preview_frames
 
 
-def timed_run(name, frames, resolution, folder) -> tuple[float, float]:
+def cpu_seconds() -> float:
+    """CPU time of this process's threads and of its finished worker processes."""
+    times = os.times()
+    return times.user + times.system + times.children_user + times.children_system
+
+
+def timed_run(name, frames, resolution, folder, workers) -> tuple[float, float]:
     """Wall-clock and CPU seconds of one generation."""
-    wall, cpu = time.perf_counter(), time.process_time()
-    generate_scenario(name, folder, frames=frames, resolution=resolution, force=True)
-    return time.perf_counter() - wall, time.process_time() - cpu
+    wall, cpu = time.perf_counter(), cpu_seconds()
+    generate_scenario(name, folder, frames=frames, resolution=resolution, force=True, workers=workers)
+    return time.perf_counter() - wall, cpu_seconds() - cpu
 
 
 def contact_sheet(names, out: Path, resolution, fractions=(0.2, 0.5, 0.8), tile_width: int = 240) -> None:
@@ -57,14 +64,15 @@ def contact_sheet(names, out: Path, resolution, fractions=(0.2, 0.5, 0.8), tile_
     cv2.imwrite(str(out), np.vstack(rows), [cv2.IMWRITE_PNG_COMPRESSION, 9])
 
 
-def measure_speed(names, frames: int, resolution, repeats: int) -> None:
-    print(f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}")
+def measure_speed(names, frames: int, resolution, repeats: int, workers: int) -> None:
+    print(f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}, "
+          f"{workers} worker(s)")
     print(f"{'scenario':40s} {'setup s':>8s} {'frames/s':>9s} {'CPU s/frame':>12s} {'overall frames/s':>17s}")
     rates, cpu_per_frame = [], []
     with tempfile.TemporaryDirectory() as scratch:
         for name in names:
-            setup = [timed_run(name, 2, resolution, Path(scratch) / "setup") for _ in range(repeats)]
-            total = [timed_run(name, frames, resolution, Path(scratch) / name) for _ in range(repeats)]
+            setup = [timed_run(name, 2, resolution, Path(scratch) / "setup", workers) for _ in range(repeats)]
+            total = [timed_run(name, frames, resolution, Path(scratch) / name, workers) for _ in range(repeats)]
             (setup_wall, setup_cpu), (total_wall, total_cpu) = (
                 tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (setup, total))
             steady = (frames - 2) / max(total_wall - setup_wall, 1e-9)
@@ -94,26 +102,24 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
     run = _Run(scenario, scenario.default_frames, camera_model("fr3", resolution), seed=0)
     plan, renderer, sensor, camera = run.plan, run.renderer, run.sensor, run.camera
     totals: dict[str, float] = {}
-    with tempfile.TemporaryDirectory() as scratch:
-        writer.prepare(Path(scratch))
-        for i in np.flatnonzero(~run.covered)[:frames]:
-            t = run.timing.colour[i] - run.timing.start
-            poses = plan.path.poses([t, t - plan.exposure / 2, t + plan.exposure / 2])
-            rng = np.random.default_rng(int(i))
-            with timed(totals, "ray casting"):
-                hits = renderer.cast(poses[0], t)
-            with timed(totals, "texture lookup and shading"):
-                ideal = renderer.shade(hits)
-            with timed(totals, "motion blur"):
-                ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
-            with timed(totals, "colour noise"):
-                rgb = sensor.colour(rng, ideal)
-            with timed(totals, "depth cast and upsampling"):
-                ideal_depth, cos_incidence = renderer.depth(poses[0], t)
-            with timed(totals, "depth noise"):
-                depth = sensor.depth(rng, ideal_depth, cos_incidence)
-            with timed(totals, "PNG encoding"):
-                writer.write_frame(Path(scratch), float(i), rgb, float(i), depth, camera.depth_factor)
+    for i in np.flatnonzero(~run.covered)[:frames]:
+        t = run.timing.colour[i] - run.timing.start
+        poses = plan.path.poses([t, t - plan.exposure / 2, t + plan.exposure / 2])
+        rng = np.random.default_rng(int(i))
+        with timed(totals, "ray casting"):
+            hits = renderer.cast(poses[0], t)
+        with timed(totals, "texture lookup and shading"):
+            ideal = renderer.shade(hits)
+        with timed(totals, "motion blur"):
+            ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
+        with timed(totals, "colour noise"):
+            rgb = sensor.colour(rng, ideal)
+        with timed(totals, "depth cast and upsampling"):
+            ideal_depth, cos_incidence = renderer.depth(poses[0], t)
+        with timed(totals, "depth noise"):
+            depth = sensor.depth(rng, ideal_depth, cos_incidence)
+        with timed(totals, "PNG encoding"):
+            writer.encode_frame(rgb, depth, camera.depth_factor)
     print(f"CPU ms per frame by stage ({name}, {resolution[0]}x{resolution[1]}, {frames} frames):")
     for stage, seconds in totals.items():
         print(f"  {stage:28s} {1000 * seconds / frames:7.1f}")
@@ -124,6 +130,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=150)
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--workers", type=int, default=os.cpu_count(), help="rendering processes (1: in-process)")
     parser.add_argument("--scenarios", nargs="*", default=list(SCENARIOS))
     parser.add_argument("--sheet", type=Path, help="also write the contact sheet (PNG) of the scenarios")
     parser.add_argument("--no-speed", action="store_true", help="skip the speed measurement")
@@ -131,7 +138,7 @@ def main() -> None:
     args = parser.parse_args()
     resolution = parse_resolution(args.resolution)
     if not args.no_speed:
-        measure_speed(args.scenarios, args.frames, resolution, args.repeats)
+        measure_speed(args.scenarios, args.frames, resolution, args.repeats, args.workers)
     if args.stages:
         stage_profile(args.stages, resolution)
     if args.sheet:

@@ -3,6 +3,7 @@
 import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -14,7 +15,7 @@ from viewer_slam.geometry.trajectory import read_tum
 
 GROUNDTRUTH = TRAJECTORIES / "freiburg1_xyz-groundtruth.txt"
 ESTIMATE = TRAJECTORIES / "freiburg1_xyz-rgbdslam.txt"
-VIEWSLAM = Path("/work/venv/bin/viewslam")
+VIEWSLAM = Path(sys.executable).parent / "viewslam"
 GOOD_LINES = "1.0 0 0 0 0 0 0 1\n1.1 0.1 0 0 0 0 0 1\n"
 
 

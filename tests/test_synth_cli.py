@@ -1,6 +1,8 @@
 """`viewslam synth` errors and the generation cache."""
 
 import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,7 +52,7 @@ def test_non_empty_folder_is_refused_without_force(tmp_path, capsys):
 
 
 def test_console_script_writes_a_sequence(tmp_path):
-    result = subprocess.run(["/work/venv/bin/viewslam", "synth", "pioneer_360", "--out", str(tmp_path / "p"), *TINY,
+    result = subprocess.run([Path(sys.executable).parent / "viewslam", "synth", "pioneer_360", "--out", str(tmp_path / "p"), *TINY,
                              "--seed", "2"], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert read_info(tmp_path / "p")["seed"] == 2

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from viewer_slam.dataset.synth.generate import camera_model
-from viewer_slam.dataset.synth.render import Renderer
+from viewer_slam.dataset.synth.render import Renderer, dot3
 from viewer_slam.dataset.synth.scenes import Scene, quad
 from viewer_slam.dataset.synth.sensor import BASELINE_FOCAL, KinectModel
 from viewer_slam.dataset.synth.trajectories import Path, rotation_from_angles, sensor_timing
@@ -115,3 +115,11 @@ def test_depth_of_a_slanted_floor_is_exact_after_upsampling():
     expected = np.where(down[..., 2] < 0, height / np.maximum(-down[..., 2], 1e-9), 0.0)
     assert np.all(expected > 0)
     assert np.allclose(depth, expected, rtol=1e-4)
+
+
+def test_plane_dot_products_sum_like_einsum_bit_for_bit():
+    # Shading sums on coordinate planes; the images stay byte-identical only if the sums are.
+    rng = np.random.default_rng(7)
+    a, b = (rng.normal(0, 3, (3, 60, 80)).astype(np.float32) for _ in range(2))
+    expected = np.einsum("hwc,hwc->hw", np.moveaxis(a, 0, -1), np.moveaxis(b, 0, -1))
+    assert np.array_equal(dot3(a, b), expected)

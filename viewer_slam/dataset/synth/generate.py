@@ -2,17 +2,24 @@
 
 Randomness comes from independent streams of one seed (scene, timing, ground-truth noise,
 and one per frame for the sensor), so the output is byte-identical for the same arguments
-whatever the order in which frames are encoded. Frames are encoded by a small thread pool
-while the next frame renders (OpenCV's PNG encoder releases the GIL).
+whatever the process that renders them. Long runs are rendered by a pool of worker
+processes, each building the scene once from the seed and rendering and encoding whole
+frames; the parent writes the PNGs in frame order. Short runs stay in-process (starting a
+worker costs about as much as building the scene), with PNGs encoded on a thread while the
+next frame renders (OpenCV's encoder releases the GIL).
 """
 
+import functools
 import json
+import multiprocessing
 import os
 import shutil
 import tempfile
-from concurrent.futures import ThreadPoolExecutor
+from collections import deque
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from ...cache import cache_dir
@@ -38,6 +45,8 @@ CAMERAS = {
 }
 
 _SCENE, _TIMING, _GROUNDTRUTH, _SENSOR = range(4)  # seed streams
+# Below this many pixels in a run (about 30 frames at 640x480), worker start-up outweighs the gain.
+_POOL_MIN_PIXELS = 30 * 640 * 480
 _WRITTEN = ("rgb", "depth", "rgb.txt", "depth.txt", "groundtruth.txt", "camera.json", "scenario.json")
 
 
@@ -70,8 +79,11 @@ def _check(frames: int, resolution: tuple[int, int], seed: int) -> None:
 
 
 def generate_scenario(name: str, out_dir, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                      seed: int = 0, camera: str = "fr3", force: bool = False) -> Path:
+                      seed: int = 0, camera: str = "fr3", force: bool = False, workers: int | None = None) -> Path:
     """Render scenario ``name`` into the TUM folder ``out_dir`` and return it.
+
+    ``workers`` processes render the frames (at most one per frame; 1 renders in-process);
+    by default one per CPU, or none for a short run. The files do not depend on it.
 
     An existing non-empty ``out_dir`` is refused unless ``force``; then only what the
     generator writes is replaced. The folder is assembled beside ``out_dir`` and moved into
@@ -82,6 +94,7 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     resolution = (int(resolution[0]), int(resolution[1]))
     _check(frames, resolution, seed)
     cam = camera_model(camera, resolution)
+    workers = _worker_count(workers, frames, resolution)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError.at(out, "exists and is not a folder")
@@ -90,7 +103,7 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
-        _Run(scenario, frames, cam, seed).write(staging, camera)
+        _Run(scenario, frames, cam, seed).write(staging, camera, workers)
         if out.is_dir():
             for entry in _WRITTEN:
                 target = out / entry
@@ -135,18 +148,32 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
     return final
 
 
+def _worker_count(workers: int | None, frames: int, resolution: tuple[int, int]) -> int:
+    if workers is None:
+        if frames * resolution[0] * resolution[1] < _POOL_MIN_PIXELS:
+            return 1
+        workers = os.cpu_count() or 1
+    if workers < 1:
+        raise InputError(f"workers must be at least 1, got {workers}")
+    return min(workers, frames)
+
+
 class _Run:
     """One run of a scenario: its plan, stamps, renderer, and the frames rendered on demand."""
 
-    def __init__(self, scenario, frames: int, camera: Camera, seed: int):
-        self.scenario, self.frames, self.camera, self.seed = scenario, frames, camera, seed
+    def __init__(self, scenario, frames: int, camera: Camera, seed: int, threads: int = 0):
+        self.scenario, self.frames, self.camera, self.seed, self.threads = scenario, frames, camera, seed, threads
         self.plan: Plan = scenario.build(np.random.default_rng([seed, _SCENE]), frames)
         self.timing = sensor_timing(np.random.default_rng([seed, _TIMING]), frames)
-        self.renderer = Renderer(self.plan.scene, camera)
         self.sensor = KinectModel()
         self.covered = np.zeros(frames, bool)
         for first, last in self.plan.covered:
             self.covered[first:last + 1] = True
+
+    @functools.cached_property
+    def renderer(self) -> Renderer:
+        """Built on first use: a parent whose workers render needs only the plan."""
+        return Renderer(self.plan.scene, self.camera, self.threads)
 
     def frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Colour (uint8 RGB) and depth (float32 metres) of frame ``i``; black and empty while covered."""
@@ -165,19 +192,34 @@ class _Run:
         depth, cos_incidence = self.renderer.depth(poses[3], t_depth)
         return rgb, self.sensor.depth(rng, depth, cos_incidence)
 
-    def write(self, folder: Path, camera_name: str) -> None:
+    def encoded_frame(self, i: int) -> tuple[bytes, bytes]:
+        return writer.encode_frame(*self.frame(i), self.camera.depth_factor)
+
+    def encoded_frames(self, workers: int):
+        """The PNGs of every frame, in order."""
+        if workers == 1:
+            yield from self._encoded_in_process()
+            return
+        # Spawned, not forked: a fork would inherit OpenCV's and Embree's thread pools mid-state.
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
+                                 initargs=(self.scenario.name, self.frames, self.camera, self.seed)) as pool:
+            yield from pool.map(_worker_frame, range(self.frames))
+
+    def _encoded_in_process(self):
+        with ThreadPoolExecutor(max_workers=2) as pool:
+            pending = deque()
+            for i in range(self.frames):
+                pending.append(pool.submit(writer.encode_frame, *self.frame(i), self.camera.depth_factor))
+                if len(pending) > 3:
+                    yield pending.popleft().result()
+            while pending:
+                yield pending.popleft().result()
+
+    def write(self, folder: Path, camera_name: str, workers: int = 1) -> None:
         timing, plan = self.timing, self.plan
         writer.prepare(folder)
-        with ThreadPoolExecutor(max_workers=2) as pool:
-            pending = []
-            for i in range(self.frames):
-                rgb, depth = self.frame(i)
-                pending.append(pool.submit(writer.write_frame, folder, timing.colour[i], rgb, timing.depth[i], depth,
-                                           self.camera.depth_factor))
-                if len(pending) > 3:
-                    pending.pop(0).result()
-            for job in pending:
-                job.result()
+        for i, (rgb_png, depth_png) in enumerate(self.encoded_frames(workers)):
+            writer.write_frame(folder, timing.colour[i], rgb_png, timing.depth[i], depth_png)
         gt_poses = noisy_groundtruth(np.random.default_rng([self.seed, _GROUNDTRUTH]),
                                      plan.path.poses(timing.groundtruth - timing.start))
         info = {
@@ -196,6 +238,20 @@ class _Run:
         source = f"viewslam synth {self.scenario.name} --frames {self.frames} --seed {self.seed}"
         writer.write_index(folder, source, timing.colour, timing.depth, Trajectory(timing.groundtruth, gt_poses),
                            self.camera, info)
+
+
+_worker_run: _Run | None = None  # the run a pool worker renders frames of
+
+
+def _start_worker(name: str, frames: int, camera: Camera, seed: int) -> None:
+    """Build the run once per worker; one thread each, as the workers already fill the cores."""
+    global _worker_run
+    cv2.setNumThreads(1)
+    _worker_run = _Run(_scenario(name), frames, camera, seed, threads=1)
+
+
+def _worker_frame(i: int) -> tuple[bytes, bytes]:
+    return _worker_run.encoded_frame(i)
 
 
 def preview_frames(name: str, fractions, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),

@@ -64,6 +64,11 @@ def rotate(vectors: np.ndarray, R: np.ndarray) -> np.ndarray:
     return np.einsum("...j,ij->...i", vectors, R)
 
 
+def dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per-pixel dot products of ``(3, H, W)`` coordinate planes, summed x, y, z in that order."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
 def pixel_rays(camera: Camera, step: int = 1) -> np.ndarray:
     """Camera-frame ray directions with unit z for every ``step``-th pixel, ``(H', W', 3)``.
 
@@ -77,10 +82,14 @@ def pixel_rays(camera: Camera, step: int = 1) -> np.ndarray:
 
 
 class Renderer:
-    """Renders a scene through a camera at a pose and a time (the time places the movers)."""
+    """Renders a scene through a camera at a pose and a time (the time places the movers).
 
-    def __init__(self, scene: Scene, camera: Camera):
+    ``threads`` bounds Embree's threads (0: all cores); a hit does not depend on it.
+    """
+
+    def __init__(self, scene: Scene, camera: Camera, threads: int = 0):
         self.o3d = import_open3d()
+        self.threads = threads
         self.scene = scene
         self.camera = camera
         surfaces: list[Surface] = scene.static + [s for m in scene.movers for s in m.surfaces]
@@ -98,7 +107,8 @@ class Renderer:
             texel.append(np.full(len(surface.triangles), surface.texel))
             offset += len(surface.vertices)
         self.triangles = np.concatenate(triangles).astype(np.uint32)
-        self.corner_uv = np.concatenate(corner_uv).astype(np.float32)
+        # Atlas x and y of each triangle's corners as (corner, axis, triangle) planes.
+        self.corner_uv = np.ascontiguousarray(np.concatenate(corner_uv).astype(np.float32).transpose(1, 2, 0))
         self.texel = np.concatenate(texel).astype(np.float32)
         self.static_vertices = np.concatenate([s.vertices for s in scene.static]) if scene.static else np.zeros((0, 3))
         self._static_scene = None if scene.movers else self._raycasting_scene(self.static_vertices)
@@ -127,10 +137,12 @@ class Renderer:
 
     def cast(self, pose: np.ndarray, time: float, step: int = 1) -> Hits:
         """Intersect one ray per ``step``-th pixel from the camera at ``pose`` (T_world_camera)."""
-        directions = rotate(self._rays[step], pose[:3, :3]).astype(np.float32)
         origin = pose[:3, 3].astype(np.float32)
-        rays = np.concatenate([np.broadcast_to(origin, directions.shape), directions], axis=-1)
-        result = self._scene_at(time).cast_rays(self.o3d.core.Tensor(rays))
+        rays = np.empty(self._rays[step].shape[:-1] + (6,), np.float32)
+        rays[..., :3] = origin
+        rays[..., 3:] = rotate(self._rays[step], pose[:3, :3])
+        directions = rays[..., 3:]
+        result = self._scene_at(time).cast_rays(self.o3d.core.Tensor.from_numpy(rays), nthreads=self.threads)
         t_hit = result["t_hit"].numpy()
         hit = np.isfinite(t_hit)
         depth = np.where(hit, t_hit, np.float32(0.0))
@@ -145,9 +157,9 @@ class Renderer:
     def albedo(self, hits: Hits) -> np.ndarray:
         """Trilinearly filtered texture colour per pixel, float32 ``(H, W, 3)``."""
         triangle = np.maximum(hits.triangle, 0)
-        corners = self.corner_uv[triangle]  # (H, W, 3, 2)
-        b1, b2 = hits.barycentric[..., 0:1], hits.barycentric[..., 1:2]
-        xy = corners[..., 0, :] * (1 - b1 - b2) + corners[..., 1, :] * b1 + corners[..., 2, :] * b2
+        corners = np.take(self.corner_uv, triangle, axis=-1)  # (3, 2, H, W)
+        b1, b2 = np.ascontiguousarray(np.moveaxis(hits.barycentric, -1, 0))
+        x, y = corners[0] * (1 - b1 - b2) + corners[1] * b1 + corners[2] * b2
         footprint = hits.depth / (self.camera.fx * self.texel[triangle] * np.sqrt(np.maximum(hits.cos_incidence, 0.05)))
         level = np.clip(np.log2(np.maximum(footprint, 1e-6)), 0, MIP_LEVELS - 1)
         colour = np.zeros(hits.depth.shape + (3,), np.float32)
@@ -156,8 +168,8 @@ class Renderer:
             if not weight.any():
                 continue
             scale = 0.5 ** k
-            map_x = ((xy[..., 0] + 0.5) * scale - 0.5).astype(np.float32)
-            map_y = ((xy[..., 1] + 0.5) * scale - 0.5).astype(np.float32)
+            map_x = ((x + 0.5) * scale - 0.5).astype(np.float32)
+            map_y = ((y + 0.5) * scale - 0.5).astype(np.float32)
             sample = cv2.remap(image, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
             colour += weight[..., None] * sample
         return colour
@@ -165,10 +177,12 @@ class Renderer:
     def shade(self, hits: Hits) -> np.ndarray:
         """Lambertian shading from the scene's point lights; float32 RGB in [0, 255]."""
         light = np.zeros(hits.depth.shape, np.float32)
+        # Coordinate planes rather than (H, W, 3) arrays: the same sums, on contiguous memory.
+        points, normal = (np.ascontiguousarray(np.moveaxis(a, -1, 0)) for a in (hits.points, hits.normal))
         for position in self._lights:
-            to_light = position.astype(np.float32) - hits.points
-            squared = np.einsum("hwc,hwc->hw", to_light, to_light)
-            lambert = np.einsum("hwc,hwc->hw", hits.normal, to_light)
+            to_light = position.astype(np.float32)[:, None, None] - points
+            squared = dot3(to_light, to_light)
+            lambert = dot3(normal, to_light)
             light += np.maximum(lambert, 0.0) / (np.sqrt(squared) * (1.0 + squared / 25.0) + 1e-6)
         ambient = self.scene.ambient
         intensity = ambient + (1 - ambient) * 1.6 / len(self._lights) * light

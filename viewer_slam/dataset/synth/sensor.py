@@ -89,6 +89,13 @@ def _vignetting(h: int, w: int, strength: float) -> np.ndarray:
     return 1.0 - strength * r2 / 2.0
 
 
+@functools.lru_cache(maxsize=4)
+def _pixel_grid(h: int, w: int) -> np.ndarray:
+    grid = np.indices((h, w), dtype=np.float32)
+    grid.flags.writeable = False
+    return grid
+
+
 def motion_blur(image: np.ndarray, points: np.ndarray, hit: np.ndarray, camera: Camera,
                 pose_start: np.ndarray, pose_end: np.ndarray, samples: int = 4) -> np.ndarray:
     """Average the image along each pixel's motion during the exposure.
@@ -109,7 +116,7 @@ def motion_blur(image: np.ndarray, points: np.ndarray, hit: np.ndarray, camera: 
     if np.abs(flow).max() < 0.5:
         return image
     flow = cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR)
-    rows, cols = np.indices((h, w), dtype=np.float32)
+    rows, cols = _pixel_grid(h, w)
     blurred = np.zeros_like(image)
     for s in np.linspace(-0.5, 0.5, samples, dtype=np.float32):
         blurred += cv2.remap(image, cols + s * flow[..., 0], rows + s * flow[..., 1], cv2.INTER_LINEAR,

@@ -23,12 +23,23 @@ def prepare(folder: Path) -> None:
     (folder / "depth").mkdir(parents=True, exist_ok=True)
 
 
-def write_frame(folder: Path, colour_stamp: float, rgb: np.ndarray, depth_stamp: float, depth: np.ndarray,
-                depth_factor: float) -> None:
-    """One RGB image (RGB order in memory) and one depth image (metres, stored as uint16)."""
-    cv2.imwrite(str(folder / image_name("rgb", colour_stamp)), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), PNG_OPTIONS)
+def encode_frame(rgb: np.ndarray, depth: np.ndarray, depth_factor: float) -> tuple[bytes, bytes]:
+    """PNG files of one RGB image (RGB order in memory) and one depth image (metres, stored as uint16)."""
     stored = np.clip(np.rint(depth * depth_factor), 0, np.iinfo(np.uint16).max).astype(np.uint16)
-    cv2.imwrite(str(folder / image_name("depth", depth_stamp)), stored, PNG_OPTIONS)
+    return _png(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)), _png(stored)
+
+
+def _png(image: np.ndarray) -> bytes:
+    ok, encoded = cv2.imencode(".png", image, PNG_OPTIONS)
+    if not ok:
+        raise RuntimeError("PNG encoding failed")
+    return encoded.tobytes()
+
+
+def write_frame(folder: Path, colour_stamp: float, rgb_png: bytes, depth_stamp: float, depth_png: bytes) -> None:
+    """The encoded colour and depth images of one frame, named by their stamps."""
+    (folder / image_name("rgb", colour_stamp)).write_bytes(rgb_png)
+    (folder / image_name("depth", depth_stamp)).write_bytes(depth_png)
 
 
 def _listing(title: str, source: str, kind: str, stamps: np.ndarray) -> str:
