@@ -1,10 +1,12 @@
 """Known sequences: TUM names and aliases, folders, synthetic scenarios, helpful errors."""
 
+from collections import Counter
+
 import pytest
 
 from benchmark_fake_pipeline import write_tum_folder
 from viewer_slam.cli import main
-from viewer_slam.dataset.catalog import TUM_SEQUENCES, resolve_sequence, tum_sequence
+from viewer_slam.dataset.catalog import TUM_SEQUENCES, known_tum_sequence, resolve_sequence, tum_cache_dir, tum_sequence
 from viewer_slam.dataset.download import TUM_MIRROR, archive_url
 from viewer_slam.dataset.synth import SCENARIOS
 from viewer_slam.dataset.tum import open_sequence
@@ -18,15 +20,24 @@ STUDY = ("fr2/desk_with_person", "fr2/pioneer_360", "fr2/360_kidnap", "fr3/long_
 @pytest.fixture(autouse=True)
 def cache(monkeypatch, tmp_path):
     monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
+    monkeypatch.delenv("VIEWSLAM_TUM_MIRROR", raising=False)
     return tmp_path / "cache"
 
 
 def test_tum_catalogue_names_aliases_and_archives():
-    assert len(TUM_SEQUENCES) == 47
-    assert len({info.name for info in TUM_SEQUENCES}) == len({info.alias for info in TUM_SEQUENCES}) == 47
+    assert len(TUM_SEQUENCES) == 80
+    assert len({info.name for info in TUM_SEQUENCES}) == len({info.alias for info in TUM_SEQUENCES}) == 80
+    categories = Counter(info.category for info in TUM_SEQUENCES)
+    assert categories == {"testing": 4, "handheld": 11, "robot": 4, "structure_texture": 8, "dynamic": 9,
+                          "object_reconstruction": 11, "validation": 33}
+    assert Counter(info.camera for info in TUM_SEQUENCES) == {"freiburg1": 16, "freiburg2": 25, "freiburg3": 39}
     kidnap = tum_sequence("fr2/360_kidnap")
     assert kidnap is tum_sequence("rgbd_dataset_freiburg2_360_kidnap") is tum_sequence("freiburg2_360_kidnap")
-    assert (kidnap.camera, kidnap.category) == ("freiburg2", "handheld")
+    assert (kidnap.camera, kidnap.category, kidnap.groundtruth_public) == ("freiburg2", "handheld", True)
+    hidden = tum_sequence("fr3/walking_xyz_validation")
+    assert (hidden.name, hidden.category, hidden.groundtruth_public) == \
+           ("rgbd_dataset_freiburg3_walking_xyz_validation", "validation", False)
     assert archive_url(kidnap) == "https://cvg.cit.tum.de/rgbd/dataset/freiburg2/rgbd_dataset_freiburg2_360_kidnap.tgz"
     assert archive_url(kidnap, "http://mirror/x/") == "http://mirror/x/freiburg2/rgbd_dataset_freiburg2_360_kidnap.tgz"
     assert TUM_MIRROR == "https://cvg.cit.tum.de/rgbd/dataset"
@@ -59,7 +70,19 @@ def test_unknown_sequence_lists_the_valid_names(capsys):
     assert main(["benchmark", "fr9/mystery", "--out", "unused"]) == 2
     error = capsys.readouterr().err
     assert error.count("\n") == 1 and error.startswith("viewslam: error: fr9/mystery: not a folder")
-    assert all(name in error for name in SCENARIOS) and all(alias in error for alias in STUDY)
+    assert all(name in error for name in SCENARIOS)
+    assert f"`viewslam sequences` lists the {len(TUM_SEQUENCES)} TUM sequences" in error
+    assert "did you mean" not in error
+
+
+def test_misspelt_sequence_suggests_the_close_names(capsys):
+    assert main(["record", "fr3/sitting_statc", "--quiet"]) == 2
+    assert "fr3/sitting_statc: not a folder, synthetic scenario or TUM sequence; did you mean fr3/sitting_static or " \
+           "sitting_static or fr3/sitting_xyz? scenarios: " in capsys.readouterr().err
+    with pytest.raises(InputError, match=r"; did you mean 360_kidnap or fr2/360_kidnap\? "):
+        resolve_sequence("360_kidnapp")
+    with pytest.raises(InputError, match=r"^fr1/xzy: unknown TUM sequence; did you mean fr1/xyz\? "):
+        known_tum_sequence("fr1/xzy")
 
 
 def test_sequences_command_lists_scenarios_and_downloads(cache, capsys):
@@ -67,7 +90,25 @@ def test_sequences_command_lists_scenarios_and_downloads(cache, capsys):
     assert main(["sequences"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert all(f"  {name}" in lines for name in SCENARIOS)
-    [xyz] = [line for line in lines if "rgbd_dataset_freiburg1_xyz" in line]
-    assert xyz.split() == ["fr1/xyz", "rgbd_dataset_freiburg1_xyz", "testing", "downloaded"]
-    assert sum(line.endswith("downloaded") for line in lines) == 1
-    assert len(lines) == 2 + len(SCENARIOS) + 47
+    rows = [line.split() for line in lines[2 + len(SCENARIOS):]]
+    assert ["fr1/xyz", "rgbd_dataset_freiburg1_xyz", "testing", "groundtruth", "downloaded"] in rows
+    assert ["fr1/xyz_validation", "rgbd_dataset_freiburg1_xyz_validation", "validation", "no-groundtruth"] in rows
+    assert sum(row[-1] == "downloaded" for row in rows) == 1
+    assert len(rows) == 80
+
+
+def test_viewslam_data_is_where_tum_names_are_looked_up(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv("VIEWSLAM_DATA", str(tmp_path / "data"))
+    folder = write_tum_folder(tmp_path / "data" / "rgbd_dataset_freiburg2_360_kidnap", frames=2)
+    assert tum_cache_dir() == tmp_path / "data" and resolve_sequence("fr2/360_kidnap") == folder
+    assert main(["sequences"]) == 0
+    assert f"TUM RGB-D sequences (downloads in {tmp_path / 'data'}):" in capsys.readouterr().out
+
+
+def test_the_cache_follows_xdg_unless_viewslam_cache_is_set(tmp_path, monkeypatch):
+    from viewer_slam.cache import cache_dir
+    monkeypatch.delenv("VIEWSLAM_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_dir("synth") == tmp_path / "xdg" / "viewslam" / "synth"
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "own"))
+    assert cache_dir("synth") == tmp_path / "own" / "synth"

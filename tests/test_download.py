@@ -1,14 +1,19 @@
 """`viewslam download` against a local HTTP server serving archives built in the test."""
 
-import functools
 import http.server
 import io
+import random
+import re
+import shutil
+import socket
 import tarfile
 import threading
+from pathlib import Path
 
 import pytest
 
 from benchmark_fake_pipeline import write_tum_folder
+from fixtures_eval import TUM_RPY
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.tum import open_sequence
@@ -16,91 +21,253 @@ from viewer_slam.dataset.tum import open_sequence
 NAME = "rgbd_dataset_freiburg1_xyz"
 
 
+class RangeHandler(http.server.BaseHTTPRequestHandler):
+    """GET of a file below ``server.root``, honouring ``Range: bytes=N-`` (206, or 416 past the end).
+
+    The server records each request's Range header and the body bytes it sent; with
+    ``server.cut_after`` set it sends only that many body bytes of the next response and
+    drops the connection, as a failing network would.
+    """
+
+    def do_GET(self):
+        server = self.server
+        server.ranges.append(self.headers.get("Range"))
+        path = server.root / self.path.lstrip("/")
+        if not path.is_file():
+            self.send_error(404)
+            return
+        data = path.read_bytes()
+        match = re.fullmatch(r"bytes=(\d+)-", self.headers.get("Range") or "")
+        start = int(match.group(1)) if match and server.honour_range else 0
+        if start >= len(data) > 0:
+            self.send_response(416)
+            self.send_header("Content-Range", f"bytes */{len(data)}")
+            self.send_header("Content-Length", "0")
+            self.end_headers()
+            return
+        self.send_response(206 if start else 200)
+        if start:
+            self.send_header("Content-Range", f"bytes {start}-{len(data) - 1}/{len(data)}")
+        self.send_header("Content-Length", str(len(data) - start))
+        self.end_headers()
+        body = data[start:]
+        if server.cut_after is not None:
+            body, server.cut_after = body[:server.cut_after], None
+        self.wfile.write(body)
+        server.sent += len(body)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture(autouse=True)
+def environment(monkeypatch, tmp_path):
+    """A private cache, and none of the developer's own download settings."""
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
+    monkeypatch.delenv("VIEWSLAM_TUM_MIRROR", raising=False)
+
+
 @pytest.fixture
 def mirror(tmp_path):
-    """A quiet HTTP server on 127.0.0.1 serving ``tmp_path / "mirror"``; yields (folder, base URL)."""
-    root = tmp_path / "mirror"
-    (root / "freiburg1").mkdir(parents=True)
-
-    class Quiet(http.server.SimpleHTTPRequestHandler):
-        def log_message(self, *args):
-            pass
-
-    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), functools.partial(Quiet, directory=str(root)))
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    """A TUM mirror on 127.0.0.1 serving ``tmp_path / "mirror"`` (``.root``) at ``.url``."""
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), RangeHandler)
+    server.root = tmp_path / "mirror"
+    (server.root / "freiburg1").mkdir(parents=True)
+    server.url = f"http://127.0.0.1:{server.server_address[1]}"
+    server.ranges, server.sent, server.cut_after, server.honour_range = [], 0, None, True
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True)
     thread.start()
-    yield root, f"http://127.0.0.1:{server.server_address[1]}"
+    yield server
     server.shutdown()
     server.server_close()
 
 
-def archive_of(folder, target):
-    with tarfile.open(target, "w:gz") as tar:
-        tar.add(folder, arcname=NAME)
+def serve(server, payload: bytes, name: str = NAME) -> bytes:
+    camera = name.split("_")[2]
+    (server.root / camera).mkdir(exist_ok=True)
+    (server.root / camera / f"{name}.tgz").write_bytes(payload)
+    return payload
+
+
+def archive_of(folder: Path, name: str = NAME) -> bytes:
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w:gz") as tar:
+        tar.add(folder, arcname=name)
+    return buffer.getvalue()
 
 
 def download(dest, url, name="fr1/xyz"):
     return main(["download", name, "--dest", str(dest), "--mirror", url, "--quiet"])
 
 
-def test_download_extracts_verifies_and_publishes(mirror, tmp_path, capsys):
-    root, url = mirror
+def same_files(folder: Path, source: Path) -> bool:
+    return sorted(p.relative_to(folder) for p in folder.rglob("*")) == \
+        sorted(p.relative_to(source) for p in source.rglob("*")) and \
+        all(p.read_bytes() == (folder / p.relative_to(source)).read_bytes() for p in source.rglob("*") if p.is_file())
+
+
+def test_download_extracts_verifies_and_publishes_then_is_not_repeated(mirror, tmp_path, capsys):
     source = write_tum_folder(tmp_path / "source", frames=6)
-    archive_of(source, root / "freiburg1" / f"{NAME}.tgz")
+    serve(mirror, archive_of(source))
     dest = tmp_path / "dest"
-    assert download(dest, url) == 0
+    assert download(dest, mirror.url) == 0
     folder = dest / NAME
     assert capsys.readouterr().out == f"fr1/xyz: {folder}\n"
-    assert sorted(p.relative_to(folder) for p in folder.rglob("*")) == \
-           sorted(p.relative_to(source) for p in source.rglob("*"))
-    assert (folder / "groundtruth.txt").read_bytes() == (source / "groundtruth.txt").read_bytes()
-    assert len(open_sequence(folder)) == 6
-    assert [p.name for p in dest.iterdir()] == [NAME]  # no scratch left behind
+    assert same_files(folder, source) and len(open_sequence(folder)) == 6
+    assert [p.name for p in dest.iterdir()] == [NAME]  # no scratch folder and no .part left behind
+    assert download(dest, mirror.url) == 0
+    assert capsys.readouterr().out == f"fr1/xyz: {folder}\n" and mirror.ranges == [None]
 
 
-def test_downloaded_sequence_resolves_by_name(mirror, tmp_path, monkeypatch):
-    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
-    root, url = mirror
-    archive_of(write_tum_folder(tmp_path / "source", frames=4), root / "freiburg1" / f"{NAME}.tgz")
-    assert main(["download", NAME, "--mirror", url, "--quiet"]) == 0
+def test_downloaded_sequence_resolves_by_name(mirror, tmp_path):
+    serve(mirror, archive_of(write_tum_folder(tmp_path / "source", frames=4)))
+    assert main(["download", NAME, "--mirror", mirror.url, "--quiet"]) == 0
     expected = tmp_path / "cache" / "tum" / NAME
     assert resolve_sequence("fr1/xyz") == expected and resolve_sequence(NAME) == expected
 
 
-def _served(root, payload: bytes):
-    (root / "freiburg1" / f"{NAME}.tgz").write_bytes(payload)
+def test_viewslam_data_replaces_the_cache_for_downloads_and_names(mirror, tmp_path, monkeypatch):
+    monkeypatch.setenv("VIEWSLAM_DATA", str(tmp_path / "data"))
+    serve(mirror, archive_of(write_tum_folder(tmp_path / "source", frames=4)))
+    assert main(["download", "fr1/xyz", "--mirror", mirror.url, "--quiet"]) == 0
+    assert (tmp_path / "data" / NAME).is_dir() and not (tmp_path / "cache" / "tum" / NAME).exists()
+    assert resolve_sequence("fr1/xyz") == tmp_path / "data" / NAME
 
 
-def _tgz(members: dict[str, bytes]) -> bytes:
+def test_viewslam_tum_mirror_replaces_the_base_url_and_mirror_beats_it(mirror, tmp_path, monkeypatch, capsys):
+    serve(mirror, archive_of(write_tum_folder(tmp_path / "source", frames=4)))
+    monkeypatch.setenv("VIEWSLAM_TUM_MIRROR", f"{mirror.url}/nowhere")
+    assert download(tmp_path / "dest", mirror.url) == 0
+    monkeypatch.setenv("VIEWSLAM_TUM_MIRROR", f"{mirror.url}/")
+    assert main(["download", "fr1/xyz", "--dest", str(tmp_path / "other"), "--quiet"]) == 0
+    assert (tmp_path / "other" / NAME).is_dir() and mirror.ranges == [None, None]
+
+
+def test_interrupted_download_resumes_where_it_stopped(mirror, tmp_path, capsys):
+    source = write_tum_folder(tmp_path / "source", frames=6)
+    archive = serve(mirror, archive_of(source))
+    cut = len(archive) // 3
+    mirror.cut_after = cut
+    part = tmp_path / "cache" / "tum" / f".{NAME}.tgz.part"
+    assert main(["download", "fr1/xyz", "--mirror", mirror.url, "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and f"download failed: connection closed after {cut:,} of {len(archive):,} bytes" \
+        in error and f"run the same `viewslam download` again to resume from the {cut:,} bytes in {part}" in error
+    assert part.read_bytes() == archive[:cut] and not (part.parent / NAME).exists()
+    assert main(["sequences"]) == 0
+    assert ["fr1/xyz", NAME, "testing", "groundtruth", "partial"] in \
+        [line.split() for line in capsys.readouterr().out.splitlines()]
+
+    assert main(["download", "fr1/xyz", "--mirror", mirror.url, "--quiet"]) == 0
+    assert mirror.ranges == [None, f"bytes={cut}-"]
+    assert mirror.sent == len(archive) < 2 * len(archive)
+    assert same_files(part.parent / NAME, source) and not part.exists()
+
+
+@pytest.mark.parametrize("kept, honour_range, whole_archive_sent", [
+    pytest.param(lambda archive: archive, True, False, id="part-already-complete"),
+    pytest.param(lambda archive: archive + b"stale", True, True, id="part-longer-than-archive"),
+    pytest.param(lambda archive: archive[:100], False, True, id="server-ignores-range"),
+])
+def test_part_that_cannot_be_resumed_is_used_or_restarted(mirror, tmp_path, kept, honour_range, whole_archive_sent):
+    source = write_tum_folder(tmp_path / "source", frames=6)
+    archive = serve(mirror, archive_of(source))
+    dest = tmp_path / "dest"
+    dest.mkdir()
+    (dest / f".{NAME}.tgz.part").write_bytes(kept(archive))
+    mirror.honour_range = honour_range
+    assert download(dest, mirror.url) == 0
+    assert mirror.ranges[0] == f"bytes={len(kept(archive))}-"
+    assert mirror.sent == (len(archive) if whole_archive_sent else 0)
+    assert same_files(dest / NAME, source) and [p.name for p in dest.iterdir()] == [NAME]
+
+
+def member(name: str, data: bytes = b"x", kind: bytes = tarfile.REGTYPE, link: str = "") -> tuple:
+    info = tarfile.TarInfo(name)
+    info.type, info.linkname, info.size = kind, link, len(data) if kind == tarfile.REGTYPE else 0
+    return info, io.BytesIO(data) if kind == tarfile.REGTYPE else None
+
+
+def tgz(*members: tuple) -> bytes:
     buffer = io.BytesIO()
     with tarfile.open(fileobj=buffer, mode="w:gz") as tar:
-        for name, data in members.items():
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            tar.addfile(info, io.BytesIO(data))
+        for info, data in members:
+            tar.addfile(info, data)
     return buffer.getvalue()
 
 
+# Random bytes do not compress, so cutting the archive short cuts the compressed stream.
+INTACT = tgz(member(f"{NAME}/rgb.txt", random.Random(0).randbytes(50_000)))
+WRONG_CRC = INTACT[:-8] + bytes(byte ^ 0xFF for byte in INTACT[-8:-4]) + INTACT[-4:]
+
+
 @pytest.mark.parametrize("payload, message", [
-    (None, "download failed: HTTP 404"),
-    (b"this is not gzip", "not a readable .tgz archive"),
-    (_tgz({f"{NAME}/../../escaped.txt": b"x"}), "unsafe archive member"),
-    (_tgz({f"{NAME}/README": b"no listings here"}), "archive is not a TUM sequence"),
+    pytest.param(None, "download failed: HTTP 404 Not Found; check the mirror", id="missing"),
+    pytest.param(b"this is not gzip", "truncated or corrupt archive (Not a gzipped file", id="not-gzip"),
+    pytest.param(INTACT[:len(INTACT) // 2], "truncated or corrupt archive", id="truncated"),
+    pytest.param(WRONG_CRC, "truncated or corrupt archive (CRC check failed", id="corrupt"),
+    pytest.param(tgz(member(f"{NAME}/../../escaped.txt")), "unsafe archive member", id="dot-dot"),
+    pytest.param(tgz(member("/tmp/viewslam-absolute.txt")), "unsafe archive member", id="absolute"),
+    pytest.param(tgz(member(f"{NAME}/rgb.txt", kind=tarfile.SYMTYPE, link="../../escaped.txt")),
+                 "unsafe archive member", id="link-outside"),
+    pytest.param(tgz(member(f"{NAME}/tty", kind=tarfile.CHRTYPE)), "unsafe archive member", id="device"),
+    pytest.param(tgz(member(f"{NAME}/README", b"no listings here")), "archive is not a TUM sequence", id="not-tum"),
 ])
 def test_bad_downloads_exit_2_and_leave_nothing(mirror, tmp_path, capsys, payload, message):
-    root, url = mirror
     if payload is not None:
-        _served(root, payload)
+        serve(mirror, payload)
     dest = tmp_path / "dest"
-    assert download(dest, url) == 2
+    assert download(dest, mirror.url) == 2
     error = capsys.readouterr().err
-    assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {url}/freiburg1/{NAME}.tgz: ")
-    assert message in error
-    assert list(dest.iterdir()) == [] and not (tmp_path / "escaped.txt").exists()
+    assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {mirror.url}/freiburg1/{NAME}.tgz: ")
+    assert message in error and "Traceback" not in error
+    assert list(dest.iterdir()) == []  # neither a folder nor a .part to resume: a retry starts afresh
+    assert not (tmp_path / "escaped.txt").exists() and not Path("/tmp/viewslam-absolute.txt").exists()
 
 
-def test_unknown_name_and_refused_connection_are_input_errors(tmp_path, capsys):
-    assert main(["download", "fr9/nothing", "--dest", str(tmp_path), "--quiet"]) == 2
-    assert "fr9/nothing: unknown TUM sequence" in capsys.readouterr().err
-    assert download(tmp_path, "http://127.0.0.1:9") == 2  # the discard port: nothing listens
-    assert "download failed" in capsys.readouterr().err
+def test_unknown_name_suggests_close_names_before_downloading_anything(mirror, tmp_path, capsys):
+    assert main(["download", "fr1/xyz", "fr2/360_kidnapp", "--dest", str(tmp_path), "--mirror", mirror.url]) == 2
+    error = capsys.readouterr().err
+    assert error == "viewslam: error: fr2/360_kidnapp: unknown TUM sequence; did you mean fr2/360_kidnap? " \
+                    "`viewslam sequences` lists them all\n"
+    assert main(["download", "fr9/nothing", "--dest", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == \
+        "viewslam: error: fr9/nothing: unknown TUM sequence; `viewslam sequences` lists them all\n"
+    assert mirror.ranges == [] and list(tmp_path.glob("*xyz*")) == []
+
+
+def test_network_failure_says_what_to_retry(tmp_path, capsys):
+    with socket.socket() as probe:  # a port that was free a moment ago: nothing listens on it
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"http://127.0.0.1:{port}"
+    assert download(tmp_path, url) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {url}/freiburg1/{NAME}.tgz: download failed: ")
+    assert error.rstrip().endswith("; run the same `viewslam download` again")
+    assert list(tmp_path.iterdir()) == []
+
+
+def tum_excerpt(folder: Path, frames: int) -> Path:
+    """The first ``frames`` colour and depth images of the shared fr1/rpy excerpt, with its groundtruth."""
+    for listing in ("rgb.txt", "depth.txt"):
+        lines = (TUM_RPY / listing).read_text().splitlines()
+        header = [line for line in lines if line.startswith("#")]
+        kept = [line for line in lines if not line.startswith("#")][:frames]
+        (folder / listing.removesuffix(".txt")).mkdir(parents=True)
+        for line in kept:
+            shutil.copy(TUM_RPY / line.split()[1], folder / line.split()[1])
+        (folder / listing).write_text("\n".join(header + kept) + "\n")
+    shutil.copy(TUM_RPY / "groundtruth.txt", folder / "groundtruth.txt")
+    return folder
+
+
+@pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+def test_downloaded_sequence_can_be_recorded_by_name(mirror, tmp_path):
+    name = "rgbd_dataset_freiburg1_rpy"
+    serve(mirror, archive_of(tum_excerpt(tmp_path / "excerpt", frames=10), name), name)
+    assert main(["download", "fr1/rpy", "--mirror", mirror.url, "--quiet"]) == 0
+    out = tmp_path / "recordings" / "rpy.rrd"
+    assert main(["record", "fr1/rpy", "--pipeline", "rgbdslam", "--max-frames", "8", "--out", str(out), "--quiet"]) == 0
+    assert out.is_file() and out.with_suffix(".json").is_file()

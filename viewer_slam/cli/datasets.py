@@ -10,16 +10,21 @@ from .app import app
 @app.command()
 def download(
     names: list[str] = typer.Argument(..., help="TUM sequences, e.g. fr2/360_kidnap or rgbd_dataset_freiburg1_xyz."),
-    dest: Path = typer.Option(None, help="Folder to put the sequences in (default: the viewslam cache)."),
-    mirror: str = typer.Option(None, help="Base URL holding freiburgN/<name>.tgz (default: the TUM server)."),
+    dest: Path = typer.Option(None, help="Folder to put the sequences in (default: $VIEWSLAM_DATA, else the "
+                                         "viewslam cache)."),
+    mirror: str = typer.Option(None, help="Base URL holding freiburgN/<name>.tgz (default: $VIEWSLAM_TUM_MIRROR, "
+                                          "else the TUM server)."),
     force: bool = typer.Option(False, help="Download again even if the sequence is present."),
     quiet: bool = typer.Option(False, help="No progress bar."),
 ) -> None:
-    """Download TUM RGB-D sequences (verified, then moved into place)."""
-    from ..dataset.download import TUM_MIRROR, download_sequence
+    """Download TUM RGB-D sequences (resuming a partial download; verified, then moved into place)."""
+    from ..dataset.catalog import known_tum_sequence
+    from ..dataset.download import download_sequence
 
+    for name in names:  # every name is checked before anything is downloaded
+        known_tum_sequence(name)
     for name in names:
-        folder = download_sequence(name, dest, mirror or TUM_MIRROR, progress=not quiet, force=force)
+        folder = download_sequence(name, dest, mirror, progress=not quiet, force=force)
         typer.echo(f"{name}: {folder}")
 
 
@@ -31,9 +36,20 @@ def sequences() -> None:
     typer.echo("Synthetic scenarios (generated on first use):")
     for scenario in synthetic_scenarios():
         typer.echo(f"  {scenario}")
-    cache = tum_cache_dir()
-    typer.echo(f"TUM RGB-D sequences (downloads in {cache}):")
-    width = max(len(info.alias) for info in TUM_SEQUENCES)
+    folder = tum_cache_dir()
+    typer.echo(f"TUM RGB-D sequences (downloads in {folder}):")
+    alias_width = max(len(info.alias) for info in TUM_SEQUENCES)
+    name_width = max(len(info.name) for info in TUM_SEQUENCES)
     for info in TUM_SEQUENCES:
-        state = "downloaded" if (cache / info.name).is_dir() else ""
-        typer.echo(f"  {info.alias:<{width}}  {info.name:<52}  {info.category:<21}  {state}".rstrip())
+        groundtruth = "groundtruth" if info.groundtruth_public else "no-groundtruth"
+        typer.echo(f"  {info.alias:<{alias_width}}  {info.name:<{name_width}}  {info.category:<21}  "
+                   f"{groundtruth:<14}  {_state(folder, info.name)}".rstrip())
+
+
+def _state(folder: Path, name: str) -> str:
+    """``downloaded``, ``partial`` (an interrupted download that the next one resumes) or nothing."""
+    from ..dataset.download import partial_archive
+
+    if (folder / name).is_dir():
+        return "downloaded"
+    return "partial" if partial_archive(folder, name).is_file() else ""

@@ -3,9 +3,13 @@
 A SEQUENCE is, in order of precedence, an existing TUM folder, a synthetic scenario name
 (generated once into the cache), or a TUM RGB-D sequence name, either the official archive
 name (``rgbd_dataset_freiburg2_360_kidnap``) or its short form (``fr2/360_kidnap``),
-which must have been downloaded into the cache with ``viewslam download``.
+which must have been downloaded into the TUM folder (see :func:`tum_cache_dir`) with
+``viewslam download``.
 """
 
+import difflib
+import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +34,24 @@ _TUM_SEQUENCES = {
                               "freiburg2_flowerbouquet", "freiburg2_flowerbouquet_brownbackground",
                               "freiburg2_metallic_sphere", "freiburg2_metallic_sphere2", "freiburg3_cabinet",
                               "freiburg3_large_cabinet", "freiburg3_teddy"),
+    # Recorded like the others, but TUM keeps their groundtruth for its online evaluation.
+    "validation": ("freiburg1_xyz_validation", "freiburg1_rpy_validation", "freiburg1_desk_validation",
+                   "freiburg1_desk2_validation", "freiburg1_360_validation", "freiburg1_room_validation",
+                   "freiburg1_plant_validation", "freiburg2_xyz_validation", "freiburg2_rpy_validation",
+                   "freiburg2_360_hemisphere_validation", "freiburg2_360_kidnap_validation",
+                   "freiburg2_desk_validation", "freiburg2_desk_with_person_validation",
+                   "freiburg2_pioneer_360_validation", "freiburg3_cabinet_validation",
+                   "freiburg3_large_cabinet_validation", "freiburg3_long_office_household_validation",
+                   "freiburg3_nostructure_notexture_far_validation",
+                   "freiburg3_nostructure_notexture_near_withloop_validation",
+                   "freiburg3_nostructure_texture_far_validation",
+                   "freiburg3_nostructure_texture_near_withloop_validation",
+                   "freiburg3_structure_notexture_far_validation", "freiburg3_structure_notexture_near_validation",
+                   "freiburg3_structure_texture_far_validation", "freiburg3_structure_texture_near_validation",
+                   "freiburg3_sitting_static_validation", "freiburg3_sitting_xyz_validation",
+                   "freiburg3_sitting_halfsphere_validation", "freiburg3_sitting_rpy_validation",
+                   "freiburg3_walking_static_validation", "freiburg3_walking_xyz_validation",
+                   "freiburg3_walking_halfsphere_validation", "freiburg3_walking_rpy_validation"),
 }
 
 
@@ -55,25 +77,51 @@ class TumSequenceInfo:
         """Path of the archive below a mirror's base URL."""
         return f"{self.camera}/{self.name}.tgz"
 
+    @property
+    def groundtruth_public(self) -> bool:
+        """Whether the archive holds ``groundtruth.txt`` (all but the validation sequences)."""
+        return self.category != "validation"
+
 
 TUM_SEQUENCES: tuple[TumSequenceInfo, ...] = tuple(
     TumSequenceInfo(f"rgbd_dataset_{suffix}", category)
     for category, suffixes in _TUM_SEQUENCES.items() for suffix in suffixes
 )
 
-_BY_NAME = {info.name: info for info in TUM_SEQUENCES}
-_BY_ALIAS = {info.alias: info for info in TUM_SEQUENCES}
-_BY_SUFFIX = {info.name.removeprefix("rgbd_dataset_"): info for info in TUM_SEQUENCES}
+# Every accepted spelling: official name, short name, official name without its prefix.
+_BY_FORM = {form: info for info in TUM_SEQUENCES
+            for form in (info.name, info.alias, info.name.removeprefix("rgbd_dataset_"))}
 
 
 def tum_sequence(name: str) -> TumSequenceInfo | None:
     """The TUM sequence called ``name`` (official, ``fr2/360_kidnap`` or ``freiburg2_360_kidnap``)."""
-    return _BY_NAME.get(name) or _BY_ALIAS.get(name) or _BY_SUFFIX.get(name)
+    return _BY_FORM.get(name)
+
+
+def known_tum_sequence(name: str) -> TumSequenceInfo:
+    """:func:`tum_sequence`, but an unknown name is an InputError that suggests the likely intent."""
+    info = tum_sequence(name)
+    if info is None:
+        raise InputError(f"{name}: unknown TUM sequence; {_did_you_mean(name)}`viewslam sequences` lists them all")
+    return info
+
+
+def _did_you_mean(spec: str, others: Iterable[str] = ()) -> str:
+    """``"did you mean A or B? "`` naming up to three TUM short names (or ``others``) that
+    ``spec`` looks like a typo of; empty when nothing is close."""
+    forms = {form: info.alias for form, info in _BY_FORM.items()} | {name: name for name in others}
+    matches = difflib.get_close_matches(spec, forms, n=9, cutoff=0.75)
+    guesses = list(dict.fromkeys(forms[match] for match in matches))[:3]
+    return f"did you mean {' or '.join(guesses)}? " if guesses else ""
 
 
 def tum_cache_dir() -> Path:
-    """Where ``viewslam download`` puts TUM sequences by default."""
-    return cache_dir("tum")
+    """Where ``viewslam download`` puts TUM sequences and where names are looked up.
+
+    ``$VIEWSLAM_DATA`` when set (e.g. a shared data disk), else ``tum`` in the viewslam cache.
+    """
+    data = os.environ.get("VIEWSLAM_DATA")
+    return Path(data).expanduser() if data else cache_dir("tum")
 
 
 def synthetic_scenarios() -> tuple[str, ...]:
@@ -104,6 +152,6 @@ def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[
             return folder
         raise InputError(f"{spec}: TUM sequence not downloaded; run `viewslam download {info.alias}`")
     raise InputError(
-        f"{spec}: not a folder, synthetic scenario or TUM sequence; scenarios: {', '.join(scenarios)}; "
-        f"TUM sequences: {', '.join(info.alias for info in TUM_SEQUENCES)} (see `viewslam sequences`)"
+        f"{spec}: not a folder, synthetic scenario or TUM sequence; {_did_you_mean(spec, scenarios)}"
+        f"scenarios: {', '.join(scenarios)}; `viewslam sequences` lists the {len(TUM_SEQUENCES)} TUM sequences"
     )

@@ -1,98 +1,210 @@
-"""Fetch TUM RGB-D sequences: stream the archive, extract it safely, verify, then publish.
+"""Fetch TUM RGB-D sequences: download (resumably), check, extract safely, verify, publish.
 
-The sequence folder appears in its destination only once it is complete and opens as a
-TUM sequence (an interrupted or corrupt download leaves nothing behind), because it is
-extracted into a temporary folder beside the destination and renamed into place.
+The archive is downloaded into ``<dest>/.<name>.tgz.part``, which survives an interrupted
+transfer so that the next call asks only for the missing bytes (HTTP Range). The sequence
+folder appears in ``dest`` only once it is complete and opens as a TUM sequence, because
+it is extracted into a temporary folder beside it and renamed into place. The ``.part``
+is removed once the sequence is in place, or as soon as the archive proves unusable, so
+that a retry starts from a clean download.
 """
 
+import gzip
+import http.client
+import os
+import re
 import shutil
 import tarfile
 import tempfile
 import urllib.error
 import urllib.request
-from pathlib import Path
+import zlib
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
 
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
 from ..errors import InputError
-from .catalog import TumSequenceInfo, tum_cache_dir, tum_sequence
+from .catalog import TumSequenceInfo, known_tum_sequence, tum_cache_dir
 
 TUM_MIRROR = "https://cvg.cit.tum.de/rgbd/dataset"
 CHUNK_BYTES = 1 << 20
+TIMEOUT_S = 60
+RETRY = "run the same `viewslam download` again"
 
 
-def archive_url(info: TumSequenceInfo, mirror: str = TUM_MIRROR) -> str:
-    return f"{mirror.rstrip('/')}/{info.archive}"
+class BadArchive(InputError):
+    """The downloaded archive is unusable (corrupt, unsafe, not a sequence): its ``.part`` is
+    discarded, so that a retry downloads it afresh instead of resuming a bad file."""
 
 
-def download_sequence(name: str, dest: Path | None = None, mirror: str = TUM_MIRROR, *,
+@dataclass
+class _Transfer:
+    """An open response delivering the archive from byte ``start`` of ``total`` (None: unknown)."""
+
+    response: http.client.HTTPResponse
+    start: int
+    total: int | None
+
+
+def default_mirror() -> str:
+    """``$VIEWSLAM_TUM_MIRROR`` (a local copy of TUM's server), else TUM's server."""
+    return os.environ.get("VIEWSLAM_TUM_MIRROR") or TUM_MIRROR
+
+
+def archive_url(info: TumSequenceInfo, mirror: str | None = None) -> str:
+    """The archive's URL below ``mirror`` (default: :func:`default_mirror`)."""
+    return f"{(mirror or default_mirror()).rstrip('/')}/{info.archive}"
+
+
+def partial_archive(dest: Path, name: str) -> Path:
+    """Where the archive of the sequence officially called ``name`` accumulates in ``dest``
+    until it is extracted."""
+    return Path(dest) / f".{name}.tgz.part"
+
+
+def download_sequence(name: str, dest: Path | None = None, mirror: str | None = None, *,
                       progress: bool = True, force: bool = False) -> Path:
-    """Download the TUM sequence ``name`` into ``dest`` (default: the cache) and return its folder.
+    """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its folder.
 
-    An already present folder is returned as it is unless ``force``.
+    An already present folder is returned as it is unless ``force``; ``mirror`` defaults to
+    :func:`default_mirror`.
     """
-    info = tum_sequence(name)
-    if info is None:
-        raise InputError(f"{name}: unknown TUM sequence; run `viewslam sequences` for the list")
+    info = known_tum_sequence(name)
     dest = Path(dest) if dest is not None else tum_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
     target = dest / info.name
     if target.is_dir() and not force:
         return target
     url = archive_url(info, mirror)
-    with tempfile.TemporaryDirectory(dir=dest, prefix=f".{info.name}.") as scratch:
-        archive = Path(scratch) / f"{info.name}.tgz"
-        _fetch(url, archive, progress)
-        folder = _extract(archive, Path(scratch) / "extracted", url)
-        _verify(folder, url)
-        if target.exists():
-            shutil.rmtree(target)
-        folder.rename(target)
+    part = partial_archive(dest, info.name)
+    _fetch(url, part, progress)
+    try:
+        _install(part, target, url)
+    except BadArchive:
+        part.unlink(missing_ok=True)
+        raise
+    part.unlink()
     return target
 
 
-def _fetch(url: str, path: Path, progress: bool) -> None:
-    """Stream ``url`` into ``path`` with a progress bar; HTTP and network errors become InputError."""
+def _fetch(url: str, part: Path, progress: bool) -> None:
+    """Complete ``part`` from ``url``; transfer failures keep what arrived and say how to resume."""
     try:
-        with urllib.request.urlopen(url, timeout=60) as response, open(path, "wb") as out:
-            total = int(response.headers.get("Content-Length") or 0) or None
-            columns = (TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
-                       TimeRemainingColumn())
-            with Progress(*columns, disable=not progress, transient=True) as bar:
-                task = bar.add_task(Path(url).name, total=total)
-                while chunk := response.read(CHUNK_BYTES):
-                    out.write(chunk)
-                    bar.advance(task, len(chunk))
+        transfer = _open_from(url, part.stat().st_size if part.exists() else 0)
+        if transfer is not None:
+            with transfer.response:
+                _receive(transfer, part, progress)
     except urllib.error.HTTPError as error:
-        raise InputError(f"{url}: download failed: HTTP {error.code} {error.reason}") from None
-    except (urllib.error.URLError, OSError) as error:
-        reason = getattr(error, "reason", error)
-        raise InputError(f"{url}: download failed: {reason}") from None
+        advice = "check the mirror (--mirror, VIEWSLAM_TUM_MIRROR)" if error.code < 500 else f"{RETRY} later"
+        raise InputError(f"{url}: download failed: HTTP {error.code} {error.reason}; {advice}") from None
+    except (urllib.error.URLError, http.client.HTTPException, OSError) as error:
+        reason = " ".join(str(getattr(error, "reason", error)).split()) or type(error).__name__
+        kept = part.stat().st_size if part.exists() else 0
+        resume = f" to resume from the {kept:,} bytes in {part}" if kept else ""
+        raise InputError(f"{url}: download failed: {reason}; {RETRY}{resume}") from None
+
+
+def _open_from(url: str, offset: int) -> _Transfer | None:
+    """Request the archive from byte ``offset`` on; None when ``offset`` bytes are already all of it.
+
+    A server that ignores Range answers 200 with the whole file (start 0); one that finds
+    ``offset`` past the end answers 416, and a ``.part`` longer than the archive is stale,
+    so the download starts over.
+    """
+    headers = {"Range": f"bytes={offset}-"} if offset else {}
+    try:
+        response = urllib.request.urlopen(urllib.request.Request(url, headers=headers), timeout=TIMEOUT_S)
+    except urllib.error.HTTPError as error:
+        if error.code != 416 or not offset:
+            raise
+        if _content_range(error.headers.get("Content-Range"))[1] == offset:
+            return None
+        return _open_from(url, 0)
+    if offset and response.status == 206:
+        start, total = _content_range(response.headers.get("Content-Range"))
+        if start == offset:
+            return _Transfer(response, start, total)
+        response.close()
+        return _open_from(url, 0)
+    length = response.headers.get("Content-Length")
+    return _Transfer(response, 0, int(length) if length and length.isdigit() else None)
+
+
+def _content_range(header: str | None) -> tuple[int | None, int | None]:
+    """``(first byte, total size)`` of ``bytes 100-199/1000`` or ``bytes */1000``; None where absent."""
+    match = re.fullmatch(r"bytes (?:(\d+)-\d+|\*)/(\d+|\*)", (header or "").strip())
+    if match is None:
+        return None, None
+    first, total = match.groups()
+    return (int(first) if first else None), (int(total) if total != "*" else None)
+
+
+def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
+    """Write the response's body to ``part`` (appended to its first ``start`` bytes) with a progress bar."""
+    columns = (TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
+               TimeRemainingColumn())
+    received = transfer.start
+    with open(part, "ab" if transfer.start else "wb") as out, \
+            Progress(*columns, disable=not progress, transient=True) as bar:
+        task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
+        while chunk := transfer.response.read(CHUNK_BYTES):
+            out.write(chunk)
+            received += len(chunk)
+            bar.update(task, completed=received)
+    if transfer.total is not None and received < transfer.total:
+        raise ConnectionError(f"connection closed after {received:,} of {transfer.total:,} bytes")
+
+
+def _install(archive: Path, target: Path, url: str) -> None:
+    """Extract ``archive`` beside ``target``, verify it, and only then move it to ``target``."""
+    with tempfile.TemporaryDirectory(dir=target.parent, prefix=f".{target.name}.") as scratch:
+        folder = _extract(archive, Path(scratch), url)
+        _verify(folder, Path(scratch), url)
+        if target.exists():
+            shutil.rmtree(target)
+        folder.rename(target)
 
 
 def _extract(archive: Path, into: Path, url: str) -> Path:
-    """Extract with tarfile's ``data`` filter (no absolute paths, no escaping links or ``..``).
+    """Extract a gzip-compressed tar, refusing unsafe members, and check the gzip CRC to the end.
 
     Returns the sequence folder: the archive's single top-level folder, or ``into`` itself
-    when the files sit at the top level.
+    when the files sit at the top level. Failures writing to disk are plain InputErrors (the
+    archive may be fine); everything else means the archive is unusable.
     """
     try:
-        with tarfile.open(archive, "r:gz") as tar:
-            tar.extractall(into, filter="data")
+        with gzip.open(archive) as stream:
+            with tarfile.open(fileobj=stream, mode="r:") as tar:
+                tar.extractall(into, filter=_safe_member)
+            while stream.read(CHUNK_BYTES):  # tar stops at its end marker; gzip checks its CRC at EOF
+                pass
     except tarfile.FilterError as error:
-        raise InputError(f"{url}: unsafe archive member: {error}") from None
-    except (tarfile.TarError, EOFError, OSError) as error:
-        raise InputError(f"{url}: not a readable .tgz archive: {' '.join(str(error).split())}") from None
+        raise BadArchive(f"{url}: unsafe archive member: {error}") from None
+    except (tarfile.TarError, gzip.BadGzipFile, EOFError, zlib.error) as error:
+        detail = " ".join(str(error).split()) or type(error).__name__
+        raise BadArchive(f"{url}: truncated or corrupt archive ({detail}); {RETRY} to download it afresh") from None
+    except OSError as error:
+        raise InputError(f"{url}: cannot extract into {into}: {error}") from None
     entries = list(into.iterdir())
     if len(entries) == 1 and entries[0].is_dir():
         return entries[0]
     return into
 
 
-def _verify(folder: Path, url: str) -> None:
+def _safe_member(member: tarfile.TarInfo, dest: str) -> tarfile.TarInfo:
+    """tarfile's ``data`` filter (no ``..`` escapes, no links leaving ``dest``, no device files),
+    except that an absolute name is refused rather than made relative: a TUM archive has none."""
+    if PurePosixPath(member.name).is_absolute():
+        raise tarfile.AbsolutePathError(member)
+    return tarfile.data_filter(member, dest)
+
+
+def _verify(folder: Path, scratch: Path, url: str) -> None:
+    """Open the extracted folder as a TUM sequence; the problem names files as in the archive."""
     from .tum import open_sequence
 
     try:
         open_sequence(folder)
     except InputError as error:
-        raise InputError(f"{url}: archive is not a TUM sequence ({error})") from None
+        problem = str(error).replace(str(scratch), "<archive>")
+        raise BadArchive(f"{url}: archive is not a TUM sequence ({problem})") from None
