@@ -120,6 +120,25 @@ def test_frames_are_lazy_with_stride_and_limit(tmp_path):
     assert [float(frame.depth[0, 0]) for frame in chosen] == [1.0, 3.0, 5.0]
 
 
+def test_reading_ahead_keeps_the_order_raises_in_place_and_stops_with_the_consumer(tmp_path):
+    folder = make_sequence(tmp_path / "seq", frames=8, camera=Camera(30, 30, 16, 12, 32, 24))
+    sequence = open_sequence(folder)
+    read = []
+    frame = sequence.frame
+    sequence.frame = lambda index: read.append(index) or frame(index)
+    first_two = sequence.frames()
+    assert [next(first_two).index, next(first_two).index] == [0, 1]
+    first_two.close()
+    assert read[:2] == [0, 1] and set(read) <= {0, 1, 2, 3}  # at most READ_AHEAD_FRAMES beyond the consumer
+    broken = sorted((folder / "rgb").iterdir())[5]
+    broken.write_bytes(b"not a png")
+    indices = []
+    with pytest.raises(InputError, match=broken.name):
+        for item in sequence.frames():
+            indices.append(item.index)
+    assert indices == [0, 1, 2, 3, 4]
+
+
 def test_camera_json_wins_then_the_folder_name_then_the_ros_default(tmp_path, caplog):
     own = Camera(30.0, 31.0, 16.0, 12.0, 32, 24, depth_factor=1000.0)
     assert open_sequence(make_sequence(tmp_path / "freiburg1_with_json", camera=own)).camera == own

@@ -1,12 +1,16 @@
 """TUM RGB-D sequence folders: rgb.txt, depth.txt, groundtruth.txt, accelerometer.txt.
 
 Colour and depth images are associated as TUM's ``associate.py rgb.txt depth.txt`` does
-(greedy one-to-one, 0.02 s). Frames are read lazily, one at a time, from the PNG files.
+(greedy one-to-one, 0.02 s). Frames are read lazily from the PNG files, a few frames ahead
+of the consumer on a background thread (PNG decoding releases the GIL), so decoding
+overlaps with the processing of the frames before.
 """
 
 import logging
 import re
+from collections import deque
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +27,7 @@ from .frame import Frame
 log = logging.getLogger(__name__)
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
+READ_AHEAD_FRAMES = 2
 
 # Published with the dataset (cvg.cit.tum.de/data/datasets/rgbd-dataset/file_formats).
 FREIBURG_CAMERAS = {
@@ -99,8 +104,18 @@ class TumSequence:
         if stride < 1:
             raise ValueError(f"stride must be at least 1, got {stride}")
         indices = range(0, len(self), stride)
-        for index in indices if max_frames is None else indices[:max_frames]:
-            yield self.frame(index)
+        pending: deque = deque()
+        with ThreadPoolExecutor(1, thread_name_prefix="tum-reader") as reader:
+            try:
+                for index in indices if max_frames is None else indices[:max_frames]:
+                    pending.append(reader.submit(self.frame, index))
+                    if len(pending) > READ_AHEAD_FRAMES:
+                        yield pending.popleft().result()
+                while pending:
+                    yield pending.popleft().result()
+            finally:
+                for future in pending:
+                    future.cancel()
 
     def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""

@@ -189,15 +189,11 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     """
     if len(query) == 0 or len(train) < 2:
         return np.zeros(0, int), np.zeros(0, int)
-    matcher = cv2.BFMatcher(cv2.NORM_HAMMING if binary else cv2.NORM_L2)
-    pairs = matcher.knnMatch(query, train, k=2)
-    q, t, d = [], [], []
-    for pair in pairs:
-        if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance:
-            q.append(pair[0].queryIdx)
-            t.append(pair[0].trainIdx)
-            d.append(pair[0].distance)
-    q, t, d = np.array(q, int), np.array(t, int), np.array(d)
+    # batchDistance gives the two nearest neighbours as arrays (knnMatch's exact results,
+    # without a Python object per match) and releases the GIL while it searches.
+    distance, nearest = cv2.batchDistance(query, train, -1, normType=cv2.NORM_HAMMING if binary else cv2.NORM_L2, K=2)
+    q = np.flatnonzero(distance[:, 0] < ratio * distance[:, 1])
+    t, d = nearest[q, 0].astype(int), distance[q, 0]
     best_first = np.argsort(d, kind="stable")
     _, unique = np.unique(t[best_first], return_index=True)
     keep = np.sort(best_first[unique])

@@ -5,9 +5,14 @@ transformations. A frame that moved far enough from its node becomes a new node:
 also compared with graph neighbours and randomly sampled nodes (loop closures), gets an
 edge per successful comparison, and the graph is optimised. Other frames keep their pose
 relative to their node, so loop closures move them along with it.
+
+The comparisons of one frame are independent, so they run on two threads (OpenCV's
+matcher and most of numpy release the GIL); each draws its RANSAC samples from a
+generator seeded by (seed, frame, node), so the result does not depend on the scheduling.
 """
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
@@ -37,6 +42,9 @@ THUMBNAIL_WIDTH = 160
 MAX_MAP_POINTS = 200_000
 # On a graph of N nodes the online optimisation runs at most every N * this many nodes.
 ONLINE_OPTIMISATION_SPACING = 0.05
+COMPARISON_THREADS = 2
+# Stands for the lost chain's frame in the seed of a comparison (node ids are >= 0).
+LOST_CHAIN = -1
 
 
 @dataclass
@@ -76,7 +84,10 @@ class Stopwatch:
         self._start = time.perf_counter()
 
     def __exit__(self, *_) -> None:
-        self.ms[self._stage] = self.ms.get(self._stage, 0.0) + (time.perf_counter() - self._start) * 1000.0
+        self.add(self._stage, (time.perf_counter() - self._start) * 1000.0)
+
+    def add(self, stage: str, ms: float) -> None:
+        self.ms[stage] = self.ms.get(stage, 0.0) + ms
 
 
 def best_attempt(attempts: list[Attempt]) -> Attempt | None:
@@ -115,6 +126,7 @@ class RgbdSlam(Pipeline):
         self.lost_chain_length = 0
         self.nodes_since_optimisation = 0
         self.loop_closed_since_optimisation = False
+        self.comparisons = ThreadPoolExecutor(COMPARISON_THREADS, thread_name_prefix="rgbdslam-comparison")
 
     # ------------------------------------------------------------------ frames
     def process(self, frame: Frame) -> list[Event]:
@@ -133,9 +145,9 @@ class RgbdSlam(Pipeline):
         # Only nodes get edges, so a frame that stays near the newest node needs no other
         # comparison; the other predecessors are compared when it may become a node.
         newest, *older = predecessors(self.node_order, self.params.predecessor_candidates)
-        attempts = self._compare(measured, [(newest, PREDECESSOR)], watch)
+        attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch)
         if attempts[0].motion is None or self._moved_enough(attempts[0].motion.transform):
-            attempts += self._compare(measured, [(n, PREDECESSOR) for n in older], watch)
+            attempts += self._compare(frame, measured, [(n, PREDECESSOR) for n in older], watch)
         best = best_attempt(attempts)
         if best is not None and not self._moved_enough(best.motion.transform):
             status = self._recover(frame, best, events)
@@ -145,7 +157,7 @@ class RgbdSlam(Pipeline):
         others = loop_candidates(self.node_order, self.adjacency, self.node_order[-1], {a.node_id for a in attempts},
                                  self.params.neighbor_candidates, self.params.min_sampled_candidates,
                                  self.params.geodesic_depth, self.rng)
-        attempts += self._compare(measured, others, watch)
+        attempts += self._compare(frame, measured, others, watch)
         new_node = self._add_node(frame, measured, attempts, events, watch)
         if new_node is None:
             return self._lost_or_new_segment(frame, features, measured, attempts, events, watch)
@@ -153,17 +165,29 @@ class RgbdSlam(Pipeline):
         status = self._recover(frame, best, events)
         return self._report(frame, features, best, attempts, events, watch, status)
 
-    def _compare(self, measured: MeasuredFeatures, candidates: list[tuple[int, str]], watch: Stopwatch) -> list[Attempt]:
-        return [Attempt(node_id, kind, *self._register(measured, self.nodes[node_id].measured, watch))
-                for node_id, kind in candidates]
+    def _compare(self, frame: Frame, measured: MeasuredFeatures, candidates: list[tuple[int, str]],
+                 watch: Stopwatch) -> list[Attempt]:
+        """Register the frame with each candidate node, in parallel; stage times are summed."""
+        def register(node_id: int) -> tuple[int, Motion | None, str, Stopwatch]:
+            own = Stopwatch()
+            return *self._register(frame, measured, node_id, self.nodes[node_id].measured, own), own
 
-    def _register(self, measured: MeasuredFeatures, reference: MeasuredFeatures,
+        attempts = []
+        for (node_id, kind), (matches, motion, reason, own) in zip(
+                candidates, self.comparisons.map(register, [node_id for node_id, _ in candidates])):
+            for stage, ms in own.ms.items():
+                watch.add(stage, ms)
+            attempts.append(Attempt(node_id, kind, matches, motion, reason))
+        return attempts
+
+    def _register(self, frame: Frame, measured: MeasuredFeatures, reference_id: int, reference: MeasuredFeatures,
                   watch: Stopwatch) -> tuple[int, Motion | None, str]:
         """Match two keypoint sets and estimate their motion: (matches, motion or None, reason)."""
         with watch("matching"):
             matches = match(measured, reference, self.params.nn_distance_ratio)
         with watch("ransac"):
-            motion, reason = estimate_motion(measured, reference, matches, self.params, self.rng)
+            rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
+            motion, reason = estimate_motion(measured, reference, matches, self.params, rng)
         return len(matches[0]), motion, reason
 
     def _moved_enough(self, node_from_frame: np.ndarray) -> bool:
@@ -215,7 +239,8 @@ class RgbdSlam(Pipeline):
                              attempts: list[Attempt], events: list[Event], watch: Stopwatch) -> list[Event]:
         """No node matched. If the last few lost frames match each other, the camera is
         tracking a place the map does not hold: start a new segment there."""
-        chained = self.lost_chain is not None and self._register(measured, self.lost_chain, watch)[1] is not None
+        chained = (self.lost_chain is not None
+                   and self._register(frame, measured, LOST_CHAIN, self.lost_chain, watch)[1] is not None)
         self.lost_chain = measured
         self.lost_chain_length = self.lost_chain_length + 1 if chained else 1
         if self.lost_chain_length < self.params.segment_after_lost_frames or not self.tracked:
@@ -347,6 +372,7 @@ class RgbdSlam(Pipeline):
 
     # ------------------------------------------------------------------ end of run
     def finish(self) -> list[Event]:
+        self.comparisons.shutdown()
         events: list[Event] = []
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
         if self.nodes:
