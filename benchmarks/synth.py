@@ -4,14 +4,15 @@
         [--scenarios NAME ...] [--workers 2] [--sheet docs/images/scenarios_contact_sheet.png] [--no-speed]
         [--stages SCENARIO]
 
-For each scenario: the time to build the scene (textures, atlas; measured as a 2-frame
-run, which starts the same worker processes), and the steady frame rate of a longer run
-(rendering, sensor model, PNG encoding), as medians over ``--repeats`` runs, in wall-clock
-time and in CPU time per frame (all threads of the process and of its workers). The
+For each scenario: the steady frame rate (rendering, sensor model, PNG encoding), from the
+difference between a run of ``--frames`` and one of half as many (both start the same
+worker processes), in wall-clock time and in CPU time per frame (all threads of the process
+and of its workers); the set-up time (imports and scene in the workers) as the rest of the
+longer run; medians over ``--repeats`` runs. The
 machine's load average is printed with the figures: on a shared machine the wall-clock
 rate reflects the share of the cores the run got, while 2 / (CPU seconds per frame) is the
 rate two idle cores would give at best. ``--stages`` splits the CPU time of one
-scenario's frames by stage (in-process).
+scenario's frames by stage (in-process, on one thread as a worker runs).
 """
 
 import argparse
@@ -65,21 +66,28 @@ def contact_sheet(names, out: Path, resolution, fractions=(0.2, 0.5, 0.8), tile_
 
 
 def measure_speed(names, frames: int, resolution, repeats: int, workers: int) -> None:
+    """Per scenario: runs of ``frames`` and of half as many; the difference is steady rendering.
+
+    Both runs start the same workers, and this process renders from the start while they
+    import and build the scene, so only the difference between the runs isolates the steady
+    rate; set-up is the rest of the longer run's time.
+    """
     print(f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}, "
           f"{workers} worker(s)")
     print(f"{'scenario':40s} {'setup s':>8s} {'frames/s':>9s} {'CPU s/frame':>12s} {'overall frames/s':>17s}")
-    rates, cpu_per_frame = [], []
+    rates, cpu_per_frame, short = [], [], max(2, frames // 2)
     with tempfile.TemporaryDirectory() as scratch:
         for name in names:
-            setup = [timed_run(name, 2, resolution, Path(scratch) / "setup", workers) for _ in range(repeats)]
+            half = [timed_run(name, short, resolution, Path(scratch) / "half", workers) for _ in range(repeats)]
             total = [timed_run(name, frames, resolution, Path(scratch) / name, workers) for _ in range(repeats)]
-            (setup_wall, setup_cpu), (total_wall, total_cpu) = (
-                tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (setup, total))
-            steady = (frames - 2) / max(total_wall - setup_wall, 1e-9)
-            cpu = (total_cpu - setup_cpu) / (frames - 2)
+            (half_wall, half_cpu), (total_wall, total_cpu) = (
+                tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (half, total))
+            steady = (frames - short) / max(total_wall - half_wall, 1e-9)
+            cpu = (total_cpu - half_cpu) / (frames - short)
+            setup = max(total_wall - frames / steady, 0.0)
             rates.append(steady)
             cpu_per_frame.append(cpu)
-            print(f"{name:40s} {setup_wall:8.2f} {steady:9.1f} {cpu:12.3f} {frames / total_wall:17.1f}", flush=True)
+            print(f"{name:40s} {setup:8.2f} {steady:9.1f} {cpu:12.3f} {frames / total_wall:17.1f}", flush=True)
     cpu = statistics.median(cpu_per_frame)
     print(f"median steady frames/s: {statistics.median(rates):.1f}; median CPU s/frame: {cpu:.3f} "
           f"(two idle cores: at most {2 / cpu:.1f} frames/s); load average after: {os.getloadavg()[0]:.2f}")
@@ -93,13 +101,15 @@ def timed(totals: dict[str, float], stage: str):
 
 
 def stage_profile(name: str, resolution, frames: int = 12) -> None:
-    """CPU milliseconds per frame of each stage, over frames of a default-length run."""
+    """CPU milliseconds per frame of each stage, over frames of a default-length run, on one
+    thread as a rendering worker runs them."""
     from viewer_slam.dataset.synth import writer
     from viewer_slam.dataset.synth.generate import _Run, _scenario, camera_model
     from viewer_slam.dataset.synth.sensor import motion_blur
 
+    cv2.setNumThreads(1)
     scenario = _scenario(name)
-    run = _Run(scenario, scenario.default_frames, camera_model("fr3", resolution), seed=0)
+    run = _Run(scenario, scenario.default_frames, camera_model("fr3", resolution), seed=0, threads=1)
     plan, renderer, sensor, camera = run.plan, run.renderer, run.sensor, run.camera
     totals: dict[str, float] = {}
     for i in np.flatnonzero(~run.covered)[:frames]:
@@ -109,9 +119,9 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
         with timed(totals, "ray casting"):
             hits = renderer.cast(poses[0], t)
         with timed(totals, "texture lookup and shading"):
-            ideal = renderer.shade(hits)
+            ideal = renderer.shade(hits, poses[0], t)
         with timed(totals, "motion blur"):
-            ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
+            ideal = motion_blur(ideal, hits.grid_points, hits.grid_hit, camera, poses[1], poses[2])
         with timed(totals, "colour noise"):
             rgb = sensor.colour(rng, ideal)
         with timed(totals, "depth cast and upsampling"):

@@ -2,13 +2,14 @@
 
 Randomness comes from independent streams of one seed (scene, timing, ground-truth noise,
 and one per frame for the sensor), so the output is byte-identical for the same arguments
-whatever the process that renders them. Long runs are rendered by a pool of worker
-processes, each building the scene once from the seed and rendering and encoding whole
-frames; the parent writes the PNGs in frame order. Short runs stay in-process (starting a
-worker costs about as much as building the scene), with PNGs encoded on a thread while the
-next frame renders (OpenCV's encoder releases the GIL).
+whatever the process that renders them. Long runs are rendered by this process together
+with a pool of worker processes, each building the scene once from the seed and rendering
+and encoding whole frames; this process writes the PNGs in frame order. Short runs stay
+in-process (starting a worker costs more than rendering them), with PNGs encoded on a
+thread while the next frame renders (OpenCV's encoder releases the GIL).
 """
 
+import contextlib
 import functools
 import json
 import multiprocessing
@@ -33,7 +34,7 @@ from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
 
 # Bump whenever the output for the same arguments changes: cached folders carry it in their name.
-GENERATOR_VERSION = 3
+GENERATOR_VERSION = 4
 
 SCENARIOS = tuple(SCENARIOS_BY_NAME)
 
@@ -45,8 +46,9 @@ CAMERAS = {
 }
 
 _SCENE, _TIMING, _GROUNDTRUTH, _SENSOR = range(4)  # seed streams
-# Below this many pixels in a run (about 30 frames at 640x480), worker start-up outweighs the gain.
-_POOL_MIN_PIXELS = 30 * 640 * 480
+# Below this many pixels in a run (60 frames at 640x480), worker start-up (about 3 CPU seconds:
+# imports and the scene) outweighs the gain.
+_POOL_MIN_PIXELS = 60 * 640 * 480
 _WRITTEN = ("rgb", "depth", "rgb.txt", "depth.txt", "groundtruth.txt", "camera.json", "scenario.json")
 
 
@@ -82,8 +84,9 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
                       seed: int = 0, camera: str = "fr3", force: bool = False, workers: int | None = None) -> Path:
     """Render scenario ``name`` into the TUM folder ``out_dir`` and return it.
 
-    ``workers`` processes render the frames (at most one per frame; 1 renders in-process);
-    by default one per CPU, or none for a short run. The files do not depend on it.
+    ``workers`` processes render the frames: this one and ``workers - 1`` spawned ones (at
+    most one per frame); by default one per CPU, or only this one for a short run. The files
+    do not depend on it.
 
     An existing non-empty ``out_dir`` is refused unless ``force``; then only what the
     generator writes is replaced. The folder is assembled beside ``out_dir`` and moved into
@@ -103,7 +106,8 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
-        _Run(scenario, frames, cam, seed).write(staging, camera, workers)
+        # Embree on one thread when workers share the cores (its hits do not depend on it).
+        _Run(scenario, frames, cam, seed, threads=1 if workers > 1 else 0).write(staging, camera, workers)
         if out.is_dir():
             for entry in _WRITTEN:
                 target = out / entry
@@ -187,7 +191,7 @@ class _Run:
         poses = plan.path.poses([t_colour, t_colour - half, t_colour + half, t_depth])
         ideal, hits = self.renderer.colour(poses[0], t_colour)
         if plan.exposure > 0:
-            ideal = motion_blur(ideal, hits.points, hits.triangle >= 0, camera, poses[1], poses[2])
+            ideal = motion_blur(ideal, hits.grid_points, hits.grid_hit, camera, poses[1], poses[2])
         rgb = self.sensor.colour(rng, ideal)
         depth, cos_incidence = self.renderer.depth(poses[3], t_depth)
         return rgb, self.sensor.depth(rng, depth, cos_incidence)
@@ -201,9 +205,28 @@ class _Run:
             yield from self._encoded_in_process()
             return
         # Spawned, not forked: a fork would inherit OpenCV's and Embree's thread pools mid-state.
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_start_worker,
-                                 initargs=(self.scenario.name, self.frames, self.camera, self.seed)) as pool:
-            yield from pool.map(_worker_frame, range(self.frames))
+        with (_one_opencv_thread(),
+              ProcessPoolExecutor(workers - 1, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=_start_worker,
+                                  initargs=(self.scenario.name, self.frames, self.camera, self.seed)) as pool):
+            yield from self._encoded_with(pool, workers - 1)
+
+    def _encoded_with(self, pool: ProcessPoolExecutor, size: int):
+        """Frames from the pool's ``size`` processes and from this one, which renders the next
+        frame not yet handed out whenever the frame due is not ready: it works from the start,
+        while the workers still import and build the scene, and takes over when they lag."""
+        queued, ready, handed = {}, {}, 0
+        for i in range(self.frames):
+            while i not in ready:
+                while handed < self.frames and sum(not f.done() for f in queued.values()) < 2 * size:
+                    queued[handed] = pool.submit(_worker_frame, handed)
+                    handed += 1
+                if i in queued and (queued[i].done() or handed == self.frames):
+                    ready[i] = queued.pop(i).result()
+                else:
+                    ready[handed] = self.encoded_frame(handed)
+                    handed += 1
+            yield ready.pop(i)
 
     def _encoded_in_process(self):
         with ThreadPoolExecutor(max_workers=2) as pool:
@@ -241,6 +264,17 @@ class _Run:
 
 
 _worker_run: _Run | None = None  # the run a pool worker renders frames of
+
+
+@contextlib.contextmanager
+def _one_opencv_thread():
+    """OpenCV on one thread while this process renders beside its workers (restored after)."""
+    threads = cv2.getNumThreads()
+    cv2.setNumThreads(1)
+    try:
+        yield
+    finally:
+        cv2.setNumThreads(threads)
 
 
 def _start_worker(name: str, frames: int, camera: Camera, seed: int) -> None:

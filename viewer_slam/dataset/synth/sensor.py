@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.special import ndtri
 
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert
@@ -41,14 +42,20 @@ class KinectModel:
         h, w = ideal.shape
         valid = (ideal >= self.min_range) & (ideal <= self.max_range)
         disparity = BASELINE_FOCAL / np.where(valid, ideal, np.float32(1.0))
-        drift = cv2.resize(rng.standard_normal((h // 16 + 1, w // 16 + 1), np.float32), (w, h),
-                           interpolation=cv2.INTER_LINEAR)
-        noise = self.disparity_noise * rng.standard_normal((h, w), np.float32) + self.disparity_drift * drift
-        disparity = np.round((disparity + noise) / self.disparity_step) * self.disparity_step
-        valid &= disparity > 0
-        grazing = cos_incidence < self.grazing_cos * (1.0 + rng.random((h, w), np.float32))
-        valid &= ~grazing & ~self._edge_shadow(rng, ideal) & (rng.random((h, w), np.float32) >= self.dropout)
-        return np.where(valid, BASELINE_FOCAL / np.where(valid, disparity, 1.0), 0.0).astype(np.float32)
+        drift = cv2.resize(gaussian_noise(rng, (h // 16 + 1, w // 16 + 1)), (w, h), interpolation=cv2.INTER_LINEAR)
+        disparity += np.float32(self.disparity_noise) * gaussian_noise(rng, (h, w))
+        disparity += np.float32(self.disparity_drift) * drift
+        steps = np.rint(disparity * np.float32(1.0 / self.disparity_step))  # quantised, in whole steps
+        valid &= steps > 0
+        lost = valid.ravel()  # a view: clearing it clears valid
+        # Random draws only where they can matter: near-grazing pixels, and the few dropouts.
+        maybe = np.flatnonzero(cos_incidence.ravel() < 2 * self.grazing_cos)
+        chance = self.grazing_cos * (1.0 + rng.random(len(maybe), np.float32))
+        lost[maybe[cos_incidence.ravel()[maybe] < chance]] = False
+        lost[rng.integers(0, h * w, rng.binomial(h * w, self.dropout))] = False
+        valid &= ~self._edge_shadow(rng, ideal)
+        return np.where(valid, np.float32(BASELINE_FOCAL / self.disparity_step) / np.maximum(steps, 1),
+                        np.float32(0.0))
 
     def _edge_shadow(self, rng, ideal: np.ndarray) -> np.ndarray:
         """Pixels lost behind depth edges: the far side of each jump, in a ragged 1-2 pixel band.
@@ -56,37 +63,67 @@ class KinectModel:
         A jump is a step in inverse depth that neither neighbouring step predicts; inverse
         depth is linear across a plane, so slanted planes (a floor far ahead) are no edges.
         """
-        inverse = np.where(ideal > 0, 1.0 / np.maximum(ideal, 1e-6), 0.0)
-        far = np.zeros(ideal.shape, bool)
-        for axis in (0, 1):
-            x, marks = np.moveaxis(inverse, axis, 0), np.moveaxis(far, axis, 0)
-            step = x[1:] - x[:-1]
-            padded = np.pad(step, [(1, 1)] + [(0, 0)] * (step.ndim - 1), mode="edge")
-            surprise = np.minimum(np.abs(step - padded[:-2]), np.abs(step - padded[2:]))
-            edge = surprise > self.edge_jump * np.maximum(x[1:], x[:-1])
-            marks[1:] |= edge & (x[1:] < x[:-1])
-            marks[:-1] |= edge & (x[:-1] < x[1:])
+        inverse = np.where(ideal > 0, 1.0 / np.maximum(ideal, np.float32(1e-6)), np.float32(0.0))
+        # Columns as rows of the transposed copy: the same sums on contiguous memory.
+        far = self._far_rows(inverse) | self._far_rows(np.ascontiguousarray(inverse.T)).T
         # Widen the shadow by a pixel, randomly, but only over surfaces as far as the shadowed ones.
-        reach = cv2.dilate(np.where(far, inverse, 0.0).astype(np.float32), np.ones((3, 3), np.uint8))
-        band = (reach > 0) & (inverse <= reach * (1 + self.edge_jump))
-        return far | (band & (rng.random(far.shape, np.float32) < 0.6))
+        reach = cv2.dilate(np.where(far, inverse, np.float32(0.0)), np.ones((3, 3), np.uint8))
+        band = np.flatnonzero(((reach > 0) & (inverse <= reach * np.float32(1 + self.edge_jump)) & ~far).ravel())
+        far.ravel()[band[rng.random(len(band), np.float32) < 0.6]] = True
+        return far
+
+    def _far_rows(self, x: np.ndarray) -> np.ndarray:
+        """The far side of the jumps of inverse depth ``x`` between consecutive rows."""
+        step = x[1:] - x[:-1]
+        padded = np.concatenate([step[:1], step, step[-1:]])
+        surprise = np.minimum(np.abs(step - padded[:-2]), np.abs(step - padded[2:]))
+        edge = surprise > np.float32(self.edge_jump) * np.maximum(x[1:], x[:-1])
+        far = np.zeros(x.shape, bool)
+        far[1:] = edge & (step < 0)
+        far[:-1] |= edge & (step > 0)
+        return far
 
     def colour(self, rng: np.random.Generator, ideal: np.ndarray) -> np.ndarray:
-        """Measured colour (uint8 RGB) from the ideal float image (already motion-blurred)."""
+        """Measured colour (uint8 RGB) from the ideal uint8 image (already motion-blurred)."""
         h, w = ideal.shape[:2]
         softness = 0.5 * w / 640.0
         image = cv2.GaussianBlur(ideal, (0, 0), softness) if softness >= 0.3 else ideal
-        image = image * _vignetting(h, w, self.vignetting)[..., None]
-        sigma = np.sqrt(self.colour_noise ** 2 + self.shot_noise * np.maximum(image, 0.0))
-        image = image + sigma * rng.standard_normal(image.shape, np.float32)
-        return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+        signal = cv2.multiply(image, _vignetting(h, w, self.vignetting), dtype=cv2.CV_32F)
+        # In place: each full-size temporary costs as much as the arithmetic.
+        noise = gaussian_noise(rng, image.shape)
+        sigma = signal * np.float32(self.shot_noise)
+        sigma += np.float32(self.colour_noise ** 2)
+        noise *= np.sqrt(sigma, out=sigma)
+        noise += signal
+        return np.clip(np.rint(noise, out=noise), 0, 255, out=noise).astype(np.uint8)
+
+
+@functools.lru_cache(maxsize=1)
+def _normal_quantiles() -> np.ndarray:
+    """The standard normal's quantiles at the midpoints of 2^16 equal steps of probability."""
+    table = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16)).astype(np.float32)
+    table.flags.writeable = False
+    return table
+
+
+def gaussian_noise(rng: np.random.Generator, shape) -> np.ndarray:
+    """Standard normal float32 noise from 16 random bits per value, through the quantile table.
+
+    Four times faster than ``rng.standard_normal``; the tails stop at 4.2 sigma, where a
+    pixel's noise is lost in rounding anyway.
+    """
+    bits = np.frombuffer(rng.bytes(2 * int(np.prod(shape))), "<u2").reshape(shape)
+    return np.take(_normal_quantiles(), bits)
 
 
 @functools.lru_cache(maxsize=4)
 def _vignetting(h: int, w: int, strength: float) -> np.ndarray:
+    """Brightness factor per pixel, repeated for the three channels (float32 ``(H, W, 3)``)."""
     rows, cols = np.indices((h, w), dtype=np.float32)
     r2 = ((cols - w / 2) / (w / 2)) ** 2 + ((rows - h / 2) / (h / 2)) ** 2
-    return 1.0 - strength * r2 / 2.0
+    factor = np.repeat((1.0 - strength * r2 / 2.0)[..., None], 3, axis=-1)
+    factor.flags.writeable = False
+    return factor
 
 
 @functools.lru_cache(maxsize=4)
@@ -96,29 +133,32 @@ def _pixel_grid(h: int, w: int) -> np.ndarray:
     return grid
 
 
-def motion_blur(image: np.ndarray, points: np.ndarray, hit: np.ndarray, camera: Camera,
+def motion_blur(image: np.ndarray, grid_points: np.ndarray, grid_hit: np.ndarray, camera: Camera,
                 pose_start: np.ndarray, pose_end: np.ndarray, samples: int = 4) -> np.ndarray:
     """Average the image along each pixel's motion during the exposure.
 
-    ``points`` are the world points seen at mid-exposure; their projections at the start
-    and the end of the exposure give each pixel's streak (computed on every fourth pixel:
-    image motion is smooth), sampled at ``samples`` positions.
+    ``grid_points`` are the world points seen at mid-exposure on the renderer's coarse
+    grid (every fourth pixel: image motion is smooth); their projections at the start and
+    the end of the exposure give each pixel's streak, sampled at ``samples`` positions.
     """
-    h, w = hit.shape
-    coarse = points[::4, ::4]
+    h, w = image.shape[:2]
     ends = []
     for pose in (pose_start, pose_end):
         to_camera = invert(pose)
-        p = rotate(coarse, to_camera[:3, :3]) + to_camera[:3, 3]
-        z = np.maximum(p[..., 2], 1e-3)
-        ends.append(np.stack([camera.fx * p[..., 0] / z, camera.fy * p[..., 1] / z], -1))
-    flow = np.where(hit[::4, ::4, None], ends[1] - ends[0], 0.0).astype(np.float32)
+        p = rotate(grid_points, to_camera[:3, :3].astype(np.float32)) + to_camera[:3, 3].astype(np.float32)
+        z = np.maximum(p[..., 2], np.float32(1e-3))
+        ends.append(np.stack([np.float32(camera.fx) * p[..., 0] / z, np.float32(camera.fy) * p[..., 1] / z], -1))
+    flow = np.where(grid_hit[..., None], ends[1] - ends[0], np.float32(0.0))
     if np.abs(flow).max() < 0.5:
         return image
-    flow = cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR)
+    flow_x, flow_y = cv2.split(cv2.resize(flow, (w, h), interpolation=cv2.INTER_LINEAR))  # contiguous planes
     rows, cols = _pixel_grid(h, w)
-    blurred = np.zeros_like(image)
+    rgba = cv2.cvtColor(image, cv2.COLOR_RGB2RGBA)  # OpenCV's remap is vectorised for four channels
+    total = np.zeros(rgba.shape, np.uint16)
+    map_x, map_y = np.empty_like(flow_x), np.empty_like(flow_y)
     for s in np.linspace(-0.5, 0.5, samples, dtype=np.float32):
-        blurred += cv2.remap(image, cols + s * flow[..., 0], rows + s * flow[..., 1], cv2.INTER_LINEAR,
-                             borderMode=cv2.BORDER_REPLICATE)
-    return blurred / samples
+        np.add(cols, np.multiply(flow_x, s, out=map_x), out=map_x)
+        np.add(rows, np.multiply(flow_y, s, out=map_y), out=map_y)
+        cv2.add(total, cv2.remap(rgba, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE),
+                dst=total, dtype=cv2.CV_16U)
+    return cv2.cvtColor(cv2.convertScaleAbs(total, alpha=1.0 / samples), cv2.COLOR_RGBA2RGB)
