@@ -118,3 +118,27 @@ def test_environment_model_accepts_the_true_motion_and_rejects_a_contradiction()
     # Claiming both stood at the same place puts the near wall in front of the far wall's
     # measured surface: the far view looked through empty space there.
     assert observability(near, far, np.eye(4), CAMERA, 0.05) < 0.1
+
+
+def measured(points):
+    count = len(points)
+    features = Features(np.zeros((count, 2), np.float32), np.zeros((count, 32), np.uint8), np.ones(count, np.float32),
+                        points, True)
+    return MeasuredFeatures.from_features(features, RgbdSlamParams(), Camera(525, 525, 320, 240, 640, 480))
+
+
+def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_when_asked():
+    from viewer_slam.pipelines.rgbdslam.motion import estimate_motion
+    rng = np.random.default_rng(3)
+    node_points = rng.uniform([-1, -1, 1], [1, 1, 3], (100, 3))
+    frame_from_node = make_pose(exp_so3(np.array([0.02, -0.03, 0.01])), np.array([0.05, 0.0, -0.02]))
+    frame_points = node_points @ frame_from_node[:3, :3].T + frame_from_node[:3, 3]
+    frame_points[25:] = rng.uniform([-1, -1, 1], [1, 1, 3], (75, 3))  # 25 true matches among 100
+    matches = (np.arange(100), np.arange(100))
+    frame, node = measured(frame_points), measured(node_points)
+    motion, _ = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0))
+    assert motion is not None and motion.inlier_count == 25
+    assert np.allclose(motion.transform, invert(frame_from_node), atol=1e-6)
+    refused, reason = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0),
+                                      min_inlier_ratio=0.3)
+    assert refused is None and reason == "too few of the matches are inliers (25 of 100, < 0.3)"

@@ -65,9 +65,10 @@ def match(frame: MeasuredFeatures, node: MeasuredFeatures, ratio: float) -> tupl
 
 
 def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tuple[np.ndarray, np.ndarray],
-                    params: RgbdSlamParams, rng: np.random.Generator) -> tuple[Motion | None, str]:
-    """The node-from-frame transform if at least ``min_matches`` inliers support it, else
-    None; with the reason for a rejection ('' on success)."""
+                    params: RgbdSlamParams, rng: np.random.Generator,
+                    min_inlier_ratio: float = 0.0) -> tuple[Motion | None, str]:
+    """The node-from-frame transform if at least ``min_matches`` inliers, and that share of
+    the matches, support it, else None; with the reason for a rejection ('' on success)."""
     frame_index, node_index = matches
     if len(frame_index) < params.min_matches:
         return None, f"too few matches ({len(frame_index)} < {params.min_matches})"
@@ -78,5 +79,7 @@ def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tu
     inliers = 0 if result is None else result.inlier_count
     if inliers < params.min_matches:
         return None, f"too few inliers ({inliers} < {params.min_matches})"
+    if inliers < min_inlier_ratio * len(frame_index):
+        return None, f"too few of the matches are inliers ({inliers} of {len(frame_index)}, < {min_inlier_ratio:g})"
     information = edge_information(node.features.points[node_index[result.inliers]], result.rms_error)
     return Motion(result.transform, frame_index, node_index, result.inliers, result.rms_error, information), ""

@@ -28,6 +28,8 @@ class RgbdSlamParams:
     keypoint_pixel_sigma: float = param(
         3.0, help="pixel standard deviation of a keypoint position in the inlier noise model")
     min_matches: int = param(20, help="RANSAC inliers needed to accept a transformation")
+    min_inlier_ratio: float = param(
+        0.3, help="share of the matches that must be RANSAC inliers to accept a loop closure or relocalisation (0 = no minimum)")
     predecessor_candidates: int = param(4, help="most recent nodes compared with each frame")
     neighbor_candidates: int = param(
         4, help="graph neighbours of the last node (within geodesic_depth) compared with each new node")

@@ -167,27 +167,35 @@ class RgbdSlam(Pipeline):
 
     def _compare(self, frame: Frame, measured: MeasuredFeatures, candidates: list[tuple[int, str]],
                  watch: Stopwatch) -> list[Attempt]:
-        """Register the frame with each candidate node, in parallel; stage times are summed."""
-        def register(node_id: int) -> tuple[int, Motion | None, str, Stopwatch]:
+        """Register the frame with each candidate node, in parallel; stage times are summed.
+
+        A loop closure, and any match of a lost camera, must also have min_inlier_ratio of
+        its matches as inliers: repeated texture (one font on every poster) lets a wrong
+        transformation gather min_matches inliers among many matches, and nothing else
+        checks these edges. Tracking against predecessors keeps only min_matches, so that
+        faint texture, where most matches are wrong, can still be followed.
+        """
+        def register(candidate: tuple[int, str]) -> tuple[int, Motion | None, str, Stopwatch]:
+            node_id, kind = candidate
+            ratio = self.params.min_inlier_ratio if kind != PREDECESSOR or self.lost else 0.0
             own = Stopwatch()
-            return *self._register(frame, measured, node_id, self.nodes[node_id].measured, own), own
+            return *self._register(frame, measured, node_id, self.nodes[node_id].measured, own, ratio), own
 
         attempts = []
-        for (node_id, kind), (matches, motion, reason, own) in zip(
-                candidates, self.comparisons.map(register, [node_id for node_id, _ in candidates])):
+        for (node_id, kind), (matches, motion, reason, own) in zip(candidates, self.comparisons.map(register, candidates)):
             for stage, ms in own.ms.items():
                 watch.add(stage, ms)
             attempts.append(Attempt(node_id, kind, matches, motion, reason))
         return attempts
 
     def _register(self, frame: Frame, measured: MeasuredFeatures, reference_id: int, reference: MeasuredFeatures,
-                  watch: Stopwatch) -> tuple[int, Motion | None, str]:
+                  watch: Stopwatch, min_inlier_ratio: float = 0.0) -> tuple[int, Motion | None, str]:
         """Match two keypoint sets and estimate their motion: (matches, motion or None, reason)."""
         with watch("matching"):
             matches = match(measured, reference, self.params.nn_distance_ratio)
         with watch("ransac"):
             rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
-            motion, reason = estimate_motion(measured, reference, matches, self.params, rng)
+            motion, reason = estimate_motion(measured, reference, matches, self.params, rng, min_inlier_ratio)
         return len(matches[0]), motion, reason
 
     def _moved_enough(self, node_from_frame: np.ndarray) -> bool:
