@@ -46,7 +46,7 @@ def written(results, tmp_path_factory):
     return out
 
 
-def test_csv_and_json_have_the_issue_columns(written):
+def test_csv_and_json_have_the_documented_columns(written):
     assert list(COLUMNS) == ISSUE_COLUMNS
     with open(written / "results.csv", newline="") as handle:
         reader = csv.DictReader(handle)
