@@ -169,11 +169,12 @@ class RgbdSlam(Pipeline):
                  watch: Stopwatch) -> list[Attempt]:
         """Register the frame with each candidate node, in parallel; stage times are summed.
 
-        A loop closure, and any match of a lost camera, must also have min_inlier_ratio of
-        its matches as inliers: repeated texture (one font on every poster) lets a wrong
-        transformation gather min_matches inliers among many matches, and nothing else
-        checks these edges. Tracking against predecessors keeps only min_matches, so that
-        faint texture, where most matches are wrong, can still be followed.
+        A loop closure, and a lost camera's match against the map, must also have
+        min_inlier_ratio of its matches as inliers: repeated texture (one font on every
+        poster) lets a wrong transformation gather min_matches inliers among many matches,
+        and nothing else checks these edges. Tracking against predecessors (and the lost
+        frames' chain) keeps only min_matches, so that faint texture, where most matches
+        are wrong, can still be followed.
         """
         def register(candidate: tuple[int, str]) -> tuple[int, Motion | None, str, Stopwatch]:
             node_id, kind = candidate
