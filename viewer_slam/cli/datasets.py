@@ -39,11 +39,11 @@ def sequences() -> None:
     folder = tum_cache_dir()
     typer.echo(f"TUM RGB-D sequences (downloads in {folder}):")
     alias_width = max(len(info.alias) for info in TUM_SEQUENCES)
-    name_width = max(len(info.name) for info in TUM_SEQUENCES)
     for info in TUM_SEQUENCES:
         groundtruth = "groundtruth" if info.groundtruth_public else "no-groundtruth"
-        typer.echo(f"  {info.alias:<{alias_width}}  {info.name:<{name_width}}  {info.category:<21}  "
-                   f"{groundtruth:<14}  {_state(folder, info.name)}".rstrip())
+        typer.echo(f"  {info.alias:<{alias_width}}  {info.category:<21}  {groundtruth:<14}  "
+                   f"{_state(folder, info.name)}".rstrip())
+    typer.echo("frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either.")
 
 
 def _state(folder: Path, name: str) -> str:
