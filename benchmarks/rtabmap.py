@@ -8,6 +8,7 @@ Times are wall-clock on this machine; per-stage figures are medians over the fra
 locations on which the stage ran, and means per frame (the stage's share of the frame rate).
 """
 
+import resource
 import sys
 
 import numpy as np
@@ -92,7 +93,7 @@ def memory() -> None:
         print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
               f"| {last['words']} | {np.median(per_location):.1f} | {len(early)} "
               f"| {ate(sequence, result.trajectory):.3f} | {result.fps:.1f} |")
-    print()
+    print(f"\npeak RSS of the process over the three runs: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB\n")
 
 
 CASES = {"speed": speed, "accuracy": accuracy, "memory": memory}
