@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 import pytest
 from rerun.chunk import RrdReader
+from rich.console import Console
 
 from viewer_slam.cli import main
 from viewer_slam.geometry.camera import Camera
@@ -30,6 +31,7 @@ from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOpt
                                           TrajectoryFinal)
 from viewer_slam.pipelines.params import param
 from viewer_slam.recording.budget import SnapshotBudget
+from viewer_slam.recording.console import print_summary
 from viewer_slam.recording.images import depth_png
 from viewer_slam.recording.session import RecordOptions, record
 from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
@@ -325,6 +327,23 @@ def test_view_opens_the_recording_in_the_bundled_viewer(tmp_path, monkeypatch):
     assert commands == [[str(viewer_binary()), str(recording)]]
     version = subprocess.run([viewer_binary(), "--version"], capture_output=True, text=True)
     assert version.returncode == 0 and "0.41" in version.stdout
+
+
+def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():
+    def block(rmse):
+        return {"rmse": rmse}
+
+    pipeline = {"frames_with_pose": 12000, "coverage": {"ratio": 0.861}, "ate": block(10.245),
+                "penalized_ate": block(10.266), "rpe": {"trans": block(10.568), "rot": block(184.704)},
+                "loop_closures": {"accepted": 2740, "rejected": 1640}, "timing": {"fps": 115.7}}
+    report = {"sequence": {"name": "360_kidnap-240-320x240-s0-v4"}, "interrupted": False,
+              "pipelines": {"rgbdslam": pipeline, "rtabmap": pipeline}}
+    console = Console(width=80, record=True)
+    print_summary(report, [], console)
+    text = console.export_text()
+    assert "…" not in text and max(map(len, text.splitlines())) <= 80
+    assert all(figure in text for figure in ("12000", "86%", "10.245", "10.266", "10.568", "184.70", "2740/1640",
+                                             "115.7"))
 
 
 def test_plots_break_after_the_last_frame_with_a_value():

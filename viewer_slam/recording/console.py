@@ -51,15 +51,15 @@ class RecordProgress:
         return advance
 
 
-def _rmse(block: dict | None) -> str:
-    return "—" if not block else f"{block['rmse']:.3f}"
+def _rmse(block: dict | None, decimals: int = 3) -> str:
+    return "—" if not block else f"{block['rmse']:.{decimals}f}"
 
 
 def print_summary(report: dict, written: list, console: Console | None = None) -> None:
     """One row per pipeline with the headline scores, then the files written."""
     console = console or Console()
     table = Table(title=f"{report['sequence']['name']}" + ("  (interrupted)" if report["interrupted"] else ""),
-                  box=box.SIMPLE_HEAD, pad_edge=False,
+                  box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True,
                   caption="RMSE in m, RPE rot in deg; RPE over 1 s; loops ok/rejected")
     for column in ("pipeline", "poses", "coverage", "ATE", "penal.\nATE", "RPE\ntrans", "RPE\nrot", "loops",
                    "fps"):
@@ -70,7 +70,7 @@ def print_summary(report: dict, written: list, console: Console | None = None) -
         table.add_row(
             name, str(block["frames_with_pose"]),
             "—" if coverage is None else f"{coverage['ratio']:.0%}",
-            _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot")),
+            _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot"), 2),
             f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",
             f"{block['timing']['fps']:.1f}")
     console.print(table)
