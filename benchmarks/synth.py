@@ -101,8 +101,8 @@ def timed(totals: dict[str, float], stage: str):
 
 
 def stage_profile(name: str, resolution, frames: int = 12) -> None:
-    """CPU milliseconds per frame of each stage, over frames of a default-length run, on one
-    thread as a rendering worker runs them."""
+    """CPU milliseconds per frame of each stage, over ``frames`` frames spread evenly over the
+    uncovered part of a default-length run, on one thread as a rendering worker runs them."""
     from viewer_slam.dataset.synth import writer
     from viewer_slam.dataset.synth.generate import _Run, _scenario, camera_model
     from viewer_slam.dataset.synth.sensor import motion_blur
@@ -112,9 +112,10 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
     run = _Run(scenario, scenario.default_frames, camera_model("fr3", resolution), seed=0, threads=1)
     plan, renderer, sensor, camera = run.plan, run.renderer, run.sensor, run.camera
     totals: dict[str, float] = {}
-    for i in np.flatnonzero(~run.covered)[:frames]:
-        t = run.timing.colour[i] - run.timing.start
-        poses = plan.path.poses([t, t - plan.exposure / 2, t + plan.exposure / 2])
+    visible = np.flatnonzero(~run.covered)
+    for i in visible[np.linspace(0, len(visible) - 1, frames).round().astype(int)]:
+        t, t_depth = run.timing.colour[i] - run.timing.start, run.timing.depth[i] - run.timing.start
+        poses = plan.path.poses([t, t - plan.exposure / 2, t + plan.exposure / 2, t_depth])
         rng = np.random.default_rng(int(i))
         with timed(totals, "ray casting"):
             hits = renderer.cast(poses[0], t)
@@ -124,8 +125,8 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
             ideal = motion_blur(ideal, hits.grid_points, hits.grid_hit, camera, poses[1], poses[2])
         with timed(totals, "colour noise"):
             rgb = sensor.colour(rng, ideal)
-        with timed(totals, "depth cast and upsampling"):
-            ideal_depth, cos_incidence = renderer.depth(poses[0], t)
+        with timed(totals, "depth cast"):
+            ideal_depth, cos_incidence = renderer.depth(poses[3], t_depth)
         with timed(totals, "depth noise"):
             depth = sensor.depth(rng, ideal_depth, cos_incidence)
         with timed(totals, "PNG encoding"):
@@ -133,6 +134,7 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
     print(f"CPU ms per frame by stage ({name}, {resolution[0]}x{resolution[1]}, {frames} frames):")
     for stage, seconds in totals.items():
         print(f"  {stage:28s} {1000 * seconds / frames:7.1f}")
+    print(f"  {'total':28s} {1000 * sum(totals.values()) / frames:7.1f}")
 
 
 def main() -> None:
