@@ -93,7 +93,8 @@ def memory() -> None:
         print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
               f"| {last['words']} | {np.median(per_location):.1f} | {len(early)} "
               f"| {ate(sequence, result.trajectory):.3f} | {result.fps:.1f} |")
-    print(f"\npeak RSS of the process over the three runs: {resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:.0f} MB\n")
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"\npeak RSS of the process over the three runs: {peak_mb:.0f} MB\n")
 
 
 CASES = {"speed": speed, "accuracy": accuracy, "memory": memory}
