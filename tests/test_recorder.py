@@ -7,6 +7,7 @@ points and loop closures, so every number the recording holds has an independent
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -289,6 +290,22 @@ def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tu
     assert len(read_tum(result.trajectories["rgbdslam"])) == 26 - len(LOST)
     assert subprocess.run([RERUN, "rrd", "verify", out], capture_output=True).returncode == 0
     assert signal.getsignal(signal.SIGINT) is handler
+
+
+def test_a_corrupt_frame_mid_run_exits_2_and_keeps_the_frames_before_it(scripted_pipelines, tum_folder, tmp_path,
+                                                                        capsys):
+    folder = shutil.copytree(tum_folder, tmp_path / "corrupt")
+    listed = [line.split()[1] for line in (folder / "rgb.txt").read_text().splitlines() if not line.startswith("#")]
+    (folder / listed[25]).write_bytes(b"not a png")
+    out = tmp_path / "corrupt.rrd"
+    assert main(["record", str(folder), "--out", str(out), "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and f"{folder / listed[25]}: not a readable image" in error and str(out) in error
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert report["interrupted"] is True and listed[25] in report["error"]
+    assert list(report["pipelines"]) == ["rgbdslam"]  # the second pipeline never started
+    assert len(read_tum(out.with_name("corrupt.rgbdslam.txt"))) == 25 - len(LOST)
+    assert subprocess.run([RERUN, "rrd", "verify", out], capture_output=True).returncode == 0
 
 
 @pytest.mark.parametrize("arguments, message", [

@@ -4,7 +4,9 @@ Everything the user can get wrong (pipeline, parameters, output path, sequence) 
 before the first frame is read. Pipelines run one after the other into the same
 recording, sharing the ``frame`` and ``time`` timelines. Ctrl-C stops after the current
 frame: the running pipeline finishes on the frames it saw, no further pipeline starts, and
-the recording, report and trajectories are written as far as they got.
+the recording, report and trajectories are written as far as they got. A frame that turns
+out unreadable mid-run (a corrupt PNG) ends the run the same way, and its error is then
+raised: what came before it is kept.
 """
 
 from collections.abc import Callable, Iterator
@@ -120,21 +122,29 @@ def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]
 
 
 class TappedSequence:
-    """A sequence that calls ``on_frame`` with each frame just before the pipeline gets it."""
+    """A sequence that calls ``on_frame`` with each frame just before the pipeline gets it.
+
+    An unreadable frame ends the frames there, as a stop request would, and is kept in
+    ``error``: the pipeline finishes on what it saw, and the caller saves it before failing.
+    """
 
     def __init__(self, sequence: Sequence, on_frame: Callable[[Frame], None]):
         self._sequence = sequence
         self._on_frame = on_frame
         self.name, self.path = sequence.name, sequence.path
         self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
+        self.error: InputError | None = None
 
     def __len__(self) -> int:
         return len(self._sequence)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
-        for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
-            self._on_frame(frame)
-            yield frame
+        try:
+            for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
+                self._on_frame(frame)
+                yield frame
+        except InputError as error:
+            self.error = error
 
 
 @contextmanager
@@ -178,6 +188,7 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
     report_path, trajectory_paths = report_paths(out, pipelines)
     blocks: dict[str, dict] = {}
     interrupted = False
+    failure: InputError | None = None
     groundtruth = sequence.groundtruth
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
@@ -194,16 +205,24 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                 if first:  # one copy of each image serves every pipeline's view
                     log_frame_image(stream, frame)
 
-            run = run_pipeline(TappedSequence(sequence, on_frame), name, params[name], seed=options.seed,
-                               max_frames=options.max_frames, stride=options.stride,
-                               sinks=[recorder, progress.sink(name)], should_stop=stop)
-            interrupted = interrupted or run.interrupted
+            tapped = TappedSequence(sequence, on_frame)
+            run = run_pipeline(tapped, name, params[name], seed=options.seed, max_frames=options.max_frames,
+                               stride=options.stride, sinks=[recorder, progress.sink(name)], should_stop=stop)
+            failure = tapped.error
+            interrupted = interrupted or run.interrupted or failure is not None
             evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, recorder.frame_timestamps)
             if evaluation is not None:
                 log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                np.array(recorder.frame_timestamps))
             blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
             write_tum(trajectory_paths[name], run.trajectory)
+            if failure is not None:
+                break
         report = build_report(sequence, blocks, interrupted or len(blocks) < len(pipelines))
+        if failure is not None:
+            report["error"] = str(failure)
         write_report(report_path, report)
+    if failure is not None:
+        raise InputError(f"{failure}; the frames before it are recorded in {out}, with the report and "
+                         f"trajectories beside it")
     return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report)
