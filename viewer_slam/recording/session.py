@@ -209,6 +209,8 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
             run = run_pipeline(tapped, name, params[name], seed=options.seed, max_frames=options.max_frames,
                                stride=options.stride, sinks=[recorder, progress.sink(name)], should_stop=stop)
             failure = tapped.error
+            if failure is not None and not run.frames:
+                raise failure  # not one frame was read: there is nothing to keep
             interrupted = interrupted or run.interrupted or failure is not None
             evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, recorder.frame_timestamps)
             if evaluation is not None:
