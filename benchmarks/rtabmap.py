@@ -17,7 +17,7 @@ from viewer_slam.dataset.resting import RestingStart
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.pipelines.events import FrameTracked, LoopClosure
+from viewer_slam.pipelines.events import FrameTracked, GraphEdge
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.run import run_pipeline
@@ -87,7 +87,7 @@ def memory() -> None:
         tracked = [e for e in events if isinstance(e, FrameTracked)]
         per_location = [e.timings_ms["vocabulary"] + e.timings_ms["bayes"] for e in tracked
                         if e.timings_ms["bayes"] > 0]
-        early = [e for e in events if isinstance(e, LoopClosure) and e.accepted and e.from_keyframe < 10]
+        early = [e for e in events if isinstance(e, GraphEdge) and e.accepted and e.from_keyframe < 10]
         last = tracked[-1].metrics
         start = f"rests {rest} frames" if rest else "moving"
         print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "

@@ -9,7 +9,8 @@ from viewer_slam.errors import InputError
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.base import Pipeline, make_pipeline
-from viewer_slam.pipelines.events import (FrameTracked, KeyframeAdded, LoopClosure, TrackingLost, TrackingStatus,
+from viewer_slam.pipelines.edges import EdgeKind
+from viewer_slam.pipelines.events import (FrameTracked, KeyframeAdded, GraphEdge, TrackingLost, TrackingStatus,
                                           TrajectoryFinal)
 from viewer_slam.pipelines.params import param
 from viewer_slam.pipelines.run import run_pipeline
@@ -44,7 +45,7 @@ class CountingPipeline(Pipeline):
         if frame.index % 5 == 0:
             events.append(KeyframeAdded(frame.index // 5, frame.index, frame.timestamp, pose, np.zeros((0, 2))))
         if frame.index == 7:
-            events.append(LoopClosure(frame.index, 1, 0, accepted=False, reason="test"))
+            events.append(GraphEdge(frame.index, 1, 0, accepted=False, reason="test", kind=EdgeKind.LOOP))
         return events + [FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK, timings_ms={"features": 1.0})]
 
     def finish(self):

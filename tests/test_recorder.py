@@ -27,7 +27,8 @@ from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, pose_to_tq
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.base import Pipeline
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+from viewer_slam.pipelines.edges import EdgeKind
+from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge,
                                           MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus,
                                           TrajectoryFinal)
 from viewer_slam.pipelines.params import param
@@ -116,10 +117,10 @@ class ScriptedPipeline(Pipeline):
             points = pose[:3, 3] + self.rng.normal(0.0, 0.3, (200, 3))
             events.append(MapUpdated(frame.index, points, np.full((200, 3), 128, np.uint8)))
             if keyframe_id == 6:
-                events.append(LoopClosure(frame.index, 6, 0, accepted=True, reason="geometric check passed",
-                                          score=0.9, inliers=40))
-                events.append(LoopClosure(frame.index, 6, 2, accepted=False, reason="too few inliers",
-                                          score=0.2, inliers=4))
+                events.append(GraphEdge(frame.index, 6, 0, accepted=True, reason="geometric check passed",
+                                        kind=EdgeKind.LOOP, score=0.9, inliers=40))
+                events.append(GraphEdge(frame.index, 6, 2, accepted=False, reason="too few inliers",
+                                        kind=EdgeKind.LOOP, score=0.2, inliers=4))
         status = TrackingStatus.RELOCALISED if frame.index == LOST[-1] + 1 else TrackingStatus.OK
         return events + [FrameTracked(frame.index, frame.timestamp, pose, status, features=40, matches=20,
                                       inliers=15, timings_ms={"features": 2.0, "ransac": 1.0})]

@@ -11,7 +11,8 @@ from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import write_tum
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+from viewer_slam.pipelines.edges import EdgeKind
+from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge,
                                           MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from viewer_slam.pipelines.rgbdslam import RgbdSlamParams
 from viewer_slam.pipelines.run import run_pipeline
@@ -57,9 +58,11 @@ def test_textured_loop_is_closed_and_more_accurate_than_odometry(textured_loop):
     assert final <= 0.03
     assert final < odometry
     assert result.loop_closures_accepted >= 1
-    accepted = [e for e in events if isinstance(e, LoopClosure) and e.accepted]
+    accepted = [e for e in events if isinstance(e, GraphEdge) and e.accepted]
     assert all(e.inliers >= RgbdSlamParams().min_matches for e in accepted)
-    assert {e.kind for e in accepted} <= {"sampled", "neighbour"}
+    loops = [e for e in accepted if e.kind == EdgeKind.LOOP]
+    assert len(loops) == result.loop_closures_accepted
+    assert {e.detection for e in loops} <= {"sampled", "neighbour"}
 
 
 @pytest.mark.slow

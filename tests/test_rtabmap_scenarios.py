@@ -17,7 +17,7 @@ from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.evaluation.report import pipeline_report
 from viewer_slam.geometry.trajectory import write_tum
-from viewer_slam.pipelines.events import (FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure, MapUpdated,
+from viewer_slam.pipelines.events import (FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge, MapUpdated,
                                           TrackingLost, TrackingRecovered)
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
@@ -53,7 +53,7 @@ def textured_loop():
 
 def test_textured_loop_is_closed_by_the_bayes_filter_and_corrects_the_drift(textured_loop):
     sequence, result, events = textured_loop
-    closures = [e for e in of_type(events, LoopClosure) if e.accepted and e.kind == "appearance"]
+    closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
     assert closures and min(e.from_keyframe for e in closures) == 0      # back to the first location
     assert all(e.score > RtabmapParams().loop_threshold and e.inliers >= 20 for e in closures)
     assert of_type(events, GraphOptimized) and any(e.replace for e in of_type(events, MapUpdated))
@@ -132,7 +132,7 @@ def test_memory_threshold_bounds_working_memory_and_the_loop_is_still_closed(tex
     tracked = of_type(events, FrameTracked)
     assert max(e.metrics["wm"] for e in tracked) <= threshold
     assert tracked[-1].metrics["ltm"] >= threshold
-    closures = [e for e in of_type(events, LoopClosure) if e.accepted and e.kind == "appearance"]
+    closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
     assert closures and min(e.from_keyframe for e in closures) <= 1
 
 

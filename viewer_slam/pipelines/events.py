@@ -10,6 +10,8 @@ from enum import Enum
 
 import numpy as np
 
+from .edges import EdgeKind
+
 
 class TrackingStatus(str, Enum):
     INITIALISING = "initialising"
@@ -70,18 +72,24 @@ class FeatureMatches:
 
 
 @dataclass
-class LoopClosure:
-    """A loop-closure hypothesis between two keyframes, accepted or rejected (and why)."""
+class GraphEdge:
+    """An edge hypothesis between two keyframes, accepted or rejected (and why).
+
+    ``kind`` says what the edge is, by the one rule of :mod:`.edges` (only ``loop`` edges
+    are loop closures); ``detection`` says how the pipeline found it (``appearance``,
+    ``proximity``, ``predecessor``, ``neighbour``, ``sampled``, ...).
+    """
 
     frame_index: int
     from_keyframe: int
     to_keyframe: int
     accepted: bool
     reason: str
+    kind: EdgeKind
     relative_pose: np.ndarray | None = None
     score: float = 0.0
     inliers: int = 0
-    kind: str = "appearance"
+    detection: str = "appearance"
 
 
 @dataclass
@@ -133,5 +141,5 @@ class TrajectoryFinal:
     odometry_poses: np.ndarray | None = None
 
 
-Event = (FrameTracked | KeyframeAdded | FeatureMatches | LoopClosure | GraphOptimized
+Event = (FrameTracked | KeyframeAdded | FeatureMatches | GraphEdge | GraphOptimized
          | MapUpdated | TrackingLost | TrackingRecovered | TrajectoryFinal)

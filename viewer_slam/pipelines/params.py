@@ -14,9 +14,17 @@ from typing import Any
 from ..errors import InputError
 
 
-def param(default: Any, key: str | None = None, help: str = "", choices: tuple | None = None):
-    """A dataclass field with the parameter's external name, a help text and allowed values."""
-    return dataclasses.field(default=default, metadata={"key": key, "help": help, "choices": choices})
+def param(default: Any, key: str | None = None, help: str = "", choices: tuple | None = None, *,
+          ge: float | None = None, gt: float | None = None, le: float | None = None, lt: float | None = None):
+    """A dataclass field with the parameter's external name, a help text and its allowed values.
+
+    ``choices`` lists the allowed values; ``ge``/``gt``/``le``/``lt`` bound a number (every
+    number must also be finite). The bounds are the declaration that validation, ``--help``
+    and the docs read.
+    """
+    bounds = {name: value for name, value in (("ge", ge), ("gt", gt), ("le", le), ("lt", lt)) if value is not None}
+    return dataclasses.field(default=default, metadata={"key": key, "help": help, "choices": choices,
+                                                        "bounds": bounds})
 
 
 def _key(field: dataclasses.Field) -> str:

@@ -10,7 +10,8 @@ import numpy as np
 from ..dataset.frame import Sequence
 from ..geometry.trajectory import Trajectory
 from .base import make_pipeline
-from .events import Event, FrameTracked, KeyframeAdded, LoopClosure, TrackingLost, TrajectoryFinal
+from .edges import EdgeKind
+from .events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingLost, TrajectoryFinal
 from .params import params_to_dict
 
 Sink = Callable[[Event], None]
@@ -30,6 +31,7 @@ class PipelineRun:
     keyframes: int = 0
     loop_closures_accepted: int = 0
     loop_closures_rejected: int = 0
+    edges: dict[str, int] = field(default_factory=lambda: {kind.value: 0 for kind in EdgeKind})
     tracking_lost: list[dict[str, Any]] = field(default_factory=list)
     stage_ms_total: dict[str, float] = field(default_factory=dict)
     total_s: float = 0.0
@@ -52,11 +54,14 @@ class PipelineRun:
                 self.stage_ms_total[stage] = self.stage_ms_total.get(stage, 0.0) + ms
         elif isinstance(event, KeyframeAdded):
             self.keyframes += 1
-        elif isinstance(event, LoopClosure):
+        elif isinstance(event, GraphEdge):
             if event.accepted:
-                self.loop_closures_accepted += 1
-            else:
-                self.loop_closures_rejected += 1
+                self.edges[event.kind.value] += 1
+            if event.kind == EdgeKind.LOOP:
+                if event.accepted:
+                    self.loop_closures_accepted += 1
+                else:
+                    self.loop_closures_rejected += 1
         elif isinstance(event, TrackingLost):
             self.tracking_lost.append({"frame": event.frame_index, "timestamp": event.timestamp, "reason": event.reason})
         elif isinstance(event, TrajectoryFinal):

@@ -13,7 +13,8 @@ import rerun as rr
 from ..dataset.frame import Frame
 from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory
-from ..pipelines.events import (Event, FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+from ..pipelines.edges import EdgeKind
+from ..pipelines.events import (Event, FeatureMatches, FrameTracked, GraphEdge, GraphOptimized, KeyframeAdded,
                                 MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from . import layout
 from .budget import SnapshotBudget
@@ -84,7 +85,7 @@ class PipelineRecorder:
         self._frame: Frame | None = None
         self._matched_frame: int | None = None
         self._keyframes: dict[int, np.ndarray] = {}
-        self._loops: list[LoopClosure] = []
+        self._loops: list[GraphEdge] = []
         self._map = VoxelMap()
         self._map_budget = SnapshotBudget(MAP_BYTES_PER_FRAME)
         self._keyframes_budget = SnapshotBudget(KEYFRAMES_BYTES_PER_FRAME)
@@ -92,7 +93,7 @@ class PipelineRecorder:
         self._depth_budget = SnapshotBudget(DEPTH_BYTES_PER_FRAME)
         self._handlers = {
             FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
-            FeatureMatches: self._feature_matches, LoopClosure: self._loop_closure,
+            FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
             GraphOptimized: self._graph_optimized, MapUpdated: self._map_updated,
             TrackingLost: self._tracking_lost, TrackingRecovered: self._tracking_recovered,
             TrajectoryFinal: self._trajectory_final,
@@ -188,11 +189,13 @@ class PipelineRecorder:
                       rr.EncodedDepthImage(png, media_type="image/png", meter=1000.0, colormap="turbo"))
             self._depth_budget.logged(event.frame_index)
 
-    def _loop_closure(self, event: LoopClosure) -> None:
+    def _graph_edge(self, event: GraphEdge) -> None:
+        if event.kind != EdgeKind.LOOP:
+            return
         self._loops.append(event)
         self._loops_budget.dirty = True
         verdict = "accepted" if event.accepted else "rejected"
-        self._text(f"{event.kind} loop closure KF{event.from_keyframe} -> KF{event.to_keyframe} {verdict} "
+        self._text(f"{event.detection} loop closure KF{event.from_keyframe} -> KF{event.to_keyframe} {verdict} "
                    f"({event.reason}; score {event.score:.3g}, {event.inliers} inliers)",
                    rr.TextLogLevel.INFO if event.accepted else rr.TextLogLevel.DEBUG)
 

@@ -38,14 +38,23 @@ def gap_starts(present: np.ndarray) -> np.ndarray:
     return np.flatnonzero(present[:-1] & ~present[1:]) + 1
 
 
-def _time_columns(frame_indices: np.ndarray, frame_timestamps: np.ndarray) -> list[rr.TimeColumn]:
-    return [rr.TimeColumn("frame", sequence=frame_indices), rr.TimeColumn("time", timestamp=frame_timestamps)]
+def send_frame_columns(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray,
+                       frame_timestamps: np.ndarray, columns) -> None:
+    """Send rows stamped on both timelines; nothing at all when there are no rows.
+
+    Every column send of the recording goes through here: the Rerun viewer (0.41) panics
+    on a recording holding zero-row chunks (an empty time range), so none may be written.
+    """
+    if len(frame_indices) == 0:
+        return
+    stream.send_columns(path, indexes=[rr.TimeColumn("frame", sequence=frame_indices),
+                                       rr.TimeColumn("time", timestamp=frame_timestamps)], columns=columns)
 
 
 def _send_series(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
                  values: np.ndarray) -> None:
-    stream.send_columns(path, indexes=_time_columns(frame_indices, frame_timestamps),
-                        columns=rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64)))
+    send_frame_columns(stream, path, frame_indices, frame_timestamps,
+                       rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64)))
 
 
 def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation, frame_indices: np.ndarray,
@@ -70,8 +79,8 @@ def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation
         present = np.zeros(len(frame_indices), dtype=bool)
         present[position[kept]] = True
         breaks = gap_starts(present)
-        stream.send_columns(path, indexes=_time_columns(frame_indices[breaks], frame_timestamps[breaks]),
-                            columns=rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+        send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
+                           rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
     if len(frame_timestamps) > 1:
         coverage = coverage_so_far(frame_timestamps, evaluation.coverage.lost_intervals)
         _send_series(stream, layout.metric(name, "coverage"), frame_indices[1:], frame_timestamps[1:], coverage[1:])

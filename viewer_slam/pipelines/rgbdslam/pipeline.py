@@ -24,7 +24,8 @@ from ...frontend.features import FeatureExtractor, Features
 from ...geometry.camera import Camera
 from ...geometry.se3 import rotation_angle, transform_points
 from ..base import Pipeline
-from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure, MapUpdated,
+from ..edges import EdgeClassifier, EdgeKind
+from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded, MapUpdated,
                       TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from .candidates import PREDECESSOR, loop_candidates, predecessors
 from .emm import observability
@@ -120,6 +121,7 @@ class RgbdSlam(Pipeline):
         self.node_segment: dict[int, int] = {}
         self.node_odometry: dict[int, np.ndarray] = {}
         self.segments = Segments()
+        self.edges = EdgeClassifier()
         self.tracked: list[TrackedFrame] = []
         self.lost = False
         self.lost_chain: MeasuredFeatures | None = None
@@ -280,6 +282,7 @@ class RgbdSlam(Pipeline):
         self.adjacency[node.node_id] = set()
         self.node_segment[node.node_id] = node.segment
         self.node_odometry[node.node_id] = odometry
+        self.edges.add_node(node.node_id, frame.timestamp)
         self.graph.add_node(node.node_id, pose)
         self._attach(frame, node.node_id, np.eye(4), odometry)
         events.append(KeyframeAdded(node.node_id, frame.index, frame.timestamp, pose.copy(),
@@ -323,7 +326,9 @@ class RgbdSlam(Pipeline):
                                                   attempt.motion.transform)
             if attempt.kind != PREDECESSOR:
                 loop_closed |= attempt.motion is not None
-                events.append(self._loop_closure_event(frame, node.node_id, attempt))
+            event = self._edge_event(frame, node.node_id, attempt)
+            if event.accepted or event.kind == EdgeKind.LOOP:
+                events.append(event)
 
         self.nodes_since_optimisation += 1
         self.loop_closed_since_optimisation = loop_closed
@@ -352,14 +357,15 @@ class RgbdSlam(Pipeline):
                 attempt.motion = None
                 attempt.reason = f"environment measurement model: {share:.2f} of the depth agrees (< {threshold})"
 
-    @staticmethod
-    def _loop_closure_event(frame: Frame, node_id: int, attempt: Attempt) -> LoopClosure:
+    def _edge_event(self, frame: Frame, node_id: int, attempt: Attempt) -> GraphEdge:
         motion = attempt.motion
+        kind = self.edges.kind(attempt.node_id, node_id)
         if motion is None:
-            return LoopClosure(frame.index, attempt.node_id, node_id, False, attempt.reason, kind=attempt.kind)
-        return LoopClosure(frame.index, attempt.node_id, node_id, True,
-                           f"{motion.inlier_count} inliers of {attempt.matches} matches", motion.transform.copy(),
-                           score=float(motion.inlier_count), inliers=motion.inlier_count, kind=attempt.kind)
+            return GraphEdge(frame.index, attempt.node_id, node_id, False, attempt.reason, kind,
+                             detection=attempt.kind)
+        return GraphEdge(frame.index, attempt.node_id, node_id, True,
+                         f"{motion.inlier_count} inliers of {attempt.matches} matches", kind, motion.transform.copy(),
+                         score=float(motion.inlier_count), inliers=motion.inlier_count, detection=attempt.kind)
 
     def _optimise(self, frame_index: int, iterations: int) -> GraphOptimized:
         before, after = self.graph.optimize(iterations)

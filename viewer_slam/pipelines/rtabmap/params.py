@@ -11,45 +11,45 @@ class RtabmapParams:
     detector_strategy: int = param(8, key="Kp/DetectorStrategy", choices=(6, 8),
                                    help="6: GFTT corners with BRIEF descriptors, 8: GFTT with ORB")
     # Frame-to-map visual odometry.
-    odometry_max_features: int = param(1000, key="Vis/MaxFeatures", help="features extracted per frame for odometry")
-    correspondence_nndr: float = param(0.8, key="Vis/CorNNDR", help="nearest-neighbour distance ratio of a match")
-    guess_window: int = param(40, key="Vis/CorGuessWinSize",
+    odometry_max_features: int = param(1000, gt=0, key="Vis/MaxFeatures", help="features extracted per frame for odometry")
+    correspondence_nndr: float = param(0.8, gt=0, le=1, key="Vis/CorNNDR", help="nearest-neighbour distance ratio of a match")
+    guess_window: int = param(40, ge=0, key="Vis/CorGuessWinSize",
                               help="pixels around a map point's predicted projection searched for its match")
-    pnp_reprojection_error: float = param(2.0, key="Vis/PnPReprojError", help="PnP RANSAC inlier threshold (px)")
-    min_inliers: int = param(20, key="Vis/MinInliers", help="inliers needed to accept a registration")
-    ransac_iterations: int = param(300, key="Vis/Iterations", help="PnP RANSAC iterations")
-    local_map_size: int = param(2000, key="OdomF2M/MaxSize", help="most 3D features kept in the odometry local map")
-    keyframe_threshold: float = param(0.3, key="Odom/KeyFrameThr",
+    pnp_reprojection_error: float = param(2.0, gt=0, key="Vis/PnPReprojError", help="PnP RANSAC inlier threshold (px)")
+    min_inliers: int = param(20, ge=4, key="Vis/MinInliers", help="inliers needed to accept a registration")
+    ransac_iterations: int = param(300, ge=1, key="Vis/Iterations", help="PnP RANSAC iterations")
+    local_map_size: int = param(2000, gt=0, key="OdomF2M/MaxSize", help="most 3D features kept in the odometry local map")
+    keyframe_threshold: float = param(0.3, ge=0, le=1, key="Odom/KeyFrameThr",
                                       help="update the local map when inliers / features falls below this")
-    reset_countdown: int = param(0, key="Odom/ResetCountdown",
+    reset_countdown: int = param(0, ge=0, key="Odom/ResetCountdown",
                                  help="reset odometry after this many lost frames (0: never)")
     # Locations.
-    detection_rate: float = param(1.0, key="Rtabmap/DetectionRate",
+    detection_rate: float = param(1.0, ge=0, key="Rtabmap/DetectionRate",
                                   help="locations per second at most (0: every frame)")
-    linear_update: float = param(0.1, key="RGBD/LinearUpdate", help="metres moved before a new location")
-    angular_update: float = param(0.1, key="RGBD/AngularUpdate", help="radians turned before a new location")
+    linear_update: float = param(0.1, ge=0, key="RGBD/LinearUpdate", help="metres moved before a new location")
+    angular_update: float = param(0.1, ge=0, key="RGBD/AngularUpdate", help="radians turned before a new location")
     # Loop closure detection.
-    words_per_location: int = param(500, key="Kp/MaxFeatures", help="visual words extracted per location")
-    word_nndr: float = param(0.8, key="Kp/NndrRatio", help="ratio test quantising a descriptor to a word")
-    loop_threshold: float = param(0.11, key="Rtabmap/LoopThr", help="posterior a loop hypothesis must exceed")
-    loop_ratio: float = param(0.0, key="Rtabmap/LoopRatio",
+    words_per_location: int = param(500, gt=0, key="Kp/MaxFeatures", help="visual words extracted per location")
+    word_nndr: float = param(0.8, gt=0, le=1, key="Kp/NndrRatio", help="ratio test quantising a descriptor to a word")
+    loop_threshold: float = param(0.11, ge=0, le=1, key="Rtabmap/LoopThr", help="posterior a loop hypothesis must exceed")
+    loop_ratio: float = param(0.0, ge=0, key="Rtabmap/LoopRatio",
                               help="a hypothesis must also exceed this ratio of the previous one")
     proximity_by_space: bool = param(True, key="RGBD/ProximityBySpace",
                                      help="also link to nearby locations of the graph")
-    local_radius: float = param(10.0, key="RGBD/LocalRadius", help="radius (m) of the proximity search")
-    proximity_angle: float = param(45.0, key="RGBD/ProximityAngle",
+    local_radius: float = param(10.0, ge=0, key="RGBD/LocalRadius", help="radius (m) of the proximity search")
+    proximity_angle: float = param(45.0, ge=0, le=180, key="RGBD/ProximityAngle",
                                    help="largest view-direction difference (deg) of a proximity link")
     # Memory management.
-    stm_size: int = param(10, key="Mem/STMSize", help="newest locations kept out of loop closure detection")
-    rehearsal_similarity: float = param(0.6, key="Mem/RehearsalSimilarity",
+    stm_size: int = param(10, ge=0, key="Mem/STMSize", help="newest locations kept out of loop closure detection")
+    rehearsal_similarity: float = param(0.6, ge=0, le=1, key="Mem/RehearsalSimilarity",
                                         help="word similarity above which a location is rehearsed")
-    time_threshold: float = param(0.0, key="Rtabmap/TimeThr",
+    time_threshold: float = param(0.0, ge=0, key="Rtabmap/TimeThr",
                                   help="ms per location update above which locations go to LTM (0: off)")
-    memory_threshold: int = param(0, key="Rtabmap/MemoryThr", help="most locations in Working Memory (0: off)")
-    max_retrieved: int = param(2, key="Rtabmap/MaxRetrieved", help="locations brought back from LTM per update")
+    memory_threshold: int = param(0, ge=0, key="Rtabmap/MemoryThr", help="most locations in Working Memory (0: off)")
+    max_retrieved: int = param(2, ge=0, key="Rtabmap/MaxRetrieved", help="locations brought back from LTM per update")
     # Graph optimisation.
-    optimizer_iterations: int = param(20, key="Optimizer/Iterations", help="GTSAM Levenberg-Marquardt iterations")
-    optimize_max_error: float = param(3.0, key="RGBD/OptimizeMaxError",
+    optimizer_iterations: int = param(20, ge=1, key="Optimizer/Iterations", help="GTSAM Levenberg-Marquardt iterations")
+    optimize_max_error: float = param(3.0, ge=0, key="RGBD/OptimizeMaxError",
                                       help="reject a closure whose link errors exceed this many sigmas (0: off)")
 
     @property

@@ -12,7 +12,8 @@ from ...frontend.features import FeatureExtractor, Features
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, rotation_angle, transform_points
 from ..base import Pipeline
-from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, LoopClosure,
+from ..edges import EdgeClassifier
+from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
                       MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from .graph import LocationGraph
 from .loop_closure import AppearanceDetector, Hypothesis, nearby_locations, register
@@ -65,6 +66,7 @@ class Rtabmap(Pipeline):
         self.odometry = FrameToMapOdometry(camera, p, seed)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size)
+        self.edges = EdgeClassifier()
         self.graph = LocationGraph(p.optimizer_iterations, p.optimize_max_error)
         self.detector = AppearanceDetector()
         self.session = -1
@@ -173,6 +175,7 @@ class Rtabmap(Pipeline):
         self.memory.add(location)
         if continues_chain:
             self.memory.link(previous, location_id)
+        self.edges.add_node(location_id, frame.timestamp)
         self.graph.add_location(location_id, self.session, odometry_pose, self.odometry_variance)
         self.odometry_variance = 0.0
         self.current_location = location_id
@@ -180,6 +183,9 @@ class Rtabmap(Pipeline):
         events: list[Event] = [
             KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), kept.keypoints,
                           *self._thumbnails(frame)),
+            *([GraphEdge(frame.index, previous, location_id, True, "odometry link", self.edges.kind(previous, location_id),
+                         invert(self.memory.locations[previous].odometry_pose) @ odometry_pose, detection="odometry")]
+              if continues_chain else []),
             MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
                        location.cloud_colors),
         ]
@@ -217,8 +223,8 @@ class Rtabmap(Pipeline):
             return self._close(frame, self.memory.locations[hypothesis.location], location, "appearance",
                                hypothesis.posterior, watch, events)
         if hypothesis.posterior > hypothesis.new_place_posterior:
-            events.append(LoopClosure(frame.index, hypothesis.location, location.id, False, reason,
-                                      score=hypothesis.posterior))
+            events.append(GraphEdge(frame.index, hypothesis.location, location.id, False, reason,
+                                    self.edges.kind(hypothesis.location, location.id), score=hypothesis.posterior))
         return False
 
     def _proximity(self, frame: Frame, location: Location, watch: _Stopwatch, events: list[Event]) -> None:
@@ -237,14 +243,16 @@ class Rtabmap(Pipeline):
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
         registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
         if registration.relative is None:
-            events.append(LoopClosure(frame.index, old.id, new.id, False,
-                                      f"too few inliers (< Vis/MinInliers {self.params.min_inliers}) "
-                                      f"among {registration.matches} matches", None, score, 0, kind))
+            events.append(GraphEdge(frame.index, old.id, new.id, False,
+                                    f"too few inliers (< Vis/MinInliers {self.params.min_inliers}) "
+                                    f"among {registration.matches} matches", self.edges.kind(old.id, new.id), None,
+                                    score, 0, kind))
             return False
         outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
                         registration.variance)
-        events.append(LoopClosure(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
-                                  registration.relative, score, registration.inliers, kind))
+        events.append(GraphEdge(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
+                                self.edges.kind(old.id, new.id), registration.relative, score, registration.inliers,
+                                kind))
         if not outcome.accepted:
             return False
         self.memory.link(old.id, new.id)
