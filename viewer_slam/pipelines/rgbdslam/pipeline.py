@@ -11,11 +11,9 @@ matcher and most of numpy release the GIL); each draws its RANSAC samples from a
 generator seeded by (seed, frame, node), so the result does not depend on the scheduling.
 """
 
-import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from ...backend.pose_graph import Edge, PoseGraph, information_from_sigmas
@@ -25,6 +23,8 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeClassifier, EdgeKind
+from ..stopwatch import Stopwatch
+from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded, MapUpdated,
                       TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from .candidates import PREDECESSOR, loop_candidates, predecessors
@@ -39,7 +39,6 @@ from .segments import Segments
 ORIGIN_INFORMATION = information_from_sigmas(1e-6, 1e-6)
 ANCHOR_INFORMATION = information_from_sigmas(1.0, 1.0)
 FINAL_OPTIMIZER_ITERATIONS = 100
-THUMBNAIL_WIDTH = 160
 MAX_MAP_POINTS = 200_000
 # On a graph of N nodes the online optimisation runs at most every N * this many nodes.
 ONLINE_OPTIMISATION_SPACING = 0.05
@@ -70,37 +69,9 @@ class TrackedFrame:
     odometry: np.ndarray
 
 
-class Stopwatch:
-    """Milliseconds per stage for one frame."""
-
-    def __init__(self):
-        self.ms: dict[str, float] = {}
-        self._stage, self._start = "", 0.0
-
-    def __call__(self, stage: str) -> "Stopwatch":
-        self._stage = stage
-        return self
-
-    def __enter__(self) -> None:
-        self._start = time.perf_counter()
-
-    def __exit__(self, *_) -> None:
-        self.add(self._stage, (time.perf_counter() - self._start) * 1000.0)
-
-    def add(self, stage: str, ms: float) -> None:
-        self.ms[stage] = self.ms.get(stage, 0.0) + ms
-
-
 def best_attempt(attempts: list[Attempt]) -> Attempt | None:
     """The successful attempt with most inliers (the earlier, i.e. more recent node, on ties)."""
     return max((a for a in attempts if a.motion is not None), key=lambda a: a.motion.inlier_count, default=None)
-
-
-def thumbnail(rgb: np.ndarray) -> np.ndarray:
-    height, width = rgb.shape[:2]
-    if width <= THUMBNAIL_WIDTH:
-        return rgb.copy()
-    return cv2.resize(rgb, (THUMBNAIL_WIDTH, round(height * THUMBNAIL_WIDTH / width)), interpolation=cv2.INTER_AREA)
 
 
 class RgbdSlam(Pipeline):

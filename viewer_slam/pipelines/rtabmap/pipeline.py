@@ -4,7 +4,6 @@ appearance-based loop closure detection under memory management."""
 import time
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from ...dataset.frame import Frame
@@ -13,6 +12,8 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import invert, rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeClassifier
+from ..stopwatch import Stopwatch
+from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
                       MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from .graph import LocationGraph
@@ -23,7 +24,6 @@ from .params import RtabmapParams
 from .vocabulary import Vocabulary
 
 STAGES = ("features", "odometry", "vocabulary", "bayes", "verification", "optimisation", "memory")
-THUMBNAIL_WIDTH = 160
 CLOUD_POINTS_ACROSS = 64         # coarse cloud per location: this many depth samples per image row
 MAP_POINTS_LIMIT = 200_000       # a rebuilt map is subsampled to at most this many points
 
@@ -36,19 +36,6 @@ class _FrameRecord:
     timestamp: float
     odometry_pose: np.ndarray
     location: int
-
-
-class _Stopwatch:
-    """Milliseconds per stage for the current frame."""
-
-    def __init__(self):
-        self.ms = dict.fromkeys(STAGES, 0.0)
-
-    def __call__(self, stage: str, function, *args):
-        start = time.perf_counter()
-        result = function(*args)
-        self.ms[stage] += (time.perf_counter() - start) * 1e3
-        return result
 
 
 class Rtabmap(Pipeline):
@@ -82,7 +69,7 @@ class Rtabmap(Pipeline):
     # -- per frame ---------------------------------------------------------------------
 
     def process(self, frame: Frame) -> list[Event]:
-        watch = _Stopwatch()
+        watch = Stopwatch(STAGES)
         features = watch("features", self.extractor.extract, frame.rgb, frame.depth)
         odometry = watch("odometry", self.odometry.process, features)
         events: list[Event] = []
@@ -159,7 +146,7 @@ class Rtabmap(Pipeline):
     # -- per location ------------------------------------------------------------------
 
     def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray,
-                    watch: _Stopwatch) -> list[Event]:
+                    watch: Stopwatch) -> list[Event]:
         """Add a location, look for a loop closure, and keep memory within its budget."""
         p = self.params
         start = time.perf_counter()
@@ -209,7 +196,7 @@ class Rtabmap(Pipeline):
             location.weight = previous.weight + 1
             previous.weight = 0
 
-    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, watch: _Stopwatch,
+    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, watch: Stopwatch,
                   events: list[Event]) -> bool:
         """Verify the Bayes filter's best hypothesis if its posterior is high enough."""
         p = self.params
@@ -227,7 +214,7 @@ class Rtabmap(Pipeline):
                                     self.edges.kind(hypothesis.location, location.id), score=hypothesis.posterior))
         return False
 
-    def _proximity(self, frame: Frame, location: Location, watch: _Stopwatch, events: list[Event]) -> None:
+    def _proximity(self, frame: Frame, location: Location, watch: Stopwatch, events: list[Event]) -> None:
         """RGBD/ProximityBySpace: link to the nearest location of the map off the recent path."""
         recent = location.id - 2 * self.params.stm_size
         map_id = self.graph.map_of(location.id)
@@ -238,7 +225,7 @@ class Rtabmap(Pipeline):
         if nearby:
             self._close(frame, self.memory.locations[nearby[0]], location, "proximity", 0.0, watch, events)
 
-    def _close(self, frame: Frame, old: Location, new: Location, kind: str, score: float, watch: _Stopwatch,
+    def _close(self, frame: Frame, old: Location, new: Location, kind: str, score: float, watch: Stopwatch,
                events: list[Event]) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
         registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
@@ -278,11 +265,9 @@ class Rtabmap(Pipeline):
         points, pixels = self.camera.depth_to_points(frame.depth, self.cloud_step)
         return points.astype(np.float32), frame.rgb[pixels[:, 0], pixels[:, 1]]
 
-    def _thumbnails(self, frame: Frame) -> tuple[np.ndarray, np.ndarray]:
-        width = min(THUMBNAIL_WIDTH, frame.rgb.shape[1])
-        size = (width, round(frame.rgb.shape[0] * width / frame.rgb.shape[1]))
-        return (cv2.resize(frame.rgb, size, interpolation=cv2.INTER_AREA),
-                cv2.resize(frame.depth, size, interpolation=cv2.INTER_NEAREST))
+    @staticmethod
+    def _thumbnails(frame: Frame) -> tuple[np.ndarray, np.ndarray]:
+        return thumbnail(frame.rgb), thumbnail(frame.depth, nearest=True)
 
     def _rebuilt_map(self, frame_index: int) -> MapUpdated:
         """Every location's cloud at its optimised pose, subsampled to MAP_POINTS_LIMIT."""
