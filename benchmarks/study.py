@@ -14,7 +14,7 @@ from functools import partial
 from pathlib import Path
 
 from viewer_slam.cli import main
-from viewer_slam.cli.benchmark import parse_resolution
+from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, cached_scenario
 
 IMAGES = Path(__file__).resolve().parent.parent / "docs" / "images"

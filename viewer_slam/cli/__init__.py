@@ -1,9 +1,18 @@
 """The ``viewslam`` command line: thin wrappers that parse options and call the library.
 
-Bad input of any kind ends in one line on stderr and exit code 2, never a traceback.
+Bad input of any kind ends in one line on stderr and exit code 2, never a traceback; an
+unexpected error ends in one line naming a log file that holds the full traceback. Each
+command imports the heavy libraries (Rerun, OpenCV, Open3D, GTSAM) only when it runs and
+only those it uses, so ``viewslam --help`` and the light commands start at once.
 """
 
+import os
+import signal
 import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
 
 import typer
 
@@ -13,14 +22,27 @@ from .app import app
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+# Rerun's Rust side logs its own errors on stderr (e.g. the file sink's "No space left on
+# device"); the command reports them in its one line instead.
+RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk::recording_stream=off"
+
+
+def _interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
+    for number in (signal.SIGTERM, signal.SIGHUP):  # as Ctrl-C, until a command installs its own handling
+        signal.signal(number, _interrupt)
     try:
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
     except InputError as error:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except typer.Abort:
+        print("viewslam: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except typer.TyperException as error:  # usage errors: unknown option, missing argument
         if not error.format_message():  # bare `viewslam`: help was printed
             return 0
@@ -28,10 +50,33 @@ def main(argv: list[str] | None = None) -> int:
         command = context.command_path if context is not None else "viewslam"
         print(f"{command}: error: {error.format_message()}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (typer.Abort, KeyboardInterrupt):
+    except KeyboardInterrupt:
         print("viewslam: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `viewslam ... | head`: the reader left
+        sys.stderr.close()
+        return 0
+    except Exception as error:  # a bug: one line, and the traceback where it can be sent to us
+        print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
+              f"{_traceback_note(error)}", file=sys.stderr)
+        return 1
     return result if isinstance(result, int) else 0
+
+
+def _traceback_note(error: Exception) -> str:
+    """Write the full traceback to a log file; ``"; full traceback in PATH"`` (or nothing if unwritable)."""
+    text = "".join(traceback.format_exception(error))
+    name = f"viewslam-crash-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+    for folder in (os.environ.get("VIEWSLAM_LOG_DIR"), tempfile.gettempdir()):
+        if not folder:
+            continue
+        path = Path(folder) / name
+        try:
+            path.write_text(f"viewslam {' '.join(sys.argv[1:])}\n{text}")
+        except OSError:
+            continue
+        return f"; full traceback in {path}"
+    return ""
 
 
 def entry_point() -> None:

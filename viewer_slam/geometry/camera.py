@@ -4,7 +4,10 @@ import json
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from typing import Annotated
+
 import numpy as np
+import pydantic
 
 from ..errors import InputError
 
@@ -71,21 +74,44 @@ class Camera:
 
     @classmethod
     def load(cls, path: Path) -> "Camera":
-        """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion)."""
+        """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion), checked."""
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise InputError.at(path, f"cannot read camera calibration: {error}") from None
-        required = ("fx", "fy", "cx", "cy", "width", "height")
-        missing = [key for key in required if key not in data]
-        if missing:
-            raise InputError.at(path, f"camera calibration lacks {', '.join(missing)}")
         try:
-            return cls(
-                fx=float(data["fx"]), fy=float(data["fy"]), cx=float(data["cx"]), cy=float(data["cy"]),
-                width=int(data["width"]), height=int(data["height"]),
-                depth_factor=float(data.get("depth_factor", TUM_DEPTH_FACTOR)),
-                distortion=tuple(float(v) for v in data.get("distortion", (0.0,) * 5)),
-            )
-        except (TypeError, ValueError) as error:
-            raise InputError.at(path, f"bad camera calibration value: {error}") from None
+            checked = _CameraFile.model_validate(data)
+        except pydantic.ValidationError as error:
+            raise InputError.at(path, f"bad camera calibration: {_problem(error)}") from None
+        return cls(**checked.model_dump())
+
+
+def _problem(error: pydantic.ValidationError) -> str:
+    """``FIELD must be ..., got VALUE`` for the first problem found."""
+    detail = error.errors()[0]
+    where = ".".join(map(str, detail["loc"])) or "the file"
+    if detail["type"] == "missing":
+        return f"{where} is missing"
+    if detail["type"] == "model_type":
+        return f"expected a JSON object with fx, fy, cx, cy, width, height, got {detail['input']!r}"
+    return f"{where} {detail['msg'].replace('Input should be', 'must be')}, got {detail['input']!r}"
+
+
+_Finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
+_Positive = Annotated[float, pydantic.Field(gt=0, allow_inf_nan=False)]
+_Pixels = Annotated[int, pydantic.Field(gt=0, le=100_000)]
+
+
+class _CameraFile(pydantic.BaseModel):
+    """The schema of camera.json: positive focal lengths, size and depth factor, finite numbers."""
+
+    model_config = pydantic.ConfigDict(extra="ignore")
+
+    fx: _Positive
+    fy: _Positive
+    cx: _Finite
+    cy: _Finite
+    width: _Pixels
+    height: _Pixels
+    depth_factor: _Positive = TUM_DEPTH_FACTOR
+    distortion: tuple[_Finite, ...] = (0.0,) * 5
