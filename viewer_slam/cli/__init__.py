@@ -6,6 +6,7 @@ command imports the heavy libraries (Rerun, OpenCV, Open3D, GTSAM) only when it 
 only those it uses, so ``viewslam --help`` and the light commands start at once.
 """
 
+import logging
 import os
 import signal
 import sys
@@ -33,6 +34,7 @@ def _interrupt(signum, frame) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
+    logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
     for number in (signal.SIGTERM, signal.SIGHUP):  # as Ctrl-C, until a command installs its own handling
         signal.signal(number, _interrupt)
     try:

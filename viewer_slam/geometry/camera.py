@@ -4,10 +4,10 @@ import json
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from functools import cache
 from typing import Annotated
 
 import numpy as np
-import pydantic
 
 from ..errors import InputError
 
@@ -79,39 +79,39 @@ class Camera:
             data = json.loads(Path(path).read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise InputError.at(path, f"cannot read camera calibration: {error}") from None
+        import pydantic  # only where a calibration file is read: it adds to every command's start-up
+
         try:
-            checked = _CameraFile.model_validate(data)
+            checked = _camera_schema().model_validate(data)
         except pydantic.ValidationError as error:
-            raise InputError.at(path, f"bad camera calibration: {_problem(error)}") from None
+            raise InputError.at(path, _problem(error)) from None
         return cls(**checked.model_dump())
 
 
-def _problem(error: pydantic.ValidationError) -> str:
-    """``FIELD must be ..., got VALUE`` for the first problem found."""
+def _problem(error) -> str:
+    """The missing keys, else ``FIELD must be ..., got VALUE`` for the first problem of a pydantic
+    ValidationError."""
+    missing = [str(detail["loc"][0]) for detail in error.errors() if detail["type"] == "missing"]
+    if missing:
+        return f"camera calibration lacks {', '.join(missing)}"
     detail = error.errors()[0]
-    where = ".".join(map(str, detail["loc"])) or "the file"
-    if detail["type"] == "missing":
-        return f"{where} is missing"
     if detail["type"] == "model_type":
-        return f"expected a JSON object with fx, fy, cx, cy, width, height, got {detail['input']!r}"
-    return f"{where} {detail['msg'].replace('Input should be', 'must be')}, got {detail['input']!r}"
+        return f"bad camera calibration: expected a JSON object with fx, fy, cx, cy, width, height, " \
+               f"got {detail['input']!r}"
+    where = ".".join(map(str, detail["loc"]))
+    return f"bad camera calibration: {where} {detail['msg'].replace('Input should be', 'must be')}, " \
+           f"got {detail['input']!r}"
 
 
-_Finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
-_Positive = Annotated[float, pydantic.Field(gt=0, allow_inf_nan=False)]
-_Pixels = Annotated[int, pydantic.Field(gt=0, le=100_000)]
-
-
-class _CameraFile(pydantic.BaseModel):
+@cache
+def _camera_schema():
     """The schema of camera.json: positive focal lengths, size and depth factor, finite numbers."""
+    import pydantic
 
-    model_config = pydantic.ConfigDict(extra="ignore")
-
-    fx: _Positive
-    fy: _Positive
-    cx: _Finite
-    cy: _Finite
-    width: _Pixels
-    height: _Pixels
-    depth_factor: _Positive = TUM_DEPTH_FACTOR
-    distortion: tuple[_Finite, ...] = (0.0,) * 5
+    finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
+    positive = Annotated[float, pydantic.Field(gt=0, allow_inf_nan=False)]
+    pixels = Annotated[int, pydantic.Field(gt=0, le=100_000)]
+    return pydantic.create_model(
+        "CameraFile", __config__=pydantic.ConfigDict(extra="ignore"),
+        fx=(positive, ...), fy=(positive, ...), cx=(finite, ...), cy=(finite, ...), width=(pixels, ...),
+        height=(pixels, ...), depth_factor=(positive, TUM_DEPTH_FACTOR), distortion=(tuple[finite, ...], (0.0,) * 5))

@@ -13,8 +13,6 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-import pydantic
-
 from ..errors import InputError
 
 
@@ -50,9 +48,11 @@ INT_MAX = 2**31 - 1
 
 
 @cache
-def schema(params_type: type) -> type[pydantic.BaseModel]:
+def schema(params_type: type):
     """A pydantic model of ``params_type``'s fields under their external keys, with the declared
     choices and bounds; every number must be finite, every integer fit a C int."""
+    import pydantic  # only where parameters are checked: it adds to every command's start-up
+
     hints = typing.get_type_hints(params_type)
     fields = {}
     for field in dataclasses.fields(params_type):
@@ -74,7 +74,7 @@ _EXPECTED = {"int": "expects an integer", "float": "expects a number", "bool": "
              "string": "expects text", "finite": "expects a finite number"}
 
 
-def _problem(error: pydantic.ValidationError, params_type: type) -> str:
+def _problem(error, params_type: type) -> str:
     """``KEY problem, got VALUE`` for the first problem of a validation error, in our one-line style."""
     detail = error.errors()[0]
     key = str(detail["loc"][0]) if detail["loc"] else "?"
@@ -98,6 +98,8 @@ def apply_overrides(params: Any, overrides: dict[str, Any], source: str) -> Any:
     for key in overrides:
         if key not in fields:
             raise InputError(f"{source}: unknown parameter {key!r}; valid: {', '.join(fields)}")
+    import pydantic
+
     values = params_to_dict(params) | dict(overrides)
     try:
         checked = schema(type(params)).model_validate(values)
