@@ -13,7 +13,7 @@ def benchmark(
     sequences: list[str] = typer.Argument(
         None, help="TUM folders, TUM sequence names (fr2/360_kidnap) or synthetic scenarios; "
                    "default: the seven synthetic scenarios.", show_default=False),
-    pipeline: list[str] = typer.Option(["both"], "--pipeline", help=PIPELINE_HELP),
+    pipeline: list[str] = typer.Option([], "--pipeline", help=PIPELINE_HELP + "  [default: both]"),
     pipelines: list[str] = typer.Option([], "--pipelines", hidden=True),  # the old spelling
     max_frames: int = typer.Option(None, "--max-frames", "--frames", min=2, help=MAX_FRAMES_HELP),
     scenario_frames: int = typer.Option(None, min=2, help="Length synthetic scenarios are rendered at, as "
@@ -47,7 +47,7 @@ def benchmark(
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
-    names = select_pipelines(joined(pipelines or pipeline))
+    names = select_pipelines(joined(pipelines + pipeline) or "both")
     for name in OUTPUT_FILES:
         check_writable(out / name)
     with exclusive([out]):
@@ -62,5 +62,5 @@ def benchmark(
     summary = f"{done - failed} of {done} task{'s' if done != 1 else ''} ok"
     if outcome.interrupted:
         summary += f"; interrupted with {len(tasks) - done} not run"
-    typer.echo(f"{summary}; wrote {', '.join(str(path) for path in paths)}", err=True)
+    typer.echo(f"{summary}; wrote {', '.join(str(path) for path in paths)}")
     return 130 if outcome.interrupted else 1 if failed else 0
