@@ -16,6 +16,9 @@ from pathlib import Path
 
 from .errors import InputError
 
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
 
 def check_writable(target: Path) -> None:
     """Fail now, before any work, if ``target`` cannot be written (its folder is created)."""
@@ -45,6 +48,7 @@ class StagedFiles:
         target = Path(target)
         if target not in self._staged:
             handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+            os.fchmod(handle, 0o666 & ~_UMASK)  # as an ordinary new file, not mkstemp's owner-only mode
             os.close(handle)
             self._staged[target] = Path(name)
         return self._staged[target]

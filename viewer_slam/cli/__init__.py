@@ -15,17 +15,13 @@ import time
 import traceback
 from pathlib import Path
 
-import typer
-
 from ..errors import InputError
-from . import benchmark, datasets, evaluate, record, synth  # noqa: F401  (register commands)
-from .app import app
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 # Rerun's Rust side logs its own errors on stderr (e.g. the file sink's "No space left on
 # device"); the command reports them in its one line instead.
-RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk::recording_stream=off"
+RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off"
 
 
 def _interrupt(signum, frame) -> None:
@@ -37,15 +33,20 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
     for number in (signal.SIGTERM, signal.SIGHUP):  # as Ctrl-C, until a command installs its own handling
         signal.signal(number, _interrupt)
-    try:
+    try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
+        import typer
+
+        from . import benchmark, datasets, evaluate, record, synth  # noqa: F401  (register commands)
+        from .app import app
+
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
     except InputError as error:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except typer.Abort:
+    except _typer_exception("Abort"):
         print("viewslam: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except typer.TyperException as error:  # usage errors: unknown option, missing argument
+    except _typer_exception("TyperException") as error:  # usage errors: unknown option, missing argument
         if not error.format_message():  # bare `viewslam`: help was printed
             return 0
         context = getattr(error, "ctx", None)
@@ -63,6 +64,17 @@ def main(argv: list[str] | None = None) -> int:
               f"{_traceback_note(error)}", file=sys.stderr)
         return 1
     return result if isinstance(result, int) else 0
+
+
+def _typer_exception(name: str) -> type[BaseException]:
+    """typer's exception class ``name`` once typer is loaded (an ``except`` clause evaluates it only
+    when an exception is being matched), else a class nothing raises."""
+    typer = sys.modules.get("typer")
+    return getattr(typer, name) if typer is not None else _Never
+
+
+class _Never(Exception):
+    pass
 
 
 def _traceback_note(error: Exception) -> str:

@@ -5,7 +5,7 @@ from pathlib import Path
 import typer
 
 from .app import app
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, joined, parse_resolution
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, parse_resolution
 
 
 @app.command()
@@ -31,8 +31,7 @@ def benchmark(
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> int:
-    """Run every sequence x pipeline pair, evaluate, print the results and write the study's table,
-    charts and findings.
+    """Run every sequence x pipeline pair, evaluate, print the results table and write it with charts and findings.
 
     Exits with 1 when a task failed (the others still complete and are reported), 130 when
     interrupted (the finished tasks are written).
@@ -47,7 +46,7 @@ def benchmark(
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
-    names = select_pipelines(joined(pipelines + pipeline) or "both")
+    names = select_pipelines(",".join(pipelines + pipeline) or "both")
     for name in OUTPUT_FILES:
         check_writable(out / name)
     with exclusive([out]):

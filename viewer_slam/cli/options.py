@@ -10,11 +10,6 @@ QUIET_HELP = "No progress display (results are still printed)."
 SEED_MAX = 2**32 - 1  # numpy seeds are unsigned 32-bit words
 
 
-def joined(values: list[str]) -> str:
-    """Repeated ``--pipeline`` options, each possibly comma-separated, as one comma-separated text."""
-    return ",".join(part.strip() for value in values for part in value.split(",") if part.strip())
-
-
 def parse_resolution(text: str) -> tuple[int, int]:
     """``WIDTHxHEIGHT`` (e.g. ``640x480``) as a pair of integers, each at least 16 pixels."""
     match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)

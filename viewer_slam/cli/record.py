@@ -8,7 +8,7 @@ import typer
 from ..errors import InputError
 from ..recording.viewer import viewer_binary
 from .app import app
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX, joined
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
 
 EXIT_INTERRUPTED = 130
 
@@ -32,7 +32,7 @@ def record_command(
     from ..recording.console import print_summary
     from ..recording.session import RecordOptions, record
 
-    result = record(RecordOptions(sequence=sequence, pipeline=joined(pipeline), out=out, max_frames=max_frames,
+    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline), out=out, max_frames=max_frames,
                                   stride=stride, params=param, config=config, seed=seed, quiet=quiet,
                                   spawn=spawn))
     if not quiet:
