@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from ..errors import Interrupted
 from .cache import ResultCache
 from .executors import Executor, run_tasks
 from .runner import BenchmarkTask, TaskResult
@@ -53,6 +54,6 @@ def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: Res
         try:
             if pending:
                 run_tasks([tasks[index] for index in pending], executor, on_start=started, on_finish=finished)
-        except KeyboardInterrupt:
+        except (KeyboardInterrupt, Interrupted):
             interrupted = True
     return BenchmarkOutcome([results[index] for index in sorted(results)], interrupted)

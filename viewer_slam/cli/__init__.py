@@ -15,7 +15,7 @@ import time
 import traceback
 from pathlib import Path
 
-from ..errors import InputError
+from ..errors import InputError, Interrupted
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -24,15 +24,26 @@ EXIT_INTERRUPTED = 130
 RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off"
 
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
 def _interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
+    raise Interrupted(signal.Signals(signum).name)
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line)."""
+    previous = {number: signal.signal(number, _interrupt) for number in STOP_SIGNALS}
+    try:
+        return _run(argv)
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _run(argv: list[str] | None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
-    for number in (signal.SIGTERM, signal.SIGHUP):  # as Ctrl-C, until a command installs its own handling
-        signal.signal(number, _interrupt)
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer
 
@@ -53,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         command = context.command_path if context is not None else "viewslam"
         print(f"{command}: error: {error.format_message()}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
+    except (Interrupted, KeyboardInterrupt):
         print("viewslam: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
     except BrokenPipeError:  # `viewslam ... | head`: the reader left

@@ -7,12 +7,14 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from ..errors import Interrupted
+
 # A terminal closing (SIGHUP) or a job scheduler stopping the run (SIGTERM) is a Ctrl-C.
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 class StopRequest:
-    """Set by the first stop signal; a second one aborts at once (KeyboardInterrupt)."""
+    """Set by the first stop signal; a second one aborts at once (:class:`Interrupted`)."""
 
     def __init__(self):
         self.requested = False
@@ -22,7 +24,7 @@ class StopRequest:
 
     def _handle(self, signum, frame) -> None:
         if self.requested:
-            raise KeyboardInterrupt
+            raise Interrupted(signal.Signals(signum).name)
         self.requested = True
         print(f"\nviewslam: {signal.Signals(signum).name}: stopping after this frame and writing what was "
               "recorded (Ctrl-C again to abort)", file=sys.stderr)
