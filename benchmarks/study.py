@@ -31,7 +31,7 @@ def run(arguments: list[str]) -> int:
     with ProcessPoolExecutor(options.jobs) as pool:
         for name, folder in zip(SCENARIOS, pool.map(generate, SCENARIOS)):
             print(f"{name}: {folder}", flush=True)
-    size = ["--frames", str(options.frames)] if options.frames else []
+    size = ["--scenario-frames", str(options.frames)] if options.frames else []
     code = main(["benchmark", *size, "--resolution", options.resolution, "--jobs", str(options.jobs),
                  "--out", str(options.out)])
     IMAGES.mkdir(parents=True, exist_ok=True)
