@@ -189,7 +189,7 @@ RECORD_CASES = {
 
 BENCHMARK = ["benchmark", "{seq}", "--out", "{tmp}/bench", "--quiet", "--no-cache"]
 BENCHMARK_CASES = {
-    "benchmark-out-is-file": Case(["benchmark", "{seq}", "--out", "{seq}/rgb.txt"], "rgb.txt"),
+    "benchmark-out-is-file": Case(["benchmark", "{seq}", "--out", "{seq}/rgb.txt"], "rgb.txt: is a file"),
     "benchmark-pipeline-unknown": Case([*BENCHMARK, "--pipeline", "orb"], "--pipeline 'orb'"),
     "benchmark-old-pipelines-unknown": Case([*BENCHMARK, "--pipelines", "orb"], "--pipeline 'orb'"),
     "benchmark-resolution": Case([*BENCHMARK, "--resolution", "64by48"], "--resolution '64by48'"),
@@ -268,6 +268,20 @@ def test_bad_input_is_one_line_exit_2_and_loses_nothing(case, excerpt, tmp_path,
     assert case.names in error
     assert snapshot(out) == before
     assert not [path for path in out.iterdir() if path.name.startswith(".")]  # no temporary or lock file left
+
+
+@pytest.mark.parametrize("arguments", [["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
+                                       ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
+                                       ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"]],
+                         ids=["download", "record", "benchmark"])
+def test_a_cache_that_is_a_file_is_one_line_naming_the_variable(arguments, tmp_path, monkeypatch, capfd):
+    (tmp_path / "cache").write_text("not a folder")
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
+    assert main([argument.format(tmp=tmp_path) for argument in arguments]) == 2
+    error = capfd.readouterr().err
+    assert error.count("\n") == 1 and f"VIEWSLAM_CACHE {tmp_path / 'cache'}: cannot create" in error
+    assert (tmp_path / "cache").read_text() == "not a folder"
 
 
 def test_a_bom_in_the_listings_is_read_like_any_text(excerpt, tmp_path):

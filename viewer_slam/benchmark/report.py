@@ -46,8 +46,8 @@ def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_")
     failed = [result for result in results if not result.ok]
     lines = [
         "# Benchmark results", "",
-        f"{sequences} sequences x pipelines {pipelines}; viewslam {__version__}. ATE and RPE follow Sturm et al. "
-        "(RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
+        f"{sequences} sequence{'s' if sequences != 1 else ''} x pipelines {pipelines}; viewslam {__version__}. "
+        "ATE and RPE follow Sturm et al. (RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
         "that lost time with the error of the last pose held.", "",
         "## Results", "",
         results_table(results), "",

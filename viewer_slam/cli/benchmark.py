@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from ..errors import InputError
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, parse_resolution
 
@@ -47,6 +48,8 @@ def benchmark(
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     names = select_pipelines(",".join(pipelines + pipeline) or "both")
+    if out.exists() and not out.is_dir():
+        raise InputError.at(out, "is a file; --out takes a folder")
     for name in OUTPUT_FILES:
         check_writable(out / name)
     with exclusive([out]):

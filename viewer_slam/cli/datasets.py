@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from .app import app
+from .options import QUIET_HELP
 
 
 @app.command()
@@ -15,7 +16,7 @@ def download(
     mirror: str = typer.Option(None, help="Base URL holding freiburgN/<name>.tgz (default: $VIEWSLAM_TUM_MIRROR, "
                                           "else the TUM server)."),
     force: bool = typer.Option(False, help="Download again even if the sequence is present."),
-    quiet: bool = typer.Option(False, help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Download TUM RGB-D sequences (resuming a partial download; verified, then moved into place)."""
     from ..dataset.catalog import known_tum_sequence
