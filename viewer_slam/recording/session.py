@@ -145,7 +145,7 @@ class TappedSequence:
 
 
 class RecordingFile:
-    """A Rerun stream saved to ``path`` (and shown live with ``spawn``), standing for ``target``.
+    """A Rerun stream saved to ``path`` (and shown live with ``spawn``); ``target`` names it in errors.
 
     The file sink reports write errors (a full disk) only when flushed; :meth:`close`
     flushes, and ``error`` then says what went wrong, or is None when the file is complete
@@ -153,7 +153,7 @@ class RecordingFile:
     """
 
     def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, spawn: bool):
-        self.path, self.target = path, target
+        self.path = path
         self.error: str | None = None
         self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
