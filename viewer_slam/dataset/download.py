@@ -22,6 +22,7 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
 from ..atomic import check_writable
@@ -154,7 +155,7 @@ def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
                TimeRemainingColumn())
     received = transfer.start
     with open(part, "ab" if transfer.start else "wb") as out, \
-            Progress(*columns, disable=not progress, transient=True) as bar:
+            Progress(*columns, console=Console(stderr=True), disable=not progress, transient=True) as bar:
         task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
         while chunk := transfer.response.read1(CHUNK_BYTES):  # whatever has arrived, up to CHUNK_BYTES
             out.write(chunk)
