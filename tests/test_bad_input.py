@@ -206,6 +206,7 @@ BENCHMARK_CASES = {
                                          write("tmp/c.toml", b"\xff\xfe\n")),
     "benchmark-config-misspelt-table": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "[rtab_map]",
                                             write("tmp/c.toml", "[rtab_map]\n")),
+    "benchmark-old-frames-option": Case([*BENCHMARK, "--frames", "60"], "--frames"),
     "benchmark-unknown-sequence": Case(["benchmark", "fr9/none", "--out", "{tmp}/bench", "--quiet"], "fr9/none"),
 }
 

@@ -16,7 +16,7 @@ def benchmark(
                    "default: the seven synthetic scenarios.", show_default=False),
     pipeline: list[str] = typer.Option([], "--pipeline", help=PIPELINE_HELP + "  [default: both]"),
     pipelines: list[str] = typer.Option([], "--pipelines", hidden=True),  # the old spelling
-    max_frames: int = typer.Option(None, "--max-frames", "--frames", min=2, help=MAX_FRAMES_HELP),
+    max_frames: int = typer.Option(None, "--max-frames", min=2, help=MAX_FRAMES_HELP),
     scenario_frames: int = typer.Option(None, min=2, help="Length synthetic scenarios are rendered at, as "
                                                            "`viewslam synth --frames` (default: their own)."),
     resolution: str = typer.Option("640x480", help="Synthetic scenarios' image size, WIDTHxHEIGHT."),
