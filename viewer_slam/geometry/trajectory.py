@@ -38,18 +38,25 @@ class Trajectory:
         return cls(np.zeros(0), np.zeros((0, 4, 4)))
 
 
-def read_tum(path: Path) -> Trajectory:
-    """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
-
-    Every malformed line raises :class:`InputError` naming the file and line number.
-    """
-    path = Path(path)
+def read_text(path: Path) -> str:
+    """The text of a trajectory file; a missing or unreadable file is an :class:`InputError`."""
     try:
-        text = path.read_text()
+        return Path(path).read_text()
     except FileNotFoundError:
         raise InputError.at(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise InputError.at(path, f"cannot read: {error}") from None
+
+
+def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
+    """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
+
+    Every malformed line raises :class:`InputError` naming the file and line number. Lines
+    out of time order are sorted, unless ``in_order`` demands strictly increasing stamps
+    (an estimate whose stamps go backwards is more likely broken than shuffled).
+    """
+    path = Path(path)
+    text = read_text(path)
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
@@ -66,6 +73,9 @@ def read_tum(path: Path) -> Trajectory:
             raise InputError.at(path, "a field is NaN or infinite", number)
         if math.sqrt(sum(v * v for v in values[4:])) < 1e-9:
             raise InputError.at(path, "zero quaternion", number)
+        if in_order and rows and values[0] <= rows[-1][0]:
+            raise InputError.at(path, f"timestamp {fields[0]} does not increase (previous {rows[-1][0]:.6f})",
+                                number)
         rows.append(values)
     if not rows:
         raise InputError.at(path, "no poses in trajectory file")
