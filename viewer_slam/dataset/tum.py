@@ -20,9 +20,8 @@ import numpy as np
 from ..errors import InputError
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.interpolation import interpolate_poses
 from ..geometry.trajectory import Trajectory, read_tum
-from .frame import Frame
+from .frame import Frame, TimedFrames
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +48,7 @@ class _Listing:
     values: list[list[str]]
 
 
-class TumSequence:
+class TumSequence(TimedFrames):
     """A TUM RGB-D folder as a :class:`~viewer_slam.dataset.frame.Sequence`.
 
     ``timestamps`` are the associated colour stamps (one per frame), ``depth_timestamps``
@@ -71,18 +70,6 @@ class TumSequence:
         self.depth_timestamps = depth.stamps[depth_index]
         self._rgb_files = [rgb.values[i][0] for i in rgb_index]
         self._depth_files = [depth.values[i][0] for i in depth_index]
-
-    def __len__(self) -> int:
-        return len(self.timestamps)
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.timestamps[-1] - self.timestamps[0])
-
-    @property
-    def frame_period(self) -> float | None:
-        """Median time between associated frames (None for a single frame)."""
-        return float(np.median(np.diff(self.timestamps))) if len(self.timestamps) > 1 else None
 
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
@@ -116,17 +103,6 @@ class TumSequence:
             finally:
                 for future in pending:
                     future.cancel()
-
-    def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""
-        if self.groundtruth is None:
-            stamps = np.asarray(stamps, dtype=np.float64).reshape(-1)
-            return np.full((len(stamps), 4, 4), np.nan), np.zeros(len(stamps), dtype=bool)
-        return interpolate_poses(self.groundtruth, stamps)
-
-    def frames_outside_groundtruth(self) -> np.ndarray:
-        """Indices of the frames at which no groundtruth pose can be interpolated."""
-        return np.flatnonzero(~self.groundtruth_at(self.timestamps)[1])
 
     @staticmethod
     def _read_image(path: Path, flags: int) -> np.ndarray:
