@@ -4,7 +4,6 @@ import http.server
 import io
 import random
 import re
-import shutil
 import socket
 import tarfile
 import threading
@@ -13,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from benchmark_fake_pipeline import write_tum_folder
-from fixtures_eval import TUM_RPY
+from fixtures_eval import TUM_RPY, tum_excerpt
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.tum import open_sequence
@@ -247,20 +246,6 @@ def test_network_failure_says_what_to_retry(tmp_path, capsys):
     assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {url}/freiburg1/{NAME}.tgz: download failed: ")
     assert error.rstrip().endswith("; run the same `viewslam download` again")
     assert list(tmp_path.iterdir()) == []
-
-
-def tum_excerpt(folder: Path, frames: int) -> Path:
-    """The first ``frames`` colour and depth images of the shared fr1/rpy excerpt, with its groundtruth."""
-    for listing in ("rgb.txt", "depth.txt"):
-        lines = (TUM_RPY / listing).read_text().splitlines()
-        header = [line for line in lines if line.startswith("#")]
-        kept = [line for line in lines if not line.startswith("#")][:frames]
-        (folder / listing.removesuffix(".txt")).mkdir(parents=True)
-        for line in kept:
-            shutil.copy(TUM_RPY / line.split()[1], folder / line.split()[1])
-        (folder / listing).write_text("\n".join(header + kept) + "\n")
-    shutil.copy(TUM_RPY / "groundtruth.txt", folder / "groundtruth.txt")
-    return folder
 
 
 @pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")

@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -22,6 +23,9 @@ from ..geometry.association import associate
 from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory, read_tum
 from .frame import Frame, TimedFrames
+
+if TYPE_CHECKING:
+    from .rosbag import BagSequence
 
 log = logging.getLogger(__name__)
 
@@ -121,9 +125,14 @@ class TumSequence(TimedFrames):
         return image
 
 
-def open_sequence(path: Path) -> TumSequence:
-    """Open a TUM RGB-D folder; :class:`InputError` if it is not one."""
+def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
+    """Open a TUM RGB-D folder, or a ROS bag (see :func:`~viewer_slam.dataset.rosbag.open_bag`
+    for ``bag_options``); :class:`InputError` if it is neither."""
+    from .rosbag import is_bag, open_bag  # a bag's reader loads only for a bag
+
     path = Path(path)
+    if is_bag(path):
+        return open_bag(path, **bag_options)
     if not path.is_dir():
         raise InputError.at(path, "no such folder" if not path.exists() else "not a folder")
     for required in ("rgb.txt", "depth.txt"):
@@ -145,12 +154,18 @@ def _camera_for(path: Path) -> Camera:
     """camera.json, else the published calibration named by the folder, else ROS's default."""
     if (path / "camera.json").is_file():
         return Camera.load(path / "camera.json")
-    match = re.search(r"freiburg[123]", path.resolve().name)
-    if match:
-        return FREIBURG_CAMERAS[match.group(0)]
+    camera = freiburg_camera(path.resolve().name)
+    if camera is not None:
+        return camera
     log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
                 "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
     return ROS_DEFAULT_CAMERA
+
+
+def freiburg_camera(name: str) -> Camera | None:
+    """The published calibration of the sensor a TUM name (folder or bag) says, if it says one."""
+    match = re.search(r"freiburg[123]", name)
+    return FREIBURG_CAMERAS[match.group(0)] if match else None
 
 
 def _read_listing(path: Path, value_fields: int) -> _Listing:
