@@ -78,6 +78,11 @@ class TumSequenceInfo:
         return f"{self.camera}/{self.name}.tgz"
 
     @property
+    def bag(self) -> str:
+        """Path of the sequence's ROS bag below a mirror's base URL."""
+        return f"{self.camera}/{self.name}.bag"
+
+    @property
     def groundtruth_public(self) -> bool:
         """Whether the archive holds ``groundtruth.txt`` (all but the validation sequences)."""
         return self.category != "validation"
