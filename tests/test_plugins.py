@@ -83,3 +83,14 @@ def test_selecting_a_broken_plugin_is_one_line_and_exit_2(site, tmp_path, plugin
     assert done.returncode == 2
     assert done.stderr.startswith(f"viewslam: error: pipeline plugin '{plugin}' (") and problem in done.stderr
     assert done.stderr.count("\n") == 1 and not (tmp_path / "out/x.rrd").exists()
+
+
+def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
+    folder = write_tum_folder(tmp_path / "tiny", frames=6)
+    done = viewslam(site, tmp_path, "benchmark", str(folder), "--pipelines", "rgbdslam,stationary", "--jobs", "1",
+                    "--no-cache", "--out", "results", "--quiet")
+    assert done.returncode == 0, done.stderr
+    rows = {row["pipeline"]: row for row in json.loads((tmp_path / "results/results.json").read_text())}
+    assert set(rows) == {"rgbdslam", "stationary"} and rows["stationary"]["status"] == "ok"
+    assert rows["stationary"]["frames_with_pose"] == 6 and rows["stationary"]["ate_rmse"] > 0
+    assert "stationary" in (tmp_path / "results/report.md").read_text()
