@@ -12,6 +12,7 @@ from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.rosbag import BagSequence, open_bag
 from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
 from viewer_slam.errors import InputError
+from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
 
 FRAMES = 6
 NAME = "rgbd_dataset_freiburg1_rpy"
@@ -86,8 +87,10 @@ def test_recording_the_bag_writes_the_folder_trajectory_byte_for_byte(excerpt, t
     assert outputs["bag"] == outputs["folder"] and outputs["bag"].count(b"\n") == 5
 
 
-def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3) -> tuple[np.ndarray, np.ndarray]:
-    """A 32x24 bag with a bgr8 topic and a 16UC1 millimetre topic (where ``topics`` names them)."""
+def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
+                  more=lambda bag: None) -> tuple[np.ndarray, np.ndarray]:
+    """A 32x24 bag with a bgr8 topic and a 16UC1 millimetre topic (where ``topics`` names them),
+    and what ``more(bag)`` writes."""
     rng = np.random.default_rng(0)
     bgr = rng.integers(0, 256, (frames, 24, 32, 3), dtype=np.uint8)
     millimetres = rng.integers(0, 6000, (frames, 24, 32), dtype=np.uint16)
@@ -101,6 +104,7 @@ def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3)
             if "depth" in topics:
                 bag.image(topics["depth"], stamp + 1000, "cam", millimetres[k], "16UC1")
             bag.transform(stamp, "/map", "/base", np.eye(4))  # tf that never moves: no groundtruth
+        more(bag)
     return bgr, millimetres
 
 
@@ -114,6 +118,31 @@ def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_pa
     for k, frame in enumerate(sequence.frames()):
         np.testing.assert_array_equal(frame.rgb, bgr[k][:, :, ::-1])
         np.testing.assert_array_equal(frame.depth, (millimetres[k] / 1000.0).astype(np.float32))
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_groundtruth_from_a_pose_topic(tmp_path, ros):
+    expected = [make_pose(exp_so3(np.array([0.1 * k, 0.0, 0.2])), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
+
+    def poses(bag):
+        types = bag.types
+        for k, pose in enumerate(expected):
+            (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
+            stamp = 5 * 10**9 + k * 10**8
+            message = types["geometry_msgs/msg/PoseStamped"](
+                header=bag.header(stamp, "map"),
+                pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+                                                     orientation=types["geometry_msgs/msg/Quaternion"](
+                                                         x=qx, y=qy, z=qz, w=qw)))
+            bag.add("/mocap/pose", "geometry_msgs/msg/PoseStamped", stamp, message)
+
+    path = tmp_path / ("desk.bag" if ros == 1 else "desk")
+    synthetic_bag(path, ros, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
+    sequence = open_bag(path, groundtruth_topic="/mocap/pose")
+    np.testing.assert_array_equal(sequence.groundtruth.timestamps, 5 + np.arange(4) / 10)
+    np.testing.assert_allclose(sequence.groundtruth.poses, expected, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="--groundtruth-topic /cam/image_raw: sensor_msgs/msg/Image, not one of"):
+        open_bag(path, groundtruth_topic="/cam/image_raw")
 
 
 def test_a_ros1_bag_path_resolves_as_a_sequence(tmp_path):
@@ -137,26 +166,15 @@ def test_a_ros1_bag_path_resolves_as_a_sequence(tmp_path):
 ])
 def test_bags_without_usable_images_name_the_bag_and_the_problem(tmp_path, topics, options, problem):
     path = tmp_path / "bad"
-    synthetic_bag(path, 2, topics)
-    if "second" in topics:
-        synthetic_bag(tmp_path / "other", 2, {"colour": topics["second"]})
-        path = tmp_path / "merged"
-        write_merged(path, tmp_path / "bad", tmp_path / "other")
+
+    def second_camera(bag):
+        if "second" in topics:
+            bag.image(topics["second"], 5 * 10**9, "other", np.zeros((24, 32, 3), np.uint8), "rgb8")
+
+    synthetic_bag(path, 2, topics, more=second_camera)
     with pytest.raises(InputError) as raised:
         open_bag(path, **options)
     assert str(raised.value).startswith(f"{path}: {problem}") and "\n" not in str(raised.value)
-
-
-def write_merged(path: Path, *sources: Path) -> None:
-    """A ROS 2 bag with every topic of ``sources``."""
-    from rosbags.highlevel import AnyReader
-
-    with BagWriter(path, 2) as out:
-        for source in sources:
-            with AnyReader([source]) as reader:
-                for connection, stamp, raw in reader.messages():
-                    out.add(connection.topic, connection.msgtype, stamp,
-                            reader.deserialize(raw, connection.msgtype))
 
 
 def test_record_of_a_bag_without_images_is_one_line_and_exit_2(tmp_path, capsys):

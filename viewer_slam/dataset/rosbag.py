@@ -116,14 +116,20 @@ class BagSequence(TimedFrames):
             return
         wanted = {(self._colour.topic, int(self._colour.stamps_ns[self._colour_rows[i]])): (i, 0) for i in indices}
         wanted |= {(self._depth.topic, int(self._depth.stamps_ns[self._depth_rows[i]])): (i, 1) for i in indices}
-        log_times = np.concatenate([self._colour.log_times_ns[self._colour_rows[indices]],
-                                    self._depth.log_times_ns[self._depth_rows[indices]]])
+        colour_times = self._colour.log_times_ns[self._colour_rows[indices]]
+        depth_times = self._depth.log_times_ns[self._depth_rows[indices]]
+        # Log times pick the messages to decode; header stamps (what frames are keyed by) confirm them.
+        needed = {(self._colour.topic, int(t)) for t in colour_times} | \
+            {(self._depth.topic, int(t)) for t in depth_times}
+        log_times = np.concatenate([colour_times, depth_times])
         parts: dict[int, list] = {}
         position = 0
         with _open_reader(self.path) as reader:
             connections = [c for c in reader.connections if c.topic in self.topics]
-            for connection, _, raw in _messages(self.path, reader, connections, int(log_times.min()),
-                                                int(log_times.max()) + 1):
+            for connection, log_time, raw in _messages(self.path, reader, connections, int(log_times.min()),
+                                                       int(log_times.max()) + 1):
+                if (connection.topic, log_time) not in needed:
+                    continue
                 message = _deserialize(self.path, reader, raw, connection)
                 key = wanted.get((connection.topic, _stamp_ns(message.header.stamp)))
                 if key is None:
@@ -271,7 +277,8 @@ def _camera(path: Path, reader: AnyReader, colour: _Stream, topic: str | None) -
     else:
         infos = list(dict.fromkeys(c.topic for c in reader.connections if c.msgtype == CAMERA_INFO))
         beside = [name for name in infos if name.rsplit("/", 1)[0] == colour.topic.rsplit("/", 1)[0]]
-        topic = (beside or infos)[0] if len(beside) == 1 or len(infos) == 1 else None
+        candidates = beside if len(beside) == 1 else infos
+        topic = candidates[0] if len(candidates) == 1 else None
     info = _first_message(path, reader, topic) if topic is not None else None
     if info is None:
         log.warning("%s: no camera info topic beside %s; using the ROS default camera (fx=fy=525, cx=319.5, "

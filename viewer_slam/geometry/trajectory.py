@@ -48,6 +48,17 @@ def read_text(path: Path) -> str:
         raise InputError.at(path, f"cannot read: {error}") from None
 
 
+def parse_numbers(path: Path, fields: list[str], line: int) -> list[float]:
+    """The fields of line ``line`` of ``path`` as finite numbers, else an :class:`InputError` there."""
+    try:
+        values = [float(field) for field in fields]
+    except ValueError:
+        raise InputError.at(path, "a field is not a number", line) from None
+    if not all(math.isfinite(value) for value in values):
+        raise InputError.at(path, "a field is NaN or infinite", line)
+    return values
+
+
 def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
     """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
 
@@ -65,12 +76,7 @@ def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
         fields = stripped.replace(",", " ").split()
         if len(fields) != 8:
             raise InputError.at(path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number)
-        try:
-            values = [float(v) for v in fields]
-        except ValueError:
-            raise InputError.at(path, "a field is not a number", number) from None
-        if not all(math.isfinite(v) for v in values):
-            raise InputError.at(path, "a field is NaN or infinite", number)
+        values = parse_numbers(path, fields, number)
         if math.sqrt(sum(v * v for v in values[4:])) < 1e-9:
             raise InputError.at(path, "zero quaternion", number)
         if in_order and rows and values[0] <= rows[-1][0]:

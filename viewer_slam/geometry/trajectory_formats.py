@@ -25,7 +25,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from .se3 import make_pose, pose_from_tq
-from .trajectory import Trajectory, read_text, read_tum
+from .trajectory import Trajectory, parse_numbers, read_text, read_tum
 
 FORMATS = ("tum", "kitti", "euroc")
 KITTI_FIELDS = 12
@@ -86,16 +86,6 @@ def _header_names(line: str) -> list[str] | None:
     return names
 
 
-def _numbers(path: Path, fields: list[str], number: int) -> list[float]:
-    try:
-        values = [float(field) for field in fields]
-    except ValueError:
-        raise InputError.at(path, "a field is not a number", number) from None
-    if not all(math.isfinite(value) for value in values):
-        raise InputError.at(path, "a field is NaN or infinite", number)
-    return values
-
-
 def _check_increasing(path: Path, stamps: list[float], numbers: list[int]) -> None:
     for k in range(1, len(stamps)):
         if stamps[k] <= stamps[k - 1]:
@@ -119,7 +109,7 @@ def _read_kitti(path: Path, text: str, timestamps) -> Trajectory:
         if len(fields) != KITTI_FIELDS:
             raise InputError.at(path, f"expected {KITTI_FIELDS} fields (a 3x4 pose, row by row), "
                                 f"found {len(fields)}", number)
-        matrices[k] = np.reshape(_numbers(path, fields, number), (3, 4))
+        matrices[k] = np.reshape(parse_numbers(path, fields, number), (3, 4))
         rotation = matrices[k, :, :3]
         if np.linalg.det(rotation) <= 0 or np.abs(rotation.T @ rotation - np.eye(3)).max() > ORTHONORMAL_TOLERANCE:
             raise InputError.at(path, "the 3x3 block is not a rotation matrix", number)
@@ -134,7 +124,7 @@ def _times(path: Path) -> np.ndarray:
     stamps, numbers = [], []
     for number, line in _lines(text):
         if not line.startswith("#"):
-            stamps.append(_numbers(path, line.replace(",", " ").split()[:1], number)[0])
+            stamps.append(parse_numbers(path, line.replace(",", " ").split()[:1], number)[0])
             numbers.append(number)
     _check_increasing(path, stamps, numbers)
     return np.array(stamps)
@@ -157,7 +147,7 @@ def _read_euroc(path: Path, text: str) -> Trajectory:
         fields = [field.strip() for field in line.split(",")]
         if len(fields) != len(names):
             raise InputError.at(path, f"expected {len(names)} fields as the header names, found {len(fields)}", number)
-        row = _numbers(path, [fields[c] for c in columns], number)
+        row = parse_numbers(path, [fields[c] for c in columns], number)
         if math.hypot(*row[3:]) < 1e-9:
             raise InputError.at(path, "zero quaternion", number)
         stamps.append(_stamp(path, fields[0], number, in_seconds))
@@ -181,7 +171,7 @@ def _column(path: Path, header_number: int, names: list[str], candidates: tuple[
 def _stamp(path: Path, field: str, number: int, in_seconds: bool) -> float:
     """Seconds from a stamp. Integer nanoseconds are divided as integers: a float would round them."""
     if in_seconds:
-        return _numbers(path, [field], number)[0]
+        return parse_numbers(path, [field], number)[0]
     if field.isdigit():
         return int(field) / 10**9
-    return _numbers(path, [field], number)[0] / 1e9
+    return parse_numbers(path, [field], number)[0] / 1e9
