@@ -5,11 +5,14 @@ import os
 import shutil
 import subprocess
 import sys
+from importlib.metadata import EntryPoint
 from pathlib import Path
 
 import pytest
 
-from benchmark_fake_pipeline import write_tum_folder
+from benchmark_fake_pipeline import FakeParams, FakePipeline, write_tum_folder
+from viewer_slam.errors import InputError
+from viewer_slam.pipelines.base import ENTRY_POINT_GROUP, Pipeline, load_plugin
 
 PLUGINS = Path(__file__).parent / "plugins"
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,3 +97,33 @@ def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     assert set(rows) == {"rgbdslam", "stationary"} and rows["stationary"]["status"] == "ok"
     assert rows["stationary"]["frames_with_pose"] == 6 and rows["stationary"]["ate_rmse"] > 0
     assert "stationary" in (tmp_path / "results/report.md").read_text()
+
+
+class HalfPipeline(Pipeline):
+    """Tracks frames but never finishes."""
+
+    Params = FakeParams
+
+    def process(self, frame):
+        return []
+
+
+class UnparametrisedPipeline(FakePipeline):
+    Params = dict
+
+
+@pytest.mark.parametrize("name, value, problem", [
+    ("rgbdslam", "benchmark_fake_pipeline:FakePipeline", "the name is taken by a built-in pipeline"),
+    ("half", "test_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
+    ("bare", "test_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a dataclass of parameters"),
+    ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
+    ("raising", "test_plugins:no_such_name", "cannot be imported: AttributeError: "),
+])
+def test_what_a_plugin_must_be(name, value, problem):
+    with pytest.raises(InputError) as raised:
+        load_plugin(EntryPoint(name, value, ENTRY_POINT_GROUP))
+    assert str(raised.value).startswith(f"pipeline plugin {name!r} ({value}): ") and problem in str(raised.value)
+
+
+def test_a_plugin_that_is_a_pipeline_loads():
+    assert load_plugin(EntryPoint("fake", "benchmark_fake_pipeline:FakePipeline", ENTRY_POINT_GROUP)) is FakePipeline
