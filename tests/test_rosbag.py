@@ -177,6 +177,23 @@ def test_bags_without_usable_images_name_the_bag_and_the_problem(tmp_path, topic
     assert str(raised.value).startswith(f"{path}: {problem}") and "\n" not in str(raised.value)
 
 
+def test_an_image_whose_data_do_not_fill_it_is_one_line(tmp_path):
+    path = tmp_path / "short"
+
+    def truncated(bag):
+        message = bag.types["sensor_msgs/msg/Image"](
+            header=bag.header(6 * 10**9, "cam"), height=24, width=32, encoding="bgr8", is_bigendian=0, step=96,
+            data=np.zeros(100, np.uint8))
+        bag.add("/cam/image_raw", "sensor_msgs/msg/Image", 6 * 10**9, message)
+        bag.image("/cam/depth_mm", 6 * 10**9, "cam", np.zeros((24, 32), np.uint16), "16UC1")
+
+    synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=truncated)
+    sequence = open_sequence(path)
+    assert len(sequence) == 4 and sequence.frame(2).rgb.shape == (24, 32, 3)
+    with pytest.raises(InputError, match=rf"^{path}: frame 3 \(6.000000 s\): malformed image \(ValueError: "):
+        sequence.frame(3)
+
+
 def test_record_of_a_bag_without_images_is_one_line_and_exit_2(tmp_path, capsys):
     path = tmp_path / "empty.bag"
     synthetic_bag(path, 1, {})

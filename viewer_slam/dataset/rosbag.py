@@ -147,8 +147,11 @@ class BagSequence(TimedFrames):
                             f"again in the bag")
 
     def _frame(self, index: int, rgb_message, depth_message) -> Frame:
-        rgb = _colour_image(rgb_message)
-        depth = _depth_image(depth_message)
+        try:
+            rgb, depth = _colour_image(rgb_message), _depth_image(depth_message)
+        except (KeyError, ValueError) as error:  # an encoding that changed, data that do not fill the image
+            raise InputError.at(self.path, f"frame {index} ({self.timestamps[index]:.6f} s): malformed image "
+                                f"({type(error).__name__}: {error})") from None
         expected = (self.camera.height, self.camera.width)
         for topic, image in zip(self.topics, (rgb, depth)):
             if image.shape[:2] != expected:
