@@ -1,4 +1,4 @@
-"""Trajectories and independent oracles shared by the evaluation tests."""
+"""Trajectories, independent oracles and the shared TUM excerpt used across the tests."""
 
 import shutil
 from pathlib import Path
@@ -8,8 +8,9 @@ import numpy as np
 from viewer_slam.geometry.se3 import exp_so3, make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
-# The project's shared data sits beside the checkout (../shared/data), or beside a folder of worktrees.
-SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents[1:4]
+# The shared data sits beside the checkout (``/work/shared`` for ``/work/main``, also for a
+# worktree deeper down): the nearest ancestor that has it.
+SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents
                     if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[2] / "shared" / "data")
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"

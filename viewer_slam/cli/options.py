@@ -4,7 +4,8 @@ import re
 
 from ..errors import InputError
 
-PIPELINE_HELP = "Pipeline to run: rgbdslam, rtabmap or both; repeatable or comma-separated."
+PIPELINE_HELP = ("Pipeline to run: rgbdslam, rtabmap, both or a plugin pipeline (`viewslam pipelines` lists them); "
+                 "repeatable or comma-separated.")
 MAX_FRAMES_HELP = "Process at most the first N frames of each sequence (after --stride where there is one)."
 QUIET_HELP = "No progress display (results are still printed)."
 SEED_MAX = 2**32 - 1  # numpy seeds are unsigned 32-bit words
