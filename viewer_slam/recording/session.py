@@ -352,10 +352,9 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
 
 
 def source(run: Pipeline) -> dict[str, str]:
-    """Where a run's poses came from, first in its report block: a pipeline, or an estimate's file and format."""
-    if isinstance(run, EstimateReplay):
-        return {"source": "estimate", "file": run.params.file, "format": run.params.format}
-    return {"source": "pipeline"}
+    """Where a run's poses came from, first in its report block: a pipeline or an estimate (whose
+    ``parameters`` are its file and the format it was read in)."""
+    return {"source": "estimate" if isinstance(run, EstimateReplay) else "pipeline"}
 
 
 def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
