@@ -4,7 +4,8 @@ Two estimates are made from a short synthetic scenario's groundtruth with noise 
 TUM file with a gap in the middle, a dropped pose and a quit before the end, and a KITTI
 file (one pose per frame of the sequence, no gaps). The expected losses and coverage are
 worked out here from the gaps made, with the rule docs/metrics.md states (a stretch
-without poses longer than three frame periods, and at least 0.1 s, is lost).
+without poses longer than three frame periods, and at least 0.1 s, is lost). A ROS bag
+written from the shared TUM excerpt records with its topics and groundtruth given as flags.
 """
 
 import json
@@ -18,6 +19,8 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
+from bag_writer import write_tum_bag
+from fixtures_eval import TUM_RPY, tum_excerpt
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
@@ -154,3 +157,26 @@ def test_estimates_alone_run_no_pipeline(scenario, recorded, tmp_path):
 ])
 def test_a_bag_is_recorded_under_its_stem(sequence, expected):
     assert output_path(sequence, None) == Path(expected)
+
+
+@pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+def test_a_bag_records_with_its_topics_and_groundtruth_given_on_the_command_line(tmp_path, monkeypatch, capfd):
+    excerpt = tum_excerpt(tmp_path / "rgbd_dataset_freiburg1_rpy", frames=3)
+    bag = write_tum_bag(excerpt, tmp_path / "rgbd_dataset_freiburg1_rpy.bag", ros=1)
+    stamps = open_sequence(excerpt).timestamps
+    groundtruth = open_sequence(excerpt).groundtruth
+    short = groundtruth.subset(groundtruth.timestamps <= stamps[1])  # covers the first two frames only
+    write_tum(tmp_path / "short.txt", short)
+    monkeypatch.chdir(tmp_path)
+    topics = ["--rgb-topic", "/camera/rgb/image_color", "--depth-topic", "/camera/depth/image",
+              "--camera-info-topic", "/camera/rgb/camera_info"]
+    assert main(["record", str(bag), "--pipeline", "rgbdslam", *topics, "--groundtruth", "short.txt",
+                 "--quiet"]) == 0
+    report = json.loads((tmp_path / "recordings" / "rgbd_dataset_freiburg1_rpy.json").read_text())
+    assert (tmp_path / "recordings" / "rgbd_dataset_freiburg1_rpy.rrd").is_file()
+    block = report["pipelines"]["rgbdslam"]
+    assert block["frames_with_pose"] == 3 and block["ate"]["n"] == 2  # the third frame is past the file's end
+    capfd.readouterr()
+    assert main(["record", str(bag), "--rgb-topic", "/camera/nothing", "--quiet"]) == 2
+    error = capfd.readouterr().err
+    assert error.count("\n") == 1 and "--rgb-topic" in error and "/camera/nothing" in error
