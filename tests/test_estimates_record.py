@@ -149,6 +149,18 @@ def test_estimates_alone_run_no_pipeline(scenario, recorded, tmp_path):
     assert list(blocks) == ["droid"] and blocks["droid"]["frames_with_pose"] == 10
 
 
+def test_a_pipelines_own_trajectory_replayed_scores_as_the_pipeline(scenario, report, recorded, tmp_path):
+    out = tmp_path / "again.rrd"
+    assert main(["record", str(scenario), "--max-frames", str(FRAMES), "--out", str(out), "--quiet",
+                 "--estimate", f"again={recorded[3].with_name('run.rgbdslam.txt')}"]) == 0
+    again = json.loads(out.with_suffix(".json").read_text())["pipelines"]["again"]
+    pipeline = report[0]["pipelines"]["rgbdslam"]
+    assert again["frames_with_pose"] == pipeline["frames_with_pose"] > 0
+    for metric in ("ate", "penalized_ate"):  # the file keeps 6 decimals
+        assert again[metric]["rmse"] == pytest.approx(pipeline[metric]["rmse"], abs=1e-5), metric
+    assert again["coverage"]["ratio"] == pytest.approx(pipeline["coverage"]["ratio"], abs=1e-6)
+
+
 @pytest.mark.parametrize(("sequence", "expected"), [
     ("data/rgbd_dataset_freiburg1_xyz.bag", "recordings/rgbd_dataset_freiburg1_xyz.rrd"),
     ("data/ros2_bag/", "recordings/ros2_bag.rrd"),
