@@ -123,7 +123,8 @@ class Vocabulary:
 
     def scores(self, words: np.ndarray, candidates: list[int]) -> np.ndarray:
         """tf-idf score of each candidate location for a query's words:
-        sum over shared words of (count in location / location size) * log(N / locations holding it)."""
+        sum over shared words of (count in location / location size) * log10(N / locations holding it),
+        N the indexed locations (Memory::computeLikelihood)."""
         position = {location: i for i, location in enumerate(candidates)}
         scores = np.zeros(len(candidates))
         indexed = len(self._sizes)
@@ -131,7 +132,7 @@ class Vocabulary:
             postings = self._postings.get(word)
             if not postings:
                 continue
-            idf = np.log(indexed / len(postings))
+            idf = np.log10(indexed / len(postings))
             for location, count in postings.items():
                 i = position.get(location)
                 if i is not None:
