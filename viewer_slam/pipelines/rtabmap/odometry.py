@@ -71,9 +71,11 @@ class OdometryResult:
     ``pose`` is ``T_odom_camera`` (None when lost); ``new_session`` is set on the frame
     that starts a map (the first one, or with ``reset`` the first after a reset). ``matched_pixels`` and
     ``projected_pixels`` are the current keypoints of the matches and their map points
-    projected with the estimated (or, when lost, the last) pose; ``variance`` that of the
-    registration (m², see :func:`registration_variance`); ``feature_index`` and
-    ``map_index`` the matches' indices in the frame's features and in the local map.
+    projected with the estimated (or, when lost, the last) pose, for the map points in
+    front of that camera, ``inlier_mask`` which of those are inliers; ``variance`` that of
+    the registration (m², see :func:`registration_variance`); ``feature_index``,
+    ``map_index`` and ``match_inliers`` all the matches (indices in the frame's features and
+    in the local map) and which are inliers.
     """
 
     pose: np.ndarray | None
@@ -87,6 +89,7 @@ class OdometryResult:
     variance: float = 0.0
     feature_index: np.ndarray | None = None
     map_index: np.ndarray | None = None
+    match_inliers: np.ndarray | None = None
 
 
 def hamming_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -204,27 +207,27 @@ class FrameToMapOdometry:
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
                shown_without_pose: np.ndarray) -> OdometryResult:
-        """PnP RANSAC on the matches; the map points are shown projected with the estimated
-        pose, or ``shown_without_pose`` when registration failed."""
+        """PnP RANSAC on the matches; the matched map points are shown projected with the
+        estimated pose, or ``shown_without_pose`` when registration failed."""
         params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
                                     reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
                                     iterations=params.ransac_iterations, min_inliers=params.min_inliers,
                                     seed=self.seed)
         pose = solution.pose if solution is not None else None
-        shown_pose = pose if pose is not None else shown_without_pose
-        projected = self.camera.project(transform_points(invert(shown_pose), self.map.points[map_index])) \
-            if len(map_index) else np.zeros((0, 2))
-        inlier_mask = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
-        return OdometryResult(pose=pose, matches=len(map_index), inliers=int(inlier_mask.sum()),
-                              matched_pixels=features.keypoints[feature_index], projected_pixels=projected,
-                              inlier_mask=inlier_mask, feature_index=feature_index, map_index=map_index)
+        inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
+        in_camera = transform_points(invert(pose if pose is not None else shown_without_pose), self.map.points[map_index])
+        shown = in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION
+        return OdometryResult(pose=pose, matches=len(map_index), inliers=int(inliers.sum()),
+                              matched_pixels=features.keypoints[feature_index[shown]],
+                              projected_pixels=self.camera.project(in_camera[shown]), inlier_mask=inliers[shown],
+                              feature_index=feature_index, map_index=map_index, match_inliers=inliers)
 
     def _update_map(self, features: Features, result: OdometryResult) -> None:
         """Note the map points seen again and, on a key frame, add the frame's other features."""
         params = self.params
-        inlier_features = result.feature_index[result.inlier_mask]
-        inlier_points = result.map_index[result.inlier_mask]
+        inlier_features = result.feature_index[result.match_inliers]
+        inlier_points = result.map_index[result.match_inliers]
         result.variance = registration_variance(self.map.points[inlier_points],
                                                 transform_points(result.pose, features.points[inlier_features]))
         self.map.observe(inlier_points, self.frame_count)
