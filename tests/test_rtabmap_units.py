@@ -12,6 +12,7 @@ from viewer_slam.geometry.camera import Camera
 from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
                                                  highest_hypothesis, prediction_matrix)
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
+from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, guided_matches, hamming_distances
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
@@ -338,6 +339,17 @@ def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     assert outcome.accepted and graph.map_of(3) == graph.map_of(0)
     assert np.allclose(graph.poses[3][:3, 3], [1.2, 0, 0.5])
     assert set(graph.pose_graph.priors) == {0}
+
+
+@pytest.mark.parametrize("axis, degrees, rejected", [
+    ([0, -1, 0], 100, True),      # about the camera's up axis (optical -y): yaw 100 degrees
+    ([0, -1, 0], 80, False),
+    ([-1, 0, 0], 95, True),       # about the camera's left axis: pitch beyond 90 degrees
+    ([0, 0, 1], 150, False),      # about the optical axis: roll, not checked
+])
+def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_believed(axis, degrees, rejected):
+    relative = make_pose(exp_so3(np.radians(degrees) * np.array(axis, float)), [0.1, 0, 0])
+    assert too_large_rotation(relative) == rejected
 
 
 def test_registration_variance_is_the_median_squared_residual_ignoring_missing_depth():

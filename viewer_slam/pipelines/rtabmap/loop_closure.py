@@ -4,6 +4,7 @@ verified geometrically by PnP RANSAC between the two locations' features."""
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ...frontend.features import match_descriptors
 from ...frontend.pnp import solve_pnp_ransac
@@ -27,12 +28,26 @@ class Detection:
 
 @dataclass
 class Registration:
-    """``relative = T_old^-1 T_new``, or None when too few inliers agreed."""
+    """``relative = T_old^-1 T_new``, or None with the reason it was rejected."""
 
     relative: np.ndarray | None
     matches: int
     inliers: int
     variance: float = 0.0
+    rejected: str = ""
+
+
+# RTAB-Map's robot frame (x forward, y left, z up) seen from the optical frame.
+OPTICAL_TO_ROBOT = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+MAX_LOOP_ROTATION = np.pi / 2
+
+
+def too_large_rotation(relative: np.ndarray) -> bool:
+    """Memory::computeTransform's check: a loop closure turning the robot by more than 90
+    degrees in pitch or yaw (Euler angles in its x-forward, z-up frame) is not believed."""
+    in_robot = OPTICAL_TO_ROBOT @ relative[:3, :3] @ OPTICAL_TO_ROBOT.T
+    yaw, pitch, _ = Rotation.from_matrix(in_robot).as_euler("ZYX")
+    return abs(pitch) > MAX_LOOP_ROTATION or abs(yaw) > MAX_LOOP_ROTATION
 
 
 def register(old: Location, new: Location, camera: Camera, params: RtabmapParams, seed: int) -> Registration:
@@ -43,7 +58,10 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
                                 reprojection_error=params.pnp_reprojection_error, distortion=camera.distortion,
                                 iterations=params.ransac_iterations, min_inliers=params.min_inliers, seed=seed)
     if solution is None:
-        return Registration(None, len(query), 0)
+        return Registration(None, len(query), 0,
+                            rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")
+    if too_large_rotation(solution.pose):
+        return Registration(None, len(query), solution.inlier_count, rejected="rotation over 90 degrees")
     old_points = old.points[with_depth[train[solution.inliers]]]
     new_points = transform_points(solution.pose, new.points[query[solution.inliers]])
     return Registration(solution.pose, len(query), solution.inlier_count, registration_variance(old_points, new_points))

@@ -259,10 +259,9 @@ class Rtabmap(Pipeline):
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
         registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
         if registration.relative is None:
-            events.append(GraphEdge(frame.index, old.id, new.id, False,
-                                    f"too few inliers (< Vis/MinInliers {self.params.min_inliers}) "
-                                    f"among {registration.matches} matches", self.edges.kind(old.id, new.id), None,
-                                    score, 0, DETECTION[link]))
+            events.append(GraphEdge(frame.index, old.id, new.id, False, registration.rejected,
+                                    self.edges.kind(old.id, new.id), None, score, registration.inliers,
+                                    DETECTION[link]))
             return False
         outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
                         registration.variance)
