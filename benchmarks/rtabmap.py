@@ -120,10 +120,13 @@ def fidelity() -> None:
         (str(tum / "rgbd_dataset_freiburg1_rpy"), 0, None, {}),
         (str(tum / "rgbd_dataset_freiburg1_rpy_200"), 0, None, {}),
         ("nostructure_texture_near_withloop", 600, None, {}),
+        ("nostructure_texture_near_withloop", 150, None, {"Rtabmap/DetectionRate": 10}),
         ("nostructure_notexture_near_withloop", 300, 150, {}),
         ("360_kidnap", 300, None, {}),
         ("360_kidnap", 300, None, {"Odom/ResetCountdown": 5}),
+        ("360_kidnap", 300, None, {"Odom/ResetCountdown": 5, "Rtabmap/DetectionRate": 5}),
         ("360_kidnap_norevisit", 300, None, {}),
+        ("360_kidnap_norevisit", 300, None, {"Odom/ResetCountdown": 5}),
     ]
     print("| sequence | frames | parameters | frames with a pose | ATE RMSE m | odometry ATE m "
           "| loop closures (appearance / proximity) | largest step error m |")

@@ -127,6 +127,16 @@ def test_tf_idf_scores_by_hand():
     assert scores == pytest.approx([2 / 4 * np.log10(3) + 1 / 4 * np.log10(1.5), 1 / 2 * np.log10(1.5), 0.0])
 
 
+def test_a_location_with_fewer_words_than_half_the_mean_is_a_bad_signature():
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.vocabulary = vocabulary_of(8)
+    for location_id, words in enumerate(([0, 1, 2, 3, 4, 5], [0, 1, 2], [3, 4, 5, 6])):
+        pipeline.vocabulary.index(location_id, np.array(words))
+    assert pipeline.vocabulary.mean_words_per_location() == 13 // 3      # 4: Kp/BadSignRatio 0.5 of it is 2
+    keep = lambda count: len(pipeline._signature(view(scene(count), np.eye(4), descriptors(count))))  # noqa: E731
+    assert (keep(1), keep(2), keep(600)) == (0, 2, RtabmapParams().words_per_location)
+
+
 def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_gets_mean_over_std_plus_one():
     # Non-zero scores 1, 1, 1, 1, 6: mean 2, sample std sqrt((4 * 1 + 16) / 4) = sqrt(5).
     values, virtual = adjusted_likelihood(np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 6.0]))

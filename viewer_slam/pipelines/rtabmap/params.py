@@ -35,6 +35,8 @@ class RtabmapParams:
     # Loop closure detection.
     words_per_location: int = param(500, gt=0, key="Kp/MaxFeatures", help="visual words extracted per location")
     word_nndr: float = param(0.8, gt=0, le=1, key="Kp/NndrRatio", help="ratio test quantising a descriptor to a word")
+    bad_signature_ratio: float = param(0.5, ge=0, key="Kp/BadSignRatio",
+                                       help="a location with fewer words than this share of the mean is left out of detection")
     loop_threshold: float = param(0.11, ge=0, le=1, key="Rtabmap/LoopThr", help="posterior a loop hypothesis must exceed")
     loop_ratio: float = param(0.0, ge=0, key="Rtabmap/LoopRatio",
                               help="a hypothesis must also exceed this ratio of the previous one")

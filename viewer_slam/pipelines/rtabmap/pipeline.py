@@ -147,6 +147,15 @@ class Rtabmap(Pipeline):
         order = np.argsort(-features.responses, kind="stable")[:self.params.words_per_location]
         return features.subset(np.sort(order))
 
+    def _signature(self, features: Features) -> Features:
+        """The features a new location keeps: none when they are fewer than Kp/BadSignRatio of
+        the mean words per STM/WM location (Memory::createSignature), a bad signature that
+        takes no part in loop closure detection."""
+        kept = self._strongest(features)
+        if len(kept) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
+            return kept.subset(np.zeros(0, int))
+        return kept
+
     # -- per location ------------------------------------------------------------------
 
     def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray,
@@ -154,7 +163,7 @@ class Rtabmap(Pipeline):
         """Add a location, look for a loop closure, and keep memory within its budget."""
         p = self.params
         start = time.perf_counter()
-        kept = self._strongest(features)
+        kept = self._signature(features)
         location_id = len(self.memory.locations)
         words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
         location = Location(location_id, self.session, frame.index, frame.timestamp, odometry_pose,
@@ -180,7 +189,7 @@ class Rtabmap(Pipeline):
             MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
                        location.cloud_colors),
         ]
-        detection = watch("bayes", self.detector.detect, self.memory, words)
+        detection = watch("bayes", self.detector.detect, self.memory, words) if len(words) else None
         hypothesis = detection.hypothesis if detection is not None else None
         protected, retrieved = self._immunised_near(location), []
         if hypothesis is not None:

@@ -56,6 +56,10 @@ class Vocabulary:
         """Active words: those held by at least one indexed location."""
         return len(self._postings)
 
+    def mean_words_per_location(self) -> int:
+        """Word references per indexed location, rounded down (Memory's meanWordsPerLocation)."""
+        return sum(self._sizes.values()) // len(self._sizes) if self._sizes else 0
+
     def quantize(self, descriptors: np.ndarray) -> np.ndarray:
         """Word id of each descriptor, -1 where no active word passes the ratio test."""
         words = np.full(len(descriptors), -1)
