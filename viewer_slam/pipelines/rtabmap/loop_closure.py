@@ -115,7 +115,13 @@ def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location:
             paths[-1].append(i)
         else:
             paths.append([i])
-    ranked = sorted(paths, key=lambda path: max((likelihood.get(i, 0.0), i) for i in path), reverse=True)
+
+    def path_key(path: list[int]) -> tuple[float, int]:
+        # NearestPathKey: the path's highest likelihood and the first location holding it.
+        value, first = max((likelihood.get(i, 0.0), -i) for i in path)
+        return value, -first
+
+    ranked = sorted(paths, key=path_key, reverse=True)
     if params.proximity_max_paths > 0:
         ranked = ranked[:params.proximity_max_paths]
     chosen = []
