@@ -17,6 +17,7 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
+import re
 import shutil
 import sys
 import warnings
@@ -61,6 +62,8 @@ BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
 FULL_DISK_BYTES = 1 << 20
 
 
+# An estimate's name becomes entity paths and a file name.
+RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 # open_bag's keywords and the flags that set them.
 BAG_FLAGS = {"rgb_topic": "--rgb-topic", "depth_topic": "--depth-topic", "camera_info_topic": "--camera-info-topic",
              "groundtruth": "--groundtruth", "groundtruth_topic": "--groundtruth-topic"}
@@ -146,12 +149,15 @@ def select_runs(choice: str | None, estimates: list[str],
                 format: str | None = None) -> tuple[list[str], list[tuple[str, Path]]]:
     """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
     estimates (``--estimate NAME=FILE``, in ``format``); every name must be unique among them."""
-    pipelines = select_pipelines(choice or BOTH) if choice or not estimates else []
+    pipelines = select_pipelines(choice) if choice else [] if estimates else select_pipelines(BOTH)
     if format is not None and format not in FORMATS:
         raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
     named = [parse_estimate(text) for text in estimates]
     taken = set(pipelines)
     for name, file in named:
+        if not RUN_NAME.fullmatch(name):
+            raise InputError(f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
+                             f"(it names entities and files)")
         if name in taken:
             kind = "a pipeline" if name in pipelines else "another estimate"
             raise InputError(f"--estimate {name}={file}: the name {name!r} is already {kind}'s; choose another")
