@@ -13,7 +13,7 @@ from viewer_slam.evaluation.report import build_report, pipeline_report, write_r
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 
-PIPELINE_KEYS = {"frames_with_pose", "ate", "rpe", "coverage", "penalized_ate", "odometry_ate", "loop_closures", "edges",
+PIPELINE_KEYS = {"source", "frames_with_pose", "ate", "rpe", "coverage", "penalized_ate", "odometry_ate", "loop_closures", "edges",
                  "keyframes", "tracking_lost", "timing", "parameters"}
 STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 
@@ -41,6 +41,7 @@ def test_pipeline_block_has_exactly_the_documented_keys(sequence):
     odometry = evaluate(sequence.groundtruth, run.odometry)
     block = pipeline_report(run, evaluation, odometry)
     assert set(block) == PIPELINE_KEYS
+    assert block["source"] == "pipeline" and pipeline_report(run, None, None, "estimate")["source"] == "estimate"
     assert block["frames_with_pose"] == 60
     assert set(block["ate"]) == set(block["penalized_ate"]) == set(block["odometry_ate"]) == STATS_KEYS
     assert set(block["rpe"]) == {"trans", "rot", "delta", "delta_unit"}

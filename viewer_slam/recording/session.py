@@ -329,7 +329,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                     if evaluation is not None:
                         log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                        np.array(recorder.frame_timestamps))
-                    blocks[name] = {**source(runs[name]), **pipeline_report(run, evaluation, odometry_evaluation)}
+                    source = "estimate" if isinstance(runs[name], EstimateReplay) else "pipeline"
+                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation, source)
                     _write(trajectory_paths[name], lambda path: write_tum(path, run.trajectory), staged)
                     if failure is not None:
                         break
@@ -355,12 +356,6 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     if failure is not None:
         raise failure
     return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
-
-
-def source(run: Pipeline) -> dict[str, str]:
-    """Where a run's poses came from, first in its report block: a pipeline or an estimate (whose
-    ``parameters`` are its file and the format it was read in)."""
-    return {"source": "estimate" if isinstance(run, EstimateReplay) else "pipeline"}
 
 
 def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
