@@ -1,5 +1,6 @@
 """Trajectories and independent oracles shared by the evaluation tests."""
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -7,7 +8,8 @@ import numpy as np
 from viewer_slam.geometry.se3 import exp_so3, make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+# Beside the repository by default; VIEWSLAM_SHARED_DATA points elsewhere (e.g. from a git worktree).
+SHARED_DATA = Path(os.environ.get("VIEWSLAM_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 

@@ -1,6 +1,9 @@
-"""Closed-form least-squares alignment of two point sets (Horn 1987 / Umeyama 1991)."""
+"""Transforms that lay an estimate's frame onto a reference's: closed-form least squares over
+point sets (Horn 1987 / Umeyama 1991), or anchoring the first poses."""
 
 import numpy as np
+
+from .se3 import invert
 
 
 def align_umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = False) -> np.ndarray:
@@ -33,3 +36,12 @@ def align_umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = Fal
     transform[:3, :3] = scale * rotation
     transform[:3, 3] = mean_target - scale * rotation @ mean_source
     return transform
+
+
+def align_origin(source_pose: np.ndarray, target_pose: np.ndarray) -> np.ndarray:
+    """The rigid transform ``S = target · source⁻¹`` that lays ``source_pose`` onto ``target_pose``.
+
+    Anchoring the first poses (evo's ``--align_origin``) leaves all later error to show as
+    drift from the start, where a least-squares fit would spread it over the trajectory.
+    """
+    return np.asarray(target_pose, dtype=np.float64) @ invert(source_pose)

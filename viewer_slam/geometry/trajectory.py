@@ -38,14 +38,23 @@ class Trajectory:
         return cls(np.zeros(0), np.zeros((0, 4, 4)))
 
 
+def read_trajectory(path: Path) -> Trajectory:
+    """Read an estimated (or groundtruth) trajectory file: the one entry point for every format.
+
+    TUM is the only format so far; a reader for another format plugs in here.
+    """
+    return read_tum(path)
+
+
 def read_tum(path: Path) -> Trajectory:
     """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
 
-    Every malformed line raises :class:`InputError` naming the file and line number.
+    A UTF-8 byte-order mark (some Windows editors write one) is ignored. Every malformed
+    line raises :class:`InputError` naming the file and line number.
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputError.at(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as error:

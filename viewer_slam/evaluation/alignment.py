@@ -1,0 +1,52 @@
+"""How an estimate is laid onto the groundtruth before its ATE: one transform, or one per tracked segment.
+
+A pipeline that loses tracking and starts again often continues in a new map frame; one
+global fit then misplaces every segment a little to suit the largest one, and the error
+shows at the wrong frames. Aligning each segment between lost intervals on its own keeps
+each segment's error its own.
+"""
+
+import numpy as np
+
+from ..geometry.align import align_origin, align_umeyama
+
+GLOBAL_ALIGNMENTS = ("rigid", "sim3", "origin", "none")
+ALIGNMENTS = (*GLOBAL_ALIGNMENTS, "segments")
+MIN_SEGMENT_PAIRS = 3
+
+
+def fit_alignment(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray) -> np.ndarray:
+    """The 4x4 transform of ``kind`` (one of :data:`GLOBAL_ALIGNMENTS`) over associated poses.
+
+    rigid: Horn's least squares over positions; sim3: Umeyama's, with scale; origin: the
+    first estimate pose laid onto the first groundtruth pose; none: the identity.
+    """
+    if kind == "none":
+        return np.eye(4)
+    if kind == "origin":
+        return align_origin(estimate_poses[0], reference_poses[0])
+    if kind in ("rigid", "sim3"):
+        return align_umeyama(estimate_poses[:, :3, 3], reference_poses[:, :3, 3], with_scale=kind == "sim3")
+    raise ValueError(f"alignment must be one of {GLOBAL_ALIGNMENTS}, got {kind!r}")
+
+
+def segment_alignments(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray,
+                       pair_segments: np.ndarray, segment_count: int) -> np.ndarray:
+    """``(segment_count, 4, 4)``: each tracked segment's own transform of ``kind``, fitted on its pairs.
+
+    ``pair_segments`` is the segment of each associated pair. A segment with fewer than
+    :data:`MIN_SEGMENT_PAIRS` pairs cannot be fitted honestly (one or two poses can always
+    be laid onto the groundtruth with ~0 error, wherever they are), so it takes the
+    transform of the nearest earlier segment that was fitted: a pipeline that recovers in
+    its map continues that map, and one that started a new map shows its error. Before
+    the first fitted segment, the first fitted one's; with none fitted, the fit over all pairs.
+    """
+    fitted = [segment for segment in range(segment_count)
+              if np.count_nonzero(pair_segments == segment) >= MIN_SEGMENT_PAIRS]
+    if not fitted:
+        return np.broadcast_to(fit_alignment(kind, estimate_poses, reference_poses), (segment_count, 4, 4)).copy()
+    transforms = {segment: fit_alignment(kind, estimate_poses[pair_segments == segment],
+                                         reference_poses[pair_segments == segment]) for segment in fitted}
+    donors = np.array(fitted)
+    earlier = np.searchsorted(donors, np.arange(segment_count), side="right") - 1
+    return np.stack([transforms[donors[max(position, 0)]] for position in earlier])
