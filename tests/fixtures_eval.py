@@ -1,6 +1,5 @@
 """Trajectories and independent oracles shared by the evaluation tests."""
 
-import os
 from pathlib import Path
 
 import numpy as np
@@ -8,8 +7,9 @@ import numpy as np
 from viewer_slam.geometry.se3 import exp_so3, make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
-# Beside the repository by default; VIEWSLAM_SHARED_DATA points elsewhere (e.g. from a git worktree).
-SHARED_DATA = Path(os.environ.get("VIEWSLAM_SHARED_DATA", Path(__file__).resolve().parents[2] / "shared" / "data"))
+# The project's shared data sits beside the checkout (../shared/data), or beside a folder of worktrees.
+SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents[1:4]
+                    if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[2] / "shared" / "data")
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 

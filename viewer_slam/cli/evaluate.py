@@ -115,8 +115,7 @@ def evaluate_command(
     if delta_unit is DeltaUnit.frames and delta != int(delta):
         raise typer.BadParameter(f"a delta in frames must be a whole number, got {delta}", param_hint="--delta")
     if scale and align not in (Alignment.rigid, Alignment.sim3):
-        raise typer.BadParameter(f"--scale is --align sim3 and cannot be combined with --align {align.value}",
-                                 param_hint="--scale")
+        raise InputError(f"--scale means --align sim3 and cannot be combined with --align {align.value}")
     if plot is not None:
         from ..evaluation.plot import check_plot_path  # matplotlib only when a plot is wanted
 
