@@ -165,7 +165,8 @@ def test_the_readme_example_is_fully_covered_and_its_first_half_half_covered(cap
     start = read_tum(ESTIMATE).timestamps[0]
     assert full["span"] == {"start": start, "end": read_tum(GROUNDTRUTH).timestamps[-1],
                             "rule": "estimate start to groundtruth end"}
-    assert f"{ESTIMATE}: coverage over {start:.6f}.." in out and "estimate start to groundtruth end), 0 lost intervals" in out
+    assert f"{ESTIMATE}: coverage over {start:.6f}.." in out
+    assert "estimate start to groundtruth end), 0 lost intervals" in out
     assert f"{cut}: coverage over" in out and out.rstrip().endswith(", 1 lost interval")
 
 

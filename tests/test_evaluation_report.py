@@ -13,7 +13,8 @@ from viewer_slam.evaluation.report import build_report, pipeline_report, write_r
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 
-PIPELINE_KEYS = {"frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate", "odometry_ate", "loop_closures", "edges",
+PIPELINE_KEYS = {"frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",
+                 "odometry_ate", "loop_closures", "edges",
                  "keyframes", "tracking_lost", "timing", "parameters"}
 STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 

@@ -36,7 +36,8 @@ def test_the_segment_aligned_ate_has_its_own_timeline_at_the_frames_with_a_pose(
     stream.flush()
     stream.disconnect()
 
-    segments, ate = logged(tmp_path / "t.rrd", "/metrics/est/ate_segments"), logged(tmp_path / "t.rrd", "/metrics/est/ate")
+    segments = logged(tmp_path / "t.rrd", "/metrics/est/ate_segments")
+    ate = logged(tmp_path / "t.rrd", "/metrics/est/ate")
     assert sorted(segments) == sorted(ate) == kept.tolist()
     np.testing.assert_allclose([segments[i] for i in kept], evaluation.segment_ate.errors, rtol=1e-12)
     assert max(segments.values()) < 0.02 < max(ate.values())

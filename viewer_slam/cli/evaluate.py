@@ -16,7 +16,7 @@ from rich.table import Table
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
-from ..evaluation.coverage import FILE_SPAN_RULE, Span
+from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
 from ..geometry.trajectory import Trajectory, read_trajectory
 from .app import app
@@ -123,8 +123,6 @@ def evaluate_command(
     reference, clock = _groundtruth_and_clock(groundtruth)
     if sequence is not None:
         clock = _sequence_clock(sequence)
-    if span is not None:
-        clock.span = span
     labels = [str(path) for path in estimates]
     repeated = next((path for path, label in zip(estimates, labels) if labels.count(label) > 1), None)
     if repeated is not None:
@@ -134,7 +132,7 @@ def evaluate_command(
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
                               align="sim3" if scale else align.value, delta=delta, delta_unit=delta_unit.value,
-                              all_deltas=all_deltas, span=clock.span, frame_period=clock.frame_period)
+                              all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period)
         if evaluation.ate is None:
             raise InputError.at(path, _why_no_pairs(reference, trajectory, offset, max_difference))
         evaluations.append(evaluation)
@@ -203,8 +201,10 @@ def _print_results(groundtruth: Path, labels: list[str], evaluations: list[Evalu
     first = evaluations[0]
     if first.delta is None:
         rpe_pairs = "all Δ (sampled)"
+    elif first.delta_unit == "seconds":
+        rpe_pairs = f"Δ = {first.delta:g} s"
     else:
-        rpe_pairs = f"Δ = {first.delta:g} s" if first.delta_unit == "seconds" else f"Δ = {plural(first.delta, 'frame')}"
+        rpe_pairs = f"Δ = {plural(first.delta, 'frame')}"
     lines = [f"RMSE against {groundtruth}",
              f"  ATE, penal. ATE [m]: {GLOBAL_ALIGNMENT_TEXT[first.alignment_name]}",
              f"  ATE seg. [m]: {SEGMENT_ALIGNMENT_TEXT[first.alignment_name]}",

@@ -6,6 +6,8 @@ shows at the wrong frames. Aligning each segment between lost intervals on its o
 each segment's error its own.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..geometry.align import align_origin, align_umeyama
@@ -50,3 +52,34 @@ def segment_alignments(kind: str, estimate_poses: np.ndarray, reference_poses: n
     donors = np.array(fitted)
     earlier = np.searchsorted(donors, np.arange(segment_count), side="right") - 1
     return np.stack([transforms[donors[max(position, 0)]] for position in earlier])
+
+
+@dataclass
+class FittedAlignment:
+    """The transforms an estimate is scored under, one ``(4, 4)`` per estimate pose in each array.
+
+    ``transform`` is the global S (None for "segments"), ``per_pose`` what the ATE and the
+    penalty use, ``per_segment`` each pose's own segment's transform.
+    """
+
+    transform: np.ndarray | None
+    per_pose: np.ndarray
+    per_segment: np.ndarray
+
+
+def fit_estimate(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray, pose_segments: np.ndarray,
+                 matched: np.ndarray) -> FittedAlignment:
+    """Fit ``kind`` (one of :data:`ALIGNMENTS`) and the per-segment alignment of the same kind.
+
+    ``reference_poses`` are the groundtruth poses associated with the estimate poses at
+    indices ``matched``; ``pose_segments`` numbers the tracked segment of every estimate pose.
+    The segments are fitted rigidly for "segments".
+    """
+    segment_kind = "rigid" if kind == "segments" else kind
+    by_segment = segment_alignments(segment_kind, estimate_poses[matched], reference_poses, pose_segments[matched],
+                                    int(pose_segments[-1]) + 1)
+    per_segment = by_segment[pose_segments]
+    if kind == "segments":
+        return FittedAlignment(None, per_segment, per_segment)
+    transform = fit_alignment(kind, estimate_poses[matched], reference_poses)
+    return FittedAlignment(transform, np.broadcast_to(transform, per_segment.shape), per_segment)

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..geometry.association import associate
 from ..geometry.trajectory import Trajectory
-from .alignment import ALIGNMENTS, fit_alignment, segment_alignments
+from .alignment import ALIGNMENTS, fit_estimate
 from .ate import absolute_errors
 from .coverage import Coverage, Span, coverage, file_span, held_pose_errors, tracked_segments
 from .rpe import DELTA_UNITS, pairs_by_frames, pairs_by_seconds, relative_errors, sampled_pairs
@@ -58,7 +58,8 @@ class Evaluation:
         """The estimate's positions in the groundtruth frame, as its ATE saw them (None without pairs)."""
         if self.pose_alignment is None:
             return None
-        return np.einsum("nij,nj->ni", self.pose_alignment[:, :3, :3], estimate.positions) + self.pose_alignment[:, :3, 3]
+        rotations, translations = self.pose_alignment[:, :3, :3], self.pose_alignment[:, :3, 3]
+        return np.einsum("nij,nj->ni", rotations, estimate.positions) + translations
 
 
 def evaluate(
@@ -90,7 +91,7 @@ def evaluate(
     """
     if delta_unit not in DELTA_UNITS:
         raise ValueError(f"delta_unit must be one of {DELTA_UNITS}, got {delta_unit!r}")
-    if not delta > 0 or not np.isfinite(delta) or (delta_unit == "frames" and delta != int(delta)):
+    if not (np.isfinite(delta) and delta > 0) or (delta_unit == "frames" and delta != int(delta)):
         raise ValueError(f"delta must be a positive {'integer' if delta_unit == 'frames' else 'number'}, got {delta}")
     if align not in ALIGNMENTS or (scale and align not in ("rigid", "sim3")):
         raise ValueError(f"align must be one of {ALIGNMENTS} (scale=True means 'sim3'), got {align!r}")
@@ -110,15 +111,10 @@ def evaluate(
 
     reference, matched = groundtruth.poses[gt_index], estimate.poses[est_index]
     stamps = estimate.timestamps[est_index]
-    segments = tracked_segments(estimate.timestamps, frame_period)
-    segment_kind = "rigid" if align == "segments" else align
-    by_segment = segment_alignments(segment_kind, matched, reference, segments[est_index], int(segments[-1]) + 1)
-    per_segment = by_segment[segments]
-    global_alignment = None if align == "segments" else fit_alignment(align, matched, reference)
-    pose_alignment = per_segment if global_alignment is None else np.broadcast_to(global_alignment,
-                                                                                  (len(estimate), 4, 4))
-    ate_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], pose_alignment[est_index])
-    segment_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], per_segment[est_index])
+    fitted = fit_estimate(align, estimate.poses, reference, tracked_segments(estimate.timestamps, frame_period),
+                          est_index)
+    ate_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_pose[est_index])
+    segment_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_segment[est_index])
 
     if all_deltas:
         first, second = sampled_pairs(len(stamps), ALL_DELTAS_SAMPLES, seed)
@@ -128,11 +124,11 @@ def evaluate(
         first, second = pairs_by_seconds(stamps, delta)
     metric_scale = matched.copy()  # RPE is alignment-free, but a similarity's scale must apply
     if align == "sim3":
-        metric_scale[:, :3, 3] *= np.linalg.norm(global_alignment[:3, 0])
+        metric_scale[:, :3, 3] *= np.linalg.norm(fitted.transform[:3, 0])
     rpe_trans, rpe_rot = relative_errors(reference, metric_scale, first, second)
     has_pairs = len(first) > 0
 
-    penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, pose_alignment,
+    penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, fitted.per_pose,
                                                       covered.lost_intervals, frame_period)
     penalized_stamps = np.concatenate([stamps, penalty_stamps - offset])
     order = np.argsort(penalized_stamps, kind="stable")
@@ -145,8 +141,8 @@ def evaluate(
         coverage=covered,
         penalized_ate=penalized,
         alignment_name=align,
-        alignment=global_alignment,
-        pose_alignment=pose_alignment,
+        alignment=fitted.transform,
+        pose_alignment=fitted.per_pose,
         pairs=(gt_index, est_index),
         delta=reported_delta,
         delta_unit=reported_unit,
