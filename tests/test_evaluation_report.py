@@ -10,6 +10,7 @@ from fixtures_eval import TUM_RPY, perturbed
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.evaluation.report import build_report, pipeline_report, write_report
+from viewer_slam.evaluation.run import evaluate_run
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 
@@ -87,3 +88,14 @@ def test_report_envelope_and_strict_json(sequence, tmp_path):
     assert parsed["pipelines"]["rgbdslam"]["tracking_lost"][0]["timestamp"] == float(sequence.timestamps[60])
     write_report(tmp_path / "again.json", report)
     assert (tmp_path / "again.json").read_text() == text
+
+
+def test_a_run_is_covered_over_the_frames_it_processed(sequence):
+    run = finished_run(sequence)
+    evaluation, odometry = evaluate_run(sequence.groundtruth, run, sequence.timestamps[:70])
+    assert evaluation.coverage.span == (sequence.timestamps[0], sequence.timestamps[69], "processed frames")
+    assert evaluation.coverage.lost_intervals == [(sequence.timestamps[59], sequence.timestamps[69])]
+    block = pipeline_report(run, evaluation, odometry)
+    assert block["coverage"]["span"] == {"start": sequence.timestamps[0], "end": sequence.timestamps[69],
+                                         "rule": "processed frames"}
+    assert block["ate_segments"] == evaluation.segment_ate.stats() and block["alignment"] == "rigid"
