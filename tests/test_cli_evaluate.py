@@ -60,12 +60,14 @@ def table_rows(out: str) -> dict[str, list[str]]:
     return rows
 
 
-def test_output_is_byte_identical_across_runs(capsys, tmp_path):
-    for name in ("a", "b"):
+@pytest.mark.parametrize("picture", ["png", "svg", "pdf"])
+def test_output_is_byte_identical_across_runs(capsys, tmp_path, monkeypatch, picture):
+    for name, second in (("a", 1_700_000_000.0), ("b", 1_700_000_100.0)):  # a date in the file would differ
+        monkeypatch.setattr("time.time", lambda: second)
         assert run(capsys, GROUNDTRUTH, ESTIMATE, "--all-deltas", "--json", tmp_path / f"{name}.json",
-                   "--plot", tmp_path / f"{name}.png")[0] == 0
+                   "--plot", tmp_path / f"{name}.{picture}")[0] == 0
     assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
-    assert (tmp_path / "a.png").read_bytes() == (tmp_path / "b.png").read_bytes()
+    assert (tmp_path / f"a.{picture}").read_bytes() == (tmp_path / f"b.{picture}").read_bytes()
 
 
 def test_scale_option_aligns_a_monocular_estimate(capsys, tmp_path):

@@ -18,6 +18,11 @@ from .coverage import lost_gap_threshold  # noqa: E402
 from .evaluation import Evaluation  # noqa: E402
 
 
+# Metadata that differs from run to run (a date, the writer's version), left out so the same
+# evaluation gives the same file.
+VOLATILE_METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None}}
+
+
 @dataclass
 class Scored:
     """One estimate in the picture: its legend label, its poses and its scores."""
@@ -75,13 +80,9 @@ def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored]) -
     errors.set(title="Error over time", xlabel="groundtruth time [s]", ylabel="error [m]")
     errors.set_xlim(0, groundtruth.timestamps[-1] - origin)
     errors.legend(handles=styles, loc="best", fontsize="small")
-    figure.savefig(path, dpi=100, metadata=_no_software(path))
+    with plt.rc_context({"svg.hashsalt": "viewslam"}):  # SVG element ids from a fixed salt, not a random one
+        figure.savefig(path, dpi=100, metadata=VOLATILE_METADATA.get(path.suffix.lower().lstrip("."), {}))
     plt.close(figure)
-
-
-def _no_software(path: Path) -> dict:
-    """Metadata that keeps the file byte-identical across runs where the format allows it."""
-    return {"Software": None} if path.suffix.lower() == ".png" else {}
 
 
 def _broken(stamps: np.ndarray, values: np.ndarray, gap: float) -> np.ndarray:
