@@ -293,3 +293,13 @@ def test_piped_tables_are_never_cut(tmp_path):
     assert "…" not in result.stdout
     blocks = json.loads((tmp_path / "e.json").read_text())
     assert table_rows(result.stdout)[str(estimate)][-1] == f"{blocks['penalized_ate']['rmse']:.4f}"
+
+
+def test_the_evaluation_code_imports_no_heavy_library():
+    """evaluate must start fast and run where Rerun, OpenCV, Open3D and GTSAM are absent."""
+    probe = ("import sys\n"
+             "import viewer_slam.evaluation, viewer_slam.evaluation.plot, viewer_slam.evaluation.report\n"
+             "import viewer_slam.evaluation.run, viewer_slam.geometry.trajectory\n"
+             "print(sorted({m.split('.')[0] for m in sys.modules} & {'rerun', 'cv2', 'open3d', 'gtsam'}))\n")
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0 and result.stdout == "[]\n"

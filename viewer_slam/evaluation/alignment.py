@@ -43,15 +43,16 @@ def segment_alignments(kind: str, estimate_poses: np.ndarray, reference_poses: n
     its map continues that map, and one that started a new map shows its error. Before
     the first fitted segment, the first fitted one's; with none fitted, the fit over all pairs.
     """
-    fitted = [segment for segment in range(segment_count)
-              if np.count_nonzero(pair_segments == segment) >= MIN_SEGMENT_PAIRS]
-    if not fitted:
+    counts = np.bincount(pair_segments, minlength=segment_count)
+    donors = np.flatnonzero(counts >= MIN_SEGMENT_PAIRS)
+    if len(donors) == 0:
         return np.broadcast_to(fit_alignment(kind, estimate_poses, reference_poses), (segment_count, 4, 4)).copy()
-    transforms = {segment: fit_alignment(kind, estimate_poses[pair_segments == segment],
-                                         reference_poses[pair_segments == segment]) for segment in fitted}
-    donors = np.array(fitted)
+    by_segment = np.argsort(pair_segments, kind="stable")  # pair indices grouped by segment, in time order
+    ends = np.cumsum(counts)
+    pairs = [by_segment[ends[segment] - counts[segment]:ends[segment]] for segment in donors]
+    transforms = np.stack([fit_alignment(kind, estimate_poses[index], reference_poses[index]) for index in pairs])
     earlier = np.searchsorted(donors, np.arange(segment_count), side="right") - 1
-    return np.stack([transforms[donors[max(position, 0)]] for position in earlier])
+    return transforms[np.maximum(earlier, 0)]
 
 
 @dataclass
