@@ -18,6 +18,7 @@ from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
+from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_trajectory
 from .app import app
 
@@ -223,7 +224,8 @@ def _print_results(groundtruth: Path, labels: list[str], evaluations: list[Evalu
 
 def _row(evaluation: Evaluation) -> list[str]:
     def rmse(series) -> str:
-        return "—" if series is None or len(series.errors) == 0 else f"{series.stats()['rmse']:.4f}"
+        stats = stats_or_none(series)
+        return "—" if stats is None else f"{stats['rmse']:.4f}"
 
     return [str(len(evaluation.pairs[0])), f"{evaluation.coverage.ratio:.1%}", rmse(evaluation.ate),
             rmse(evaluation.segment_ate), rmse(evaluation.rpe_trans), rmse(evaluation.rpe_rot),
