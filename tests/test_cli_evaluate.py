@@ -8,12 +8,13 @@ import sys
 from pathlib import Path
 
 import pytest
-from fixtures_eval import TRAJECTORIES, TUM_RPY
+from fixtures_eval import TRAJECTORIES, TUM_RPY, perturbed
+from test_trajectory_formats import write_euroc, write_kitti
 
 from viewer_slam.cli import main
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.geometry.trajectory import read_tum, write_tum
+from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 GROUNDTRUTH = TRAJECTORIES / "freiburg1_xyz-groundtruth.txt"
 ESTIMATE = TRAJECTORIES / "freiburg1_xyz-rgbdslam.txt"
@@ -167,9 +168,9 @@ def test_the_readme_example_is_fully_covered_and_its_first_half_half_covered(cap
     start = read_tum(ESTIMATE).timestamps[0]
     assert full["span"] == {"start": start, "end": read_tum(GROUNDTRUTH).timestamps[-1],
                             "rule": "estimate start to groundtruth end"}
-    assert f"{ESTIMATE}: coverage over {start:.6f}.." in out
+    assert f"{ESTIMATE}: read as TUM; coverage over {start:.6f}.." in out
     assert "estimate start to groundtruth end), 0 lost intervals" in out
-    assert f"{cut}: coverage over" in out and out.rstrip().endswith(", 1 lost interval")
+    assert f"{cut}: read as TUM; coverage over" in out and out.rstrip().endswith(", 1 lost interval")
 
 
 def test_span_and_sequence_options_set_the_coverage_span(capsys, tmp_path):
@@ -303,3 +304,27 @@ def test_the_evaluation_code_imports_no_heavy_library():
              "print(sorted({m.split('.')[0] for m in sys.modules} & {'rerun', 'cv2', 'open3d', 'gtsam'}))\n")
     result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0 and result.stdout == "[]\n"
+
+
+def test_kitti_and_euroc_estimates_score_as_their_tum_twin(capsys, tmp_path):
+    """The format is detected (KITTI takes the sequence's frame stamps) and named in the output."""
+    sequence = tmp_path / "rgbd_dataset_freiburg1_rpy"
+    shutil.copytree(TUM_RPY, sequence, ignore=shutil.ignore_patterns("*.png"))
+    frames = open_sequence(sequence)
+    poses, covered = frames.groundtruth_at(frames.timestamps)
+    assert covered.all()
+    estimate = perturbed(Trajectory(frames.timestamps, poses), seed=5, sigma_m=0.01)
+    twins = [tmp_path / "e.txt", write_kitti(tmp_path / "e.kitti", estimate), write_euroc(tmp_path / "e.csv", estimate)]
+    write_tum(twins[0], estimate)
+    code, out, _ = run(capsys, sequence, *twins, "--json", tmp_path / "all.json")
+    assert code == 0
+    for path, name in zip(twins, ("TUM", "KITTI", "EuRoC")):
+        assert f"{path}: read as {name}; coverage over" in out
+    blocks = json.loads((tmp_path / "all.json").read_text())["estimates"]
+    tum, kitti, euroc = (blocks[str(path)] for path in twins)
+    assert tum["ate"]["rmse"] > 0.005  # a real error, not a trivially equal zero
+    for other in (kitti, euroc):
+        for key in ("ate", "ate_segments", "penalized_ate"):
+            assert other[key] == pytest.approx(tum[key], abs=1e-6)  # TUM files hold 6 decimals
+    code, _, err = run(capsys, GROUNDTRUTH, twins[1])
+    assert code == 2 and err.startswith(f"viewslam: error: {twins[1]}: KITTI poses carry no timestamps")

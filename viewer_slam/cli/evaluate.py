@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich import box
 from rich.console import Console
@@ -19,10 +20,12 @@ from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
-from ..geometry.trajectory import Trajectory, read_trajectory
+from ..geometry.trajectory import Trajectory, read_tum
+from ..geometry.trajectory_formats import read_trajectory
 from .app import app
 
 SEQUENCE_RULE = "sequence frames"
+FORMAT_NAMES = {"tum": "TUM", "kitti": "KITTI", "euroc": "EuRoC"}
 SPAN_OPTION_RULE = "--span"
 
 GLOBAL_ALIGNMENT_TEXT = {
@@ -46,6 +49,12 @@ class DeltaUnit(str, Enum):
     seconds = "seconds"
 
 
+class Format(str, Enum):
+    tum = "tum"
+    kitti = "kitti"
+    euroc = "euroc"
+
+
 class Alignment(str, Enum):
     rigid = "rigid"
     sim3 = "sim3"
@@ -56,10 +65,12 @@ class Alignment(str, Enum):
 
 @dataclass
 class Clock:
-    """What a sequence tells about time: the coverage span and the frame period (None: unknown)."""
+    """What a sequence tells about time: the coverage span, the frame period and the frame stamps
+    (a KITTI file's times). None: unknown."""
 
     span: Span | None = None
     frame_period: float | None = None
+    frame_stamps: np.ndarray | None = None
 
 
 def _finite(value: float) -> float:
@@ -90,7 +101,8 @@ def parse_span(text: str | None) -> Span | None:
 @app.command("evaluate")
 def evaluate_command(
     groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format) or a TUM sequence folder."),
-    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM format); one table row each."),
+    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC); one table row "
+                                                     "each."),
     json_path: Path | None = typer.Option(None, "--json", help="Write the metric blocks as JSON."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a picture (.png, .pdf, .svg, ...): aligned top "
                                                           "view and errors over time."),
@@ -109,8 +121,9 @@ def evaluate_command(
                                     help="Coverage span in groundtruth seconds (default: a sequence's frames, "
                                          "else from the estimate's first pose to the groundtruth's last)."),
     sequence: Path | None = typer.Option(None, "--sequence", metavar="FOLDER",
-                                         help="TUM sequence folder whose frames set the coverage span and "
-                                              "frame period."),
+                                         help="TUM sequence folder whose frames set the coverage span, the "
+                                              "frame period and a KITTI file's times."),
+    format: Format | None = typer.Option(None, "--format", help="Format of the estimates (default: detected)."),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
@@ -128,7 +141,8 @@ def evaluate_command(
     repeated = next((path for path, label in zip(estimates, labels) if labels.count(label) > 1), None)
     if repeated is not None:
         raise InputError.at(repeated, "given twice as an estimate")
-    estimated = [read_trajectory(path) for path in estimates]
+    estimated, formats = zip(*(read_trajectory(path, format and format.value, clock.frame_stamps)
+                               for path in estimates))
     evaluations = []
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
@@ -138,7 +152,7 @@ def evaluate_command(
             raise InputError.at(path, _why_no_pairs(reference, trajectory, offset, max_difference))
         evaluations.append(evaluation)
 
-    _print_results(groundtruth, labels, evaluations)
+    _print_results(groundtruth, labels, formats, evaluations)
     if json_path is not None:
         blocks = {label: evaluation.to_dict() for label, evaluation in zip(labels, evaluations)}
         report = blocks[labels[0]] if len(labels) == 1 else {"groundtruth": str(groundtruth), "estimates": blocks}
@@ -165,7 +179,7 @@ def _writing(path: Path) -> Iterator[None]:
 def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, Clock]:
     """A trajectory file (no clock), or a sequence folder's groundtruth and its frames' clock."""
     if not path.is_dir():
-        return read_trajectory(path), Clock()
+        return read_tum(path), Clock()
     sequence = open_sequence(path)
     if sequence.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
@@ -180,8 +194,8 @@ def _sequence_clock(path: Path) -> Clock:
 
 def _clock_of(sequence) -> Clock:
     """Coverage over the time the camera recorded, in units of its frame period."""
-    stamps = sequence.timestamps
-    return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period)
+    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
+    return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period, stamps)
 
 
 def _why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float, max_difference: float) -> str:
@@ -197,8 +211,9 @@ def plural(count: int, noun: str) -> str:
     return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
 
 
-def _print_results(groundtruth: Path, labels: list[str], evaluations: list[Evaluation]) -> None:
-    """The legend of the columns (which alignment each uses), the table, and each estimate's coverage span."""
+def _print_results(groundtruth: Path, labels: list[str], formats: list[str], evaluations: list[Evaluation]) -> None:
+    """The legend of the columns (which alignment each uses), the table, and for each estimate the
+    format it was read as and its coverage span."""
     first = evaluations[0]
     if first.delta is None:
         rpe_pairs = "all Δ (sampled)"
@@ -215,7 +230,8 @@ def _print_results(groundtruth: Path, labels: list[str], evaluations: list[Evalu
         table.add_column(column, justify="left" if column == "estimate" else "right", no_wrap=True)
     for label, evaluation in zip(labels, evaluations):
         table.add_row(escape(label), *_row(evaluation))
-    spans = [f"{label}: {_coverage_text(evaluation)}" for label, evaluation in zip(labels, evaluations)]
+    spans = [f"{label}: read as {FORMAT_NAMES[name]}; {_coverage_text(evaluation)}"
+             for label, name, evaluation in zip(labels, formats, evaluations)]
     console = Console(width=10_000)  # never cut: the terminal wraps what it cannot show
     width = console.measure(table).maximum
     Console(width=max(width, *map(len, lines + spans)), highlight=False).print(
