@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import typer
 from rich import box
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from ..atomic import StagedFiles, check_writable
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
@@ -22,6 +22,7 @@ from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import read_trajectory
+from ..terminal import print_table
 from .app import app
 
 SEQUENCE_RULE = "sequence frames"
@@ -134,6 +135,9 @@ def evaluate_command(
         from ..evaluation.plot import check_plot_path  # matplotlib only when a plot is wanted
 
         check_plot_path(plot)
+    for output in (json_path, plot):
+        if output is not None:
+            check_writable(output)
     reference, clock = _groundtruth_and_clock(groundtruth)
     if sequence is not None:
         clock = _sequence_clock(sequence)
@@ -156,24 +160,28 @@ def evaluate_command(
     if json_path is not None:
         blocks = {label: evaluation.to_dict() for label, evaluation in zip(labels, evaluations)}
         report = blocks[labels[0]] if len(labels) == 1 else {"groundtruth": str(groundtruth), "estimates": blocks}
-        with _writing(json_path):
-            write_report(json_path, report)
+        with _writing(json_path) as staged:
+            write_report(staged, report)
     if plot is not None:
         from ..evaluation.plot import Scored, plot_evaluation
 
-        with _writing(plot):
-            plot_evaluation(plot, reference, [Scored(Path(label).name, trajectory, evaluation) for label, trajectory,
-                                              evaluation in zip(labels, estimated, evaluations)])
+        with _writing(plot) as staged:
+            plot_evaluation(staged, reference, [Scored(Path(label).name, trajectory, evaluation) for label, trajectory,
+                                                evaluation in zip(labels, estimated, evaluations)],
+                            format=plot.suffix.lstrip(".").lower())
 
 
 @contextmanager
-def _writing(path: Path) -> Iterator[None]:
-    """Turn a failure to write ``path`` into a one-line input error; say on stderr what was written."""
+def _writing(target: Path) -> Iterator[Path]:
+    """A temporary path beside ``target``, renamed onto it when written; a failure to write is a
+    one-line input error (and leaves ``target`` as it was). Says on stderr what was written."""
     try:
-        yield
+        with StagedFiles() as staged:
+            yield staged.path(target)
+            staged.commit()
     except OSError as error:
-        raise InputError.at(path, f"cannot write: {error.strerror}") from None
-    typer.echo(f"wrote {path}", err=True)
+        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+    typer.echo(f"wrote {target}", err=True)
 
 
 def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, Clock]:
@@ -230,12 +238,10 @@ def _print_results(groundtruth: Path, labels: list[str], formats: list[str], eva
         table.add_column(column, justify="left" if column == "estimate" else "right", no_wrap=True)
     for label, evaluation in zip(labels, evaluations):
         table.add_row(escape(label), *_row(evaluation))
-    spans = [f"{label}: read as {FORMAT_NAMES[name]}; {_coverage_text(evaluation)}"
-             for label, name, evaluation in zip(labels, formats, evaluations)]
-    console = Console(width=10_000)  # never cut: the terminal wraps what it cannot show
-    width = console.measure(table).maximum
-    Console(width=max(width, *map(len, lines + spans)), highlight=False).print(
-        escape("\n".join(lines)), table, escape("\n".join(spans)))
+    typer.echo("\n".join(lines))
+    print_table(table)
+    typer.echo("\n".join(f"{label}: read as {FORMAT_NAMES[name]}; {_coverage_text(evaluation)}"
+                          for label, name, evaluation in zip(labels, formats, evaluations)))
 
 
 def _row(evaluation: Evaluation) -> list[str]:

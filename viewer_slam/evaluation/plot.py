@@ -46,13 +46,14 @@ def estimate_color(position: int) -> str:
     return f"C{(position + 1) % 10}"
 
 
-def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored]) -> None:
+def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored], format: str | None = None) -> None:
     """Write the picture: top view (x-y) of groundtruth and every aligned estimate, and their errors over time.
 
     Each estimate has one colour (the top view's legend), each metric one line style (the
     error plot's legend): ATE solid, segment-aligned ATE dotted, penalised ATE dashed, lost
     time shaded. Lines break where an estimate has no pose for longer than the lost-gap
-    threshold, so a jump never looks like motion.
+    threshold, so a jump never looks like motion. ``format`` (png, svg, pdf, ...) defaults to
+    the extension of ``path``.
     """
     figure, (top, errors) = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
     top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color="0.3", label="groundtruth")
@@ -80,8 +81,9 @@ def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored]) -
     errors.set(title="Error over time", xlabel="groundtruth time [s]", ylabel="error [m]")
     errors.set_xlim(0, groundtruth.timestamps[-1] - origin)
     errors.legend(handles=styles, loc="best", fontsize="small")
+    format = format or path.suffix.lstrip(".").lower()
     with plt.rc_context({"svg.hashsalt": "viewslam"}):  # SVG element ids from a fixed salt, not a random one
-        figure.savefig(path, dpi=100, metadata=VOLATILE_METADATA.get(path.suffix.lower().lstrip("."), {}))
+        figure.savefig(path, format=format, dpi=100, metadata=VOLATILE_METADATA.get(format, {}))
     plt.close(figure)
 
 
