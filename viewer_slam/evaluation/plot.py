@@ -8,10 +8,13 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 
+from .. import palette  # noqa: E402
 from ..geometry.se3 import transform_points  # noqa: E402
 from ..geometry.trajectory import Trajectory  # noqa: E402
 from .coverage import lost_gap_threshold  # noqa: E402
 from .evaluation import Evaluation  # noqa: E402
+
+ESTIMATE = palette.run_colour("estimate")  # a run with no pipeline's name: the first fallback
 
 
 def plot_evaluation(path: Path, groundtruth: Trajectory, estimate: Trajectory, evaluation: Evaluation) -> None:
@@ -22,19 +25,22 @@ def plot_evaluation(path: Path, groundtruth: Trajectory, estimate: Trajectory, e
     """
     figure, (top, errors) = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
     gap = lost_gap_threshold(estimate.timestamps)
-    top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color="0.3", label="groundtruth")
+    top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex,
+             label="groundtruth")
     if evaluation.alignment is not None:
         aligned = transform_points(evaluation.alignment, estimate.positions)
-        top.plot(*_broken(estimate.timestamps, aligned[:, :2], gap).T[1:], color="tab:orange",
+        top.plot(*_broken(estimate.timestamps, aligned[:, :2], gap).T[1:], color=ESTIMATE.hex,
                  label="estimate (aligned)")
     top.set(title="Top view", xlabel="x [m]", ylabel="y [m]", aspect="equal")
     top.legend(loc="best")
 
     origin = groundtruth.timestamps[0]  # the x axis is groundtruth time from its first pose
     for number, (start, end) in enumerate(evaluation.coverage.lost_intervals):
-        errors.axvspan(start - origin, end - origin, color="tab:red", alpha=0.15, label="lost" if number == 0 else None)
-    for series, style in ((evaluation.penalized_ate, {"color": "tab:red", "linestyle": "--", "label": "penalised ATE"}),
-                          (evaluation.ate, {"color": "tab:blue", "label": "ATE"})):
+        errors.axvspan(start - origin, end - origin, color=palette.LOST.hex, alpha=0.15,
+                       label="lost" if number == 0 else None)
+    for series, style in ((evaluation.penalized_ate,
+                           {"color": palette.LOST.hex, "linestyle": "--", "label": "penalised ATE"}),
+                          (evaluation.ate, {"color": ESTIMATE.hex, "label": "ATE"})):
         if series is not None:
             stamps, values = _broken(series.timestamps + evaluation.offset, series.errors[:, None], gap).T
             errors.plot(stamps - origin, values, linewidth=1.0, **style)

@@ -19,6 +19,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import palette
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
@@ -29,11 +30,11 @@ from ..geometry.trajectory import write_tum
 from ..pipelines.base import PIPELINE_MODULES, pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.run import PipelineRun, run_pipeline
-from . import layout
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
 from .recorder import PipelineRecorder, log_frame_image, log_world
+from .sizes import extent
 from .timelines import log_evaluation
 from .viewer import viewer_binary
 
@@ -198,7 +199,8 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
         for position, name in enumerate(pipelines):
             if stop.requested:
                 break
-            recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+            recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
+                                        None if groundtruth is None else extent(groundtruth.positions))
 
             def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
                 recorder.begin_frame(frame)
