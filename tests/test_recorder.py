@@ -37,7 +37,6 @@ from viewer_slam.recording.console import print_summary
 from viewer_slam.recording.images import depth_png
 from viewer_slam.recording.session import RecordOptions, record
 from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
-from viewer_slam.recording.viewer import viewer_binary
 from viewer_slam.recording.voxel_map import VoxelMap
 
 RERUN = Path(sys.executable).with_name("rerun")
@@ -329,22 +328,6 @@ def test_a_folder_that_is_not_a_sequence_is_bad_input(scripted_pipelines, tmp_pa
     assert main(["record", str(tmp_path), "--out", str(tmp_path / "x.rrd"), "--quiet"]) == 2
     assert "not a TUM RGB-D sequence" in capsys.readouterr().err
     assert not (tmp_path / "x.rrd").exists()
-
-
-def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
-    assert main(["view", str(tmp_path / "none.rrd")]) == 2
-    assert "no such recording" in capsys.readouterr().err
-
-
-def test_view_opens_the_recording_in_the_bundled_viewer(tmp_path, monkeypatch):
-    recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"")
-    commands = []
-    monkeypatch.setattr(subprocess, "call", lambda command: commands.append(command) or 0)
-    assert main(["view", str(recording)]) == 0
-    assert commands == [[str(viewer_binary()), str(recording)]]
-    version = subprocess.run([viewer_binary(), "--version"], capture_output=True, text=True)
-    assert version.returncode == 0 and "0.41" in version.stdout
 
 
 def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():

@@ -6,6 +6,7 @@ import rerun.blueprint as rrb
 from .. import palette
 from ..pipelines.edges import EdgeKind
 from . import layout
+from .sizes import extent
 
 
 def _series(pipelines: list[str], series: str) -> list[str]:
@@ -13,11 +14,11 @@ def _series(pipelines: list[str], series: str) -> list[str]:
 
 
 def overview_eye(positions: np.ndarray) -> rrb.EyeControls3D:
-    """A three-quarter view from above that frames the camera path and the room around it."""
+    """A three-quarter view from above that frames the camera path and the room around it
+    (the room reaches beyond a short path: the distance has a floor)."""
     centre = positions.mean(axis=0)
-    extent = float(np.ptp(positions, axis=0).max())
     direction = np.array([-0.35, -0.5, 1.0])
-    distance = 1.1 * extent + 1.0
+    distance = 1.6 * extent(positions) + 0.5
     return rrb.EyeControls3D(kind="Orbital", position=centre + distance * direction / np.linalg.norm(direction),
                              look_target=centre, eye_up=[0.0, 0.0, 1.0])
 

@@ -327,7 +327,7 @@ class PipelineRecorder:
         poses = np.asarray(event.poses).reshape(-1, 4, 4)
         self._log_instances(layout.trajectory(self.name), segments, lambda segments: rr.LineStrips3D(
             [poses[segment, :3, 3] for segment in segments], colors=[self.colour.rgb],
-            radii=rr.Radius.ui_points(3.0)), static=True)
+            radii=rr.Radius.ui_points(2.0)), static=True)
         if event.odometry_poses is not None and len(event.odometry_poses):
             odometry = np.asarray(event.odometry_poses).reshape(-1, 4, 4)
             self._log_instances(layout.odometry(self.name), segments, lambda segments: rr.LineStrips3D(
