@@ -120,6 +120,14 @@ class ScriptedPipeline(Pipeline):
                                         kind=EdgeKind.LOOP, score=0.9, inliers=40))
                 events.append(GraphEdge(frame.index, 6, 2, accepted=False, reason="too few inliers",
                                         kind=EdgeKind.LOOP, score=0.2, inliers=4))
+                events.append(GraphEdge(frame.index, 6, 1, accepted=True, reason="geometric check passed",
+                                        kind=EdgeKind.LOOP, score=0.8, inliers=30))
+            if keyframe_id > 0:  # the odometry edge, and one to a recent keyframe
+                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 1, accepted=True, reason="odometry",
+                                        kind=EdgeKind.SEQUENTIAL, inliers=15, detection="predecessor"))
+            if keyframe_id > 1:
+                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 2, accepted=True,
+                                        reason="matched", kind=EdgeKind.LOCAL, inliers=12, detection="neighbour"))
         status = TrackingStatus.RELOCALISED if frame.index == LOST[-1] + 1 else TrackingStatus.OK
         return events + [FrameTracked(frame.index, frame.timestamp, pose, status, features=40, matches=20,
                                       inliers=15, timings_ms={"features": 2.0, "ransac": 1.0})]
@@ -241,10 +249,22 @@ def test_coverage_tracking_state_and_log_show_the_loss(recorded):
     states = column(recorded.recording, f"/metrics/{name}/tracking_state", "StateChange:state")
     assert states == {0: ["ok"], LOST[0]: ["lost"], LOST[-1] + 1: ["relocalised"], LOST[-1] + 2: ["ok"]}
     log = column(recorded.recording, f"/log/{name}", "TextLog:text")
-    assert "tracking lost (sensor covered)" in log[LOST[0]][0]
-    assert "recovered" in log[LOST[-1] + 1][0]
-    loop_texts = [text for frame in sorted(log) for text in log[frame] if "loop closure" in text]
-    assert len(loop_texts) == 2 and "accepted" in loop_texts[0] and "rejected" in loop_texts[1]
+    levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
+    assert log[LOST[0]] == [f"{name}: tracking lost (sensor covered)"] and levels[LOST[0]] == ["WARN"]
+    assert log[LOST[-1] + 1] == [f"{name}: tracking recovered (relocalised on keyframe 0)"]
+    assert levels[LOST[-1] + 1] == ["WARN"]
+
+
+def test_the_log_has_one_line_per_verdict_for_a_frame_s_loop_closures_and_no_other_edges(recorded):
+    name, loop_frame = "rgbdslam", 35  # keyframe 6: every 5th frame is one, but frame 15 (lost)
+    log = column(recorded.recording, f"/log/{name}", "TextLog:text")
+    levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
+    assert sorted(log) == [LOST[0], LOST[-1] + 1, loop_frame]  # nothing for the sequential and local edges
+    assert levels[loop_frame] == ["INFO", "DEBUG"]
+    accepted, rejected = log[loop_frame]
+    assert accepted.startswith(f"{name}: 2 loop closures accepted: KF6 -> KF0 ")
+    assert "KF6 -> KF1 (appearance, geometric check passed, score 0.8, 30 inliers)" in accepted
+    assert rejected == f"{name}: loop closure rejected: KF6 -> KF2 (appearance, too few inliers, score 0.2, 4 inliers)"
 
 
 def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(recorded):
@@ -254,10 +274,20 @@ def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(reco
 
     accepted = last_row("/world/rgbdslam/loop_closures", "LineStrips3D:strips")
     rejected = last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:strips")
-    assert len(accepted) == len(rejected) == 1
+    assert len(accepted) == 2 and len(rejected) == 1
     assert np.allclose(accepted[0][0], rejected[0][0])  # both start at keyframe 6
     assert (last_row("/world/rgbdslam/loop_closures", "LineStrips3D:colors")
             != last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:colors"))
+
+
+def test_other_edges_are_drawn_by_kind_under_their_own_entities(recorded):
+    keyframes = column(recorded.recording, "/world/rgbdslam/keyframes", "Points3D:positions")
+    positions = np.array(keyframes[max(keyframes)])
+    for kind, step in (("sequential", 1), ("local", 2)):
+        strips = column(recorded.recording, f"/world/rgbdslam/edges/{kind}", "LineStrips3D:strips")
+        last = np.array(strips[max(strips)])
+        assert len(last) == len(positions) - step
+        assert np.allclose(last[:, 0], positions[step:]) and np.allclose(last[:, 1], positions[:-step])
 
 
 def test_matches_are_cleared_while_lost(recorded):
@@ -277,7 +307,10 @@ def test_report_and_trajectories_are_written_beside_the_recording(recorded, tum_
     for name in ("rgbdslam", "rtabmap"):
         trajectory = read_tum(recorded.recording.with_name(f"circle.{name}.txt"))
         assert len(trajectory) == FRAMES - len(LOST)
-        assert report["pipelines"][name]["loop_closures"] == {"accepted": 1, "rejected": 1}
+        assert report["pipelines"][name]["loop_closures"] == {"accepted": 2, "rejected": 1}
+        keyframes = (FRAMES - 1) // 5 + 1 - 1  # every 5th frame but frame 15, lost
+        assert report["pipelines"][name]["edges"] == {"sequential": keyframes - 1, "local": keyframes - 2,
+                                                      "loop": 2}
 
 
 def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tum_folder, tmp_path):
