@@ -108,8 +108,8 @@ def test_the_viewer_opens_and_draws_the_recording(recordings, case, tmp_path):
     assert ((lost_frames(recording) > 0), report(recording)["interrupted"]) == expected[case]
     assert all(chunk.num_rows > 0 for chunk in RrdReader(recording).stream().to_chunks())
     shot = tmp_path / "shot.png"
-    # A screen wider than the window keeps the pointer (at the screen's centre) off the views.
-    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 3000x1900x24", RERUN, "--screenshot-to", shot,
+    # The window is drawn at twice its size; a screen this wide keeps the pointer (at its centre) off it.
+    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x1900x24", RERUN, "--screenshot-to", shot,
                            "--window-size", "1600x900", recording], capture_output=True, text=True, timeout=240)
     assert done.returncode == 0, done.stderr[-2000:]
     image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
