@@ -175,18 +175,9 @@ class PipelineRecorder:
         self.frame_indices.append(event.frame_index)
         self.frame_timestamps.append(event.timestamp)
         if event.pose is not None:
-            self._seen = np.concatenate([self._seen, event.pose[None, :3, 3]])
-            self._seen = np.stack([self._seen.min(axis=0), self._seen.max(axis=0)])
-        status = event.status.value
-        depth = self.sizes.frustum_depth
-        resized = self._frustum_depth is not None and not (
-            1 / FRUSTUM_RESIZE_FACTOR < depth / self._frustum_depth < FRUSTUM_RESIZE_FACTOR)
-        if status != self.status or resized:
-            if status != self.status:
-                self._log(layout.metric(self.name, "tracking_state"), rr.StateChange(state=[status]))
-            self.status, self._frustum_depth = status, depth
-            frustum = palette.LOST.rgb if event.status is TrackingStatus.LOST else self.colour.rgb
-            self._log(layout.camera(self.name), pinhole(self.camera, frustum, depth))
+            seen = np.concatenate([self._seen, event.pose[None, :3, 3]])
+            self._seen = np.stack([seen.min(axis=0), seen.max(axis=0)])
+        self._log_state_and_frustum(event.status)
         if event.pose is not None:
             self._log(layout.camera(self.name), transform(event.pose))
         if self._matched_frame != event.frame_index:
@@ -197,6 +188,20 @@ class PipelineRecorder:
         for stage, ms in event.timings_ms.items():
             self._log(layout.metric(self.name, f"time/{stage}"), rr.Scalars(float(ms)))
         self._log_due_snapshots(event.frame_index)
+
+    def _log_state_and_frustum(self, status: TrackingStatus) -> None:
+        """The state when it changes; the frustum then (red while lost) and when the scene has grown."""
+        depth = self.sizes.frustum_depth
+        resized = self._frustum_depth is not None and not (
+            1 / FRUSTUM_RESIZE_FACTOR < depth / self._frustum_depth < FRUSTUM_RESIZE_FACTOR)
+        changed = status.value != self.status
+        if changed:
+            self.status = status.value
+            self._log(layout.metric(self.name, "tracking_state"), rr.StateChange(state=[status.value]))
+        if changed or resized:
+            self._frustum_depth = depth
+            colour = palette.LOST.rgb if status is TrackingStatus.LOST else self.colour.rgb
+            self._log(layout.camera(self.name), pinhole(self.camera, colour, depth))
 
     def _feature_matches(self, event: FeatureMatches) -> None:
         """Lines from each keypoint to its match, inliers and outliers apart, thinned evenly."""
