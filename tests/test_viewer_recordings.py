@@ -21,6 +21,7 @@ from fixtures_eval import TUM_RPY
 from test_recorder import serve_scripted_pipeline, write_tum_folder
 from viewer_slam import palette
 from viewer_slam.cli import main
+from viewer_slam.cli.view import free_port
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.edges import LOOP_MIN_AGE_S, LOOP_MIN_NODE_GAP
 from viewer_slam.recording import layout
@@ -109,8 +110,11 @@ def test_the_viewer_opens_and_draws_the_recording(recordings, case, tmp_path):
     assert all(chunk.num_rows > 0 for chunk in RrdReader(recording).stream().to_chunks())
     shot = tmp_path / "shot.png"
     # The window is drawn at twice its size; a screen this wide keeps the pointer (at its centre) off it.
-    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x1900x24", RERUN, "--screenshot-to", shot,
-                           "--window-size", "1600x900", recording], capture_output=True, text=True, timeout=240)
+    # A port of its own: on the default one, a viewer already there would get the file (and take no
+    # screenshot), or this one would get whatever another process streams to the default port.
+    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x1900x24", RERUN, "--port", str(free_port()),
+                           "--screenshot-to", shot, "--window-size", "1600x900", recording],
+                          capture_output=True, text=True, timeout=240)
     assert done.returncode == 0 and shot.is_file(), done.stderr[-3000:]
     image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
     assert image.shape[0] >= 900 and image.shape[1] >= 1600
