@@ -80,7 +80,7 @@ def evenly_spaced(count: int, limit: int) -> np.ndarray:
 
 
 def loop_closure_line(edges: list[GraphEdge], verdict: str) -> str:
-    """One log line for every loop-closure hypothesis of one frame with the same verdict."""
+    """One log line for all the loop-closure hypotheses of one frame that share a verdict."""
     details = "; ".join(f"KF{edge.from_keyframe} -> KF{edge.to_keyframe} ({edge.detection}, {edge.reason}, "
                         f"score {edge.score:.3g}, {edge.inliers} inliers)" for edge in edges)
     noun = "loop closure" if len(edges) == 1 else f"{len(edges)} loop closures"
