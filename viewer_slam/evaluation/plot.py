@@ -12,6 +12,7 @@ from matplotlib.backend_bases import FigureCanvasBase  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
+from .. import palette  # noqa: E402
 from ..errors import InputError  # noqa: E402
 from ..geometry.trajectory import Trajectory  # noqa: E402
 from .coverage import lost_gap_threshold  # noqa: E402
@@ -41,9 +42,9 @@ def check_plot_path(path: Path) -> None:
         raise InputError(f"--plot {path}: {problem} (use one of {', '.join(sorted(formats))})")
 
 
-def estimate_color(position: int) -> str:
-    """The colour of the ``position``-th estimate: matplotlib's cycle, from its orange."""
-    return f"C{(position + 1) % 10}"
+def estimate_color(label: str, position: int) -> str:
+    """The run's colour in the viewer and the terminal (see :mod:`viewer_slam.palette`)."""
+    return palette.run_colour(label, position).hex
 
 
 def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored], format: str | None = None) -> None:
@@ -56,10 +57,11 @@ def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored], f
     the extension of ``path``.
     """
     figure, (top, errors) = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
-    top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color="0.3", label="groundtruth")
+    top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex,
+             label="groundtruth")
     origin = groundtruth.timestamps[0]  # the error plot's x axis is groundtruth time from its first pose
     for position, item in enumerate(scored):
-        color, evaluation = estimate_color(position), item.evaluation
+        color, evaluation = estimate_color(item.label, position), item.evaluation
         gap = lost_gap_threshold(item.estimate.timestamps)
         aligned = evaluation.aligned_positions(item.estimate)
         if aligned is not None:

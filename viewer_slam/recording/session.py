@@ -23,6 +23,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import palette
 from ..atomic import StagedFiles, check_writable, exclusive
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
@@ -35,11 +36,11 @@ from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.selection import BOTH, select_pipelines
 from ..pipelines.run import PipelineRun, run_pipeline
-from . import layout
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
 from .recorder import PipelineRecorder, log_frame_image, log_world
+from .sizes import extent
 from .timelines import log_evaluation
 from .viewer import viewer_binary
 
@@ -228,6 +229,7 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
+    scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
     with StagedFiles() as staged, StopRequest().installed() as stop:
         recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
@@ -238,7 +240,8 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                 for position, name in enumerate(pipelines):
                     if stop.requested:
                         break
-                    recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+                    recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
+                                                scene_extent)
 
                     def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
                         recorder.begin_frame(frame)
