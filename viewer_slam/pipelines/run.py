@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset.frame import Sequence
+from ..dataset.frame import Frame, Sequence
 from ..geometry.trajectory import Trajectory
 from .base import make_pipeline
 from .edges import EdgeKind
@@ -80,9 +80,12 @@ def run_pipeline(
     max_frames: int | None = None,
     stride: int = 1,
     sinks: Iterable[Sink] = (),
+    frame_sinks: Iterable[Callable[[Frame], None]] = (),
     should_stop: Callable[[], bool] = lambda: False,
 ) -> PipelineRun:
     """Run ``pipeline_name`` over ``sequence`` and return its summary.
+
+    ``frame_sinks`` see each frame just before the pipeline does (signal measurements).
 
     Ctrl-C (KeyboardInterrupt) or ``should_stop()`` ends the frame loop early; the
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
@@ -100,6 +103,8 @@ def run_pipeline(
     start = time.perf_counter()
     try:
         for frame in sequence.frames(max_frames=max_frames, stride=stride):
+            for frame_sink in frame_sinks:
+                frame_sink(frame)
             emit(pipeline.process(frame))
             if should_stop():
                 run.interrupted = True
