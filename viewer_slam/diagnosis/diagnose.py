@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from ..geometry.trajectory import Trajectory
+from ..pipelines.run import PipelineRun
 from .causes import Cause, DiagnosisThresholds, LossSignals, classify
-from .signals import FrameSignals, groundtruth_motion
+from .signals import FrameSignals, SignalRecorder, groundtruth_motion
 
 MINIMUM_KEYS = ("min_matches", "Vis/MinInliers")
 """Parameters that hold a pipeline's minimum of inliers (rgbdslam, rtabmap), looked up in order."""
@@ -101,3 +102,16 @@ def _lost_rows(signals: FrameSignals, row: int, window: int) -> np.ndarray:
     while len(rows) < window and rows[-1] + 1 < len(signals) and not signals.tracked[rows[-1] + 1]:
         rows.append(rows[-1] + 1)
     return np.array(rows)
+
+
+def diagnose_run(run: PipelineRun, recorder: SignalRecorder, groundtruth: Trajectory | None,
+                 thresholds: DiagnosisThresholds = DiagnosisThresholds()) -> FrameSignals:
+    """Give every loss of ``run`` its cause (in ``run.tracking_lost``, which the report reads).
+
+    ``recorder`` is the signal sink that saw the run's frames and events; its signals are
+    returned for the recording.
+    """
+    signals = recorder.signals()
+    run.tracking_lost = diagnose_losses(run.pipeline, run.tracking_lost, signals, run.parameters, groundtruth,
+                                        thresholds)
+    return signals

@@ -22,6 +22,7 @@ import rerun.blueprint as rrb
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
+from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
@@ -33,6 +34,7 @@ from . import layout
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
+from .loss_causes import log_loss_causes
 from .recorder import PipelineRecorder, log_frame_image, log_world
 from .timelines import log_evaluation
 from .viewer import viewer_binary
@@ -206,12 +208,16 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                     log_frame_image(stream, frame)
 
             tapped = TappedSequence(sequence, on_frame)
+            signals = SignalRecorder()
             run = run_pipeline(tapped, name, params[name], seed=options.seed, max_frames=options.max_frames,
-                               stride=options.stride, sinks=[recorder, progress.sink(name)], should_stop=stop)
+                               stride=options.stride, sinks=[recorder, progress.sink(name), signals],
+                               frame_sinks=[signals.frame], should_stop=stop)
             failure = tapped.error
             if failure is not None and not run.frames:
                 raise failure  # not one frame was read: there is nothing to keep
             interrupted = interrupted or run.interrupted or failure is not None
+            frame_signals = diagnose_run(run, signals, sequence.groundtruth)
+            log_loss_causes(stream, name, run.tracking_lost, frame_signals)
             evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, recorder.frame_timestamps)
             if evaluation is not None:
                 log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
