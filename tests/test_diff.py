@@ -102,7 +102,8 @@ def test_the_diff_recording_holds_both_runs_and_the_difference_without_empty_chu
     assert all(chunk.num_rows > 0 for chunk in chunks)
     entities = {chunk.entity_path for chunk in chunks}
     assert {"/world/groundtruth", "/world/A/rtabmap/trajectory", "/world/B/rtabmap/trajectory",
-            "/metrics/A/rtabmap/ate", "/metrics/B/rtabmap/ate", "/metrics/difference/rtabmap/ate"} <= entities
+            "/metrics/A/rtabmap/ate", "/metrics/B/rtabmap/ate", "/metrics/difference/rtabmap/ate",
+            "/metrics/A/rtabmap/pose", "/metrics/B/rtabmap/pose"} <= entities
     difference_rows = sum(chunk.num_rows for chunk in chunks
                           if chunk.entity_path == "/metrics/difference/rtabmap/ate" and not chunk.is_static)
     both = compared[0]["ate_difference"]["frames"]

@@ -51,6 +51,9 @@ class DiagnosisThresholds:
                                                 "no minimum (plugins, imported estimates)")
 
 
+_COUNTS = ("frames", "minimum", "corners", "keypoints", "matches", "inliers")
+
+
 @dataclass(frozen=True)
 class LossSignals:
     """Medians over the lost frames of the window (motion: maxima, as multiples of the run's median).
@@ -75,13 +78,13 @@ class LossSignals:
     rotation_ratio: float = math.nan
 
     def evidence(self) -> dict[str, float | int]:
-        """The measured numbers, rounded for reading; signals that were not measured left out."""
+        """The measured numbers, rounded for reading (whole counts as integers); unmeasured ones left out."""
         values = {}
         for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
-            if isinstance(value, float) and math.isnan(value):
+            value = round(float(getattr(self, field.name)), 3)
+            if math.isnan(value):
                 continue
-            values[field.name] = value if isinstance(value, int) else round(float(value), 3)
+            values[field.name] = int(value) if field.name in _COUNTS and value.is_integer() else value
         return values
 
 
