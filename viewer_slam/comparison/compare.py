@@ -167,5 +167,5 @@ def _unmatched_losses(losses: list[dict[str, Any]], others: list[dict[str, Any]]
                       other_tracked: np.ndarray) -> list[dict[str, Any]]:
     """``losses`` at frames where the other run lost nothing, with whether it was tracking there."""
     other_frames = {loss["frame"] for loss in others}
-    return [{**loss, "other_tracking": bool(other_tracked[loss["frame"]]) if loss["frame"] < len(other_tracked)
-             else False} for loss in losses if loss["frame"] not in other_frames]
+    return [{**loss, "other_tracking": bool(loss["frame"] < len(other_tracked) and other_tracked[loss["frame"]])}
+            for loss in losses if loss["frame"] not in other_frames]
