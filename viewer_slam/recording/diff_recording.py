@@ -39,7 +39,7 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
     groundtruth = comparison.sequence.groundtruth
     eye = overview_eye(groundtruth.positions) if groundtruth is not None and len(groundtruth) else None
     labels = [side_label(side, run.a.name if side == "A" else run.b.name)
-              for run in comparison.runs for side in SIDE_COLORS]
+              for run in comparison.runs for side in SIDE_COLORS]  # A's, then B's, of each compared run
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="groundtruth grey, A orange, B blue", eye_controls=eye),
@@ -71,8 +71,11 @@ def write_diff_recording(comparison: Comparison, out: Path) -> None:
         log_world(stream, comparison.sequence.groundtruth)
         for run in comparison.runs:
             _log_run(stream, run)
-    finally:
         stream.flush()
+    except BaseException:
+        partial.unlink(missing_ok=True)  # no half-written recording is left behind
+        raise
+    finally:
         stream.disconnect()
     os.replace(partial, out)
 
