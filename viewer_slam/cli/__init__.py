@@ -8,7 +8,7 @@ import sys
 import typer
 
 from ..errors import InputError
-from . import benchmark, datasets, diff, evaluate, record, synth  # noqa: F401  (register commands)
+from . import benchmark, datasets, diff, evaluate, pipelines, record, synth  # noqa: F401  (register commands)
 from .app import app
 
 EXIT_BAD_INPUT = 2

@@ -17,12 +17,12 @@ def parse_resolution(text: str) -> tuple[int, int]:
 
 
 def parse_pipelines(text: str) -> list[str]:
-    from ..pipelines.base import PIPELINE_MODULES
+    from ..pipelines.base import pipeline_names
 
     names = [name.strip() for name in text.split(",") if name.strip()]
-    unknown = [name for name in names if name not in PIPELINE_MODULES]
+    unknown = [name for name in names if name not in pipeline_names()]
     if not names or unknown:
-        raise InputError(f"--pipelines {text!r}: valid pipelines are {', '.join(PIPELINE_MODULES)}")
+        raise InputError(f"--pipelines {text!r}: valid pipelines are {', '.join(pipeline_names())}")
     return list(dict.fromkeys(names))
 
 

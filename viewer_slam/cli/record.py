@@ -18,7 +18,7 @@ EXIT_INTERRUPTED = 130
 def record_command(
     sequence: str | None = typer.Argument(
         None, help="TUM folder, synthetic scenario or TUM sequence name; none: the built-in demo."),
-    pipeline: str = typer.Option(BOTH, help="rgbdslam, rtabmap or both."),
+    pipeline: str = typer.Option(BOTH, help="rgbdslam, rtabmap, both, or a plugin pipeline (`viewslam pipelines` lists them)."),
     out: Path | None = typer.Option(None, help="Recording to write (default recordings/<sequence>.rrd); "
                                               "NAME.json and NAME.<pipeline>.txt go beside it."),
     max_frames: int | None = typer.Option(None, min=1, help="Process at most this many frames."),

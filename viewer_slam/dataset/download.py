@@ -5,7 +5,9 @@ transfer so that the next call asks only for the missing bytes (HTTP Range). The
 folder appears in ``dest`` only once it is complete and opens as a TUM sequence, because
 it is extracted into a temporary folder beside it and renamed into place. The ``.part``
 is removed once the sequence is in place, or as soon as the archive proves unusable, so
-that a retry starts from a clean download.
+that a retry starts from a clean download. With ``bag``, the sequence's ROS bag is fetched
+the same way into ``<dest>/.<name>.bag.part`` and published as ``<dest>/<name>.bag`` once it
+opens as a sequence.
 """
 
 import gzip
@@ -51,39 +53,40 @@ def default_mirror() -> str:
     return os.environ.get("VIEWSLAM_TUM_MIRROR") or TUM_MIRROR
 
 
-def archive_url(info: TumSequenceInfo, mirror: str | None = None) -> str:
-    """The archive's URL below ``mirror`` (default: :func:`default_mirror`)."""
-    return f"{(mirror or default_mirror()).rstrip('/')}/{info.archive}"
+def archive_url(info: TumSequenceInfo, mirror: str | None = None, bag: bool = False) -> str:
+    """The archive's (with ``bag``, the bag's) URL below ``mirror`` (default: :func:`default_mirror`)."""
+    return f"{(mirror or default_mirror()).rstrip('/')}/{info.bag if bag else info.archive}"
 
 
-def partial_archive(dest: Path, name: str) -> Path:
-    """Where the archive of the sequence officially called ``name`` accumulates in ``dest``
-    until it is extracted."""
-    return Path(dest) / f".{name}.tgz.part"
+def partial_archive(dest: Path, name: str, bag: bool = False) -> Path:
+    """Where the archive (or bag) of the sequence officially called ``name`` accumulates in
+    ``dest`` until it is installed."""
+    return Path(dest) / f".{name}.{'bag' if bag else 'tgz'}.part"
 
 
 def download_sequence(name: str, dest: Path | None = None, mirror: str | None = None, *,
-                      progress: bool = True, force: bool = False) -> Path:
-    """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its folder.
+                      progress: bool = True, force: bool = False, bag: bool = False) -> Path:
+    """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its
+    folder, or with ``bag`` its ROS bag ``<dest>/<name>.bag``.
 
-    An already present folder is returned as it is unless ``force``; ``mirror`` defaults to
-    :func:`default_mirror`.
+    An already present folder (bag) is returned as it is unless ``force``; ``mirror``
+    defaults to :func:`default_mirror`.
     """
     info = known_tum_sequence(name)
     dest = Path(dest) if dest is not None else tum_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
-    target = dest / info.name
-    if target.is_dir() and not force:
+    target = dest / (f"{info.name}.bag" if bag else info.name)
+    if (target.is_file() if bag else target.is_dir()) and not force:
         return target
-    url = archive_url(info, mirror)
-    part = partial_archive(dest, info.name)
+    url = archive_url(info, mirror, bag)
+    part = partial_archive(dest, info.name, bag)
     _fetch(url, part, progress)
     try:
-        _install(part, target, url)
+        (_install_bag if bag else _install)(part, target, url)
     except BadArchive:
         part.unlink(missing_ok=True)
         raise
-    part.unlink()
+    part.unlink(missing_ok=True)
     return target
 
 
@@ -163,6 +166,22 @@ def _install(archive: Path, target: Path, url: str) -> None:
         if target.exists():
             shutil.rmtree(target)
         folder.rename(target)
+
+
+def _install_bag(part: Path, target: Path, url: str) -> None:
+    """Open the downloaded bag as a sequence, and only then move it to ``target``."""
+    from .rosbag import open_bag
+
+    checked = target.with_name(f".{target.name}")  # rosbags tells a ROS 1 bag by its .bag suffix
+    part.replace(checked)
+    try:
+        open_bag(checked)
+    except InputError as error:
+        checked.unlink()
+        problem = str(error).replace(str(checked), "<download>")
+        raise BadArchive(f"{url}: download is not a usable ROS bag ({problem}); {RETRY} to download it afresh") \
+            from None
+    checked.replace(target)
 
 
 def _extract(archive: Path, into: Path, url: str) -> Path:

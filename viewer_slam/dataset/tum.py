@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -20,9 +21,11 @@ import numpy as np
 from ..errors import InputError
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.interpolation import interpolate_poses
 from ..geometry.trajectory import Trajectory, read_tum
-from .frame import Frame
+from .frame import Frame, TimedFrames
+
+if TYPE_CHECKING:
+    from .rosbag import BagSequence
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +52,7 @@ class _Listing:
     values: list[list[str]]
 
 
-class TumSequence:
+class TumSequence(TimedFrames):
     """A TUM RGB-D folder as a :class:`~viewer_slam.dataset.frame.Sequence`.
 
     ``timestamps`` are the associated colour stamps (one per frame), ``depth_timestamps``
@@ -71,18 +74,6 @@ class TumSequence:
         self.depth_timestamps = depth.stamps[depth_index]
         self._rgb_files = [rgb.values[i][0] for i in rgb_index]
         self._depth_files = [depth.values[i][0] for i in depth_index]
-
-    def __len__(self) -> int:
-        return len(self.timestamps)
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.timestamps[-1] - self.timestamps[0])
-
-    @property
-    def frame_period(self) -> float | None:
-        """Median time between associated frames (None for a single frame)."""
-        return float(np.median(np.diff(self.timestamps))) if len(self.timestamps) > 1 else None
 
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
@@ -117,17 +108,6 @@ class TumSequence:
                 for future in pending:
                     future.cancel()
 
-    def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""
-        if self.groundtruth is None:
-            stamps = np.asarray(stamps, dtype=np.float64).reshape(-1)
-            return np.full((len(stamps), 4, 4), np.nan), np.zeros(len(stamps), dtype=bool)
-        return interpolate_poses(self.groundtruth, stamps)
-
-    def frames_outside_groundtruth(self) -> np.ndarray:
-        """Indices of the frames at which no groundtruth pose can be interpolated."""
-        return np.flatnonzero(~self.groundtruth_at(self.timestamps)[1])
-
     @staticmethod
     def _read_image(path: Path, flags: int) -> np.ndarray:
         try:
@@ -145,9 +125,14 @@ class TumSequence:
         return image
 
 
-def open_sequence(path: Path) -> TumSequence:
-    """Open a TUM RGB-D folder; :class:`InputError` if it is not one."""
+def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
+    """Open a TUM RGB-D folder, or a ROS bag (see :func:`~viewer_slam.dataset.rosbag.open_bag`
+    for ``bag_options``); :class:`InputError` if it is neither."""
+    from .rosbag import is_bag, open_bag  # a bag's reader loads only for a bag
+
     path = Path(path)
+    if is_bag(path):
+        return open_bag(path, **bag_options)
     if not path.is_dir():
         raise InputError.at(path, "no such folder" if not path.exists() else "not a folder")
     for required in ("rgb.txt", "depth.txt"):
@@ -169,12 +154,18 @@ def _camera_for(path: Path) -> Camera:
     """camera.json, else the published calibration named by the folder, else ROS's default."""
     if (path / "camera.json").is_file():
         return Camera.load(path / "camera.json")
-    match = re.search(r"freiburg[123]", path.resolve().name)
-    if match:
-        return FREIBURG_CAMERAS[match.group(0)]
+    camera = freiburg_camera(path.resolve().name)
+    if camera is not None:
+        return camera
     log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
                 "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
     return ROS_DEFAULT_CAMERA
+
+
+def freiburg_camera(name: str) -> Camera | None:
+    """The published calibration of the sensor a TUM name (folder or bag) says, if it says one."""
+    match = re.search(r"freiburg[123]", name)
+    return FREIBURG_CAMERAS[match.group(0)] if match else None
 
 
 def _read_listing(path: Path, value_fields: int) -> _Listing:

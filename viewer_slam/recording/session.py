@@ -27,7 +27,7 @@ from ..errors import InputError
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
-from ..pipelines.base import PIPELINE_MODULES, pipeline_class
+from ..pipelines.base import PIPELINE_MODULES, pipeline_class, pipeline_names
 from ..pipelines.params import resolve_params
 from ..pipelines.run import PipelineRun, run_pipeline
 from . import layout
@@ -77,10 +77,11 @@ class RecordResult:
 
 
 def select_pipelines(choice: str) -> list[str]:
+    """``both`` is the two built-in pipelines; any other name one pipeline, built-in or plugin."""
     if choice == BOTH:
         return list(PIPELINE_MODULES)
-    if choice not in PIPELINE_MODULES:
-        raise InputError(f"--pipeline {choice!r}: valid: {', '.join([*PIPELINE_MODULES, BOTH])}")
+    if choice not in pipeline_names():
+        raise InputError(f"--pipeline {choice!r}: valid: {', '.join([*pipeline_names(), BOTH])}")
     return [choice]
 
 
