@@ -15,6 +15,8 @@ import pytest
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.diagnosis import SignalRecorder, diagnose_losses
+from viewer_slam.evaluation.imported import replay_estimate
+from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.run import run_pipeline
@@ -92,3 +94,17 @@ def test_real_frames_without_depth_have_no_depth(tmp_path):
     losses = diagnosed(blank(tmp_path, colour=False, depth=True), "rgbdslam", max_frames=45)
     assert [loss["frame"] for loss in losses] == [BLANKED[0]]
     assert losses[0]["cause"] == "no depth" and losses[0]["evidence"]["corners"] >= losses[0]["evidence"]["minimum"]
+
+
+def test_an_imported_estimate_with_a_gap_over_blanked_frames_is_a_blocked_sensor(tmp_path):
+    """A run is a run: a trajectory file without poses where the frames are blanked gets the same cause."""
+    sequence = blank(tmp_path, colour=True, depth=True)
+    kept = [i for i in range(45) if i not in BLANKED]
+    poses, covered = sequence.groundtruth_at(sequence.timestamps[kept])
+    estimate = tmp_path / "estimate.txt"
+    write_tum(estimate, Trajectory(sequence.timestamps[kept][covered], poses[covered]))
+    recorder = SignalRecorder()
+    run = replay_estimate(sequence, "other", estimate, max_frames=45, sinks=(recorder,), frame_sinks=(recorder.frame,))
+    losses = diagnose_losses("other", run.tracking_lost, recorder.signals(), run.parameters, sequence.groundtruth)
+    assert [loss["frame"] for loss in losses] == [BLANKED[0]]
+    assert losses[0]["cause"] == "sensor blocked" and "keypoints" not in losses[0]["evidence"]

@@ -113,3 +113,16 @@ def test_an_estimate_without_loss_events_gets_one_loss_per_lost_interval():
     signals = recorded([frame(i) for i in range(10)], []).signals()
     losses = losses_from_intervals([(signals.timestamps[2] - 0.01, signals.timestamps[4]), (11.0, 12.0)], signals)
     assert [loss["frame"] for loss in losses] == [2]
+
+
+def test_a_run_that_never_reports_a_count_has_no_tracker_signals():
+    """An estimate replayed from a file reports 0 features everywhere: not measured, not zero."""
+    blank = np.zeros_like(TEXTURED)
+    frames = [frame(i) for i in range(5)] + [frame(i, blank) for i in range(5, 8)]
+    events = [tracked(i, i < 5, 0, 0, 0) for i in range(8)]
+    signals = recorded(frames, events).signals()
+    assert np.all(np.isnan(signals.keypoints)) and np.all(np.isnan(signals.inliers))
+    (entry,) = diagnose_losses("estimate", [{"frame": 5, "timestamp": 10.2, "reason": "gap"}], signals, {}, None)
+    assert "keypoints" not in entry["evidence"] and entry["evidence"]["minimum"] == 20
+    assert entry["cause"] == "too few features"            # from the image: a black frame has no corners
+    assert entry["text"].endswith("(0 corners of contrast 20, minimum 20)")

@@ -65,8 +65,9 @@ def measure_image(frame: Frame) -> ImageSignals:
 class FrameSignals:
     """The signals of a run's processed frames, one row per frame in processing order.
 
-    Tracker columns are NaN for frames the pipeline reported nothing for (a run imported
-    from a trajectory file); ``tracked`` says which frames had an online pose.
+    Tracker columns are NaN for frames the pipeline reported nothing for, and for every
+    frame of a run that never reports a count (an estimate replayed from a trajectory
+    file leaves them all 0); ``tracked`` says which frames had an online pose.
     """
 
     frame_indices: np.ndarray
@@ -111,8 +112,11 @@ class SignalRecorder:
         def image(name: str) -> np.ndarray:
             return np.array([getattr(signals, name) for signals in images], dtype=np.float64)
 
+        counted = any(event.features or event.matches or event.inliers for event in self._tracked.values())
+
         def tracker(value) -> np.ndarray:
-            return np.array([np.nan if event is None else value(event) for event in tracked], dtype=np.float64)
+            return np.array([np.nan if event is None or not counted else value(event) for event in tracked],
+                            dtype=np.float64)
 
         return FrameSignals(
             frame_indices=np.array(indices, dtype=np.int64),
@@ -124,7 +128,8 @@ class SignalRecorder:
             keypoints=tracker(lambda event: event.features),
             matches=tracker(lambda event: event.matches),
             inliers=tracker(lambda event: event.inliers),
-            dynamic_share=tracker(lambda event: event.metrics.get(DYNAMIC_SHARE_METRIC, np.nan)),
+            dynamic_share=np.array([np.nan if event is None else event.metrics.get(DYNAMIC_SHARE_METRIC, np.nan)
+                                    for event in tracked], dtype=np.float64),
             tracked=np.array([event is not None and event.pose is not None for event in tracked], dtype=bool),
         )
 
