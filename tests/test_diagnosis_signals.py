@@ -6,7 +6,7 @@ from scipy.spatial.transform import Rotation
 
 from viewer_slam.dataset.frame import Frame
 from viewer_slam.diagnosis import DYNAMIC_SHARE_METRIC, DiagnosisThresholds, SignalRecorder, diagnose_losses
-from viewer_slam.diagnosis.diagnose import losses_from_intervals, run_minimum
+from viewer_slam.diagnosis.diagnose import run_minimum
 from viewer_slam.diagnosis.signals import groundtruth_motion, measure_image
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
@@ -107,12 +107,6 @@ def test_the_minimum_comes_from_the_run_parameters_else_the_default():
     assert run_minimum({"min_matches": 30}, thresholds) == 30
     assert run_minimum({"Vis/MinInliers": 15, "other": 1}, thresholds) == 15
     assert run_minimum({}, thresholds) == thresholds.default_minimum == 20
-
-
-def test_an_estimate_without_loss_events_gets_one_loss_per_lost_interval():
-    signals = recorded([frame(i) for i in range(10)], []).signals()
-    losses = losses_from_intervals([(signals.timestamps[2] - 0.01, signals.timestamps[4]), (11.0, 12.0)], signals)
-    assert [loss["frame"] for loss in losses] == [2]
 
 
 def test_a_run_that_never_reports_a_count_has_no_tracker_signals():

@@ -1,8 +1,8 @@
 """A cause for every loss of a run: measure the window around it, classify, write it into the entry.
 
-A loss is a ``tracking_lost[]`` entry (``frame``, ``timestamp``) of a run's report. Runs
-that report no losses themselves (an imported estimate) get one per lost interval from
-:func:`losses_from_intervals`.
+A loss is a ``tracking_lost[]`` entry (``frame``, ``timestamp``) of a run's report: a
+pipeline's, a plugin's, or an estimate's replayed from a file (which loses tracking where
+its poses stop).
 """
 
 import math
@@ -25,18 +25,6 @@ def run_minimum(parameters: dict[str, Any], thresholds: DiagnosisThresholds) -> 
         if isinstance(parameters.get(key), (int, float)):
             return int(parameters[key])
     return thresholds.default_minimum
-
-
-def losses_from_intervals(lost_intervals: list[tuple[float, float]], signals: FrameSignals) -> list[dict[str, Any]]:
-    """One loss per lost interval, at the first processed frame inside it."""
-    losses = []
-    for start, end in lost_intervals:
-        inside = np.flatnonzero((signals.timestamps >= start) & (signals.timestamps <= end))
-        if len(inside):
-            row = inside[0]
-            losses.append({"frame": int(signals.frame_indices[row]), "timestamp": float(signals.timestamps[row]),
-                           "reason": "no pose in the estimate"})
-    return losses
 
 
 def diagnose_losses(name: str, losses: list[dict[str, Any]], signals: FrameSignals, parameters: dict[str, Any],
