@@ -90,7 +90,7 @@ def test_selecting_a_broken_plugin_is_one_line_and_exit_2(site, tmp_path, plugin
 
 def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     folder = write_tum_folder(tmp_path / "tiny", frames=6)
-    done = viewslam(site, tmp_path, "benchmark", str(folder), "--pipelines", "rgbdslam,stationary", "--jobs", "1",
+    done = viewslam(site, tmp_path, "benchmark", str(folder), "--pipeline", "rgbdslam,stationary", "--jobs", "1",
                     "--no-cache", "--out", "results", "--quiet")
     assert done.returncode == 0, done.stderr
     rows = {row["pipeline"]: row for row in json.loads((tmp_path / "results/results.json").read_text())}

@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from .app import app
+from .options import QUIET_HELP
 
 
 @app.command()
@@ -16,7 +17,7 @@ def download(
                                           "else the TUM server)."),
     force: bool = typer.Option(False, help="Download again even if the sequence is present."),
     bag: bool = typer.Option(False, "--bag", help="Fetch the sequence's ROS bag (NAME.bag) instead of the archive."),
-    quiet: bool = typer.Option(False, help="No progress bar."),
+    quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Download TUM RGB-D sequences (resuming a partial download; verified, then moved into place)."""
     from ..dataset.catalog import known_tum_sequence

@@ -18,18 +18,21 @@ import shutil
 import tarfile
 import tempfile
 import urllib.error
+import urllib.parse
 import urllib.request
 import zlib
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
+from ..atomic import check_writable
 from ..errors import InputError
 from .catalog import TumSequenceInfo, known_tum_sequence, tum_cache_dir
 
 TUM_MIRROR = "https://cvg.cit.tum.de/rgbd/dataset"
-CHUNK_BYTES = 1 << 20
+CHUNK_BYTES = 1 << 16
 TIMEOUT_S = 60
 RETRY = "run the same `viewslam download` again"
 
@@ -54,8 +57,14 @@ def default_mirror() -> str:
 
 
 def archive_url(info: TumSequenceInfo, mirror: str | None = None, bag: bool = False) -> str:
-    """The archive's (with ``bag``, the bag's) URL below ``mirror`` (default: :func:`default_mirror`)."""
-    return f"{(mirror or default_mirror()).rstrip('/')}/{info.bag if bag else info.archive}"
+    """The archive's (with ``bag``, the bag's) URL below ``mirror`` (default: :func:`default_mirror`);
+    InputError if that is no URL."""
+    base = mirror or default_mirror()
+    parts = urllib.parse.urlsplit(base)
+    if parts.scheme not in ("http", "https", "file") or (parts.scheme != "file" and not parts.netloc):
+        source = "--mirror" if mirror else "VIEWSLAM_TUM_MIRROR"
+        raise InputError(f"{source} {base!r}: not a URL; expected http://HOST/PATH, https://... or file:///PATH")
+    return f"{base.rstrip('/')}/{info.bag if bag else info.archive}"
 
 
 def partial_archive(dest: Path, name: str, bag: bool = False) -> Path:
@@ -73,13 +82,15 @@ def download_sequence(name: str, dest: Path | None = None, mirror: str | None = 
     defaults to :func:`default_mirror`.
     """
     info = known_tum_sequence(name)
+    url = archive_url(info, mirror, bag)
     dest = Path(dest) if dest is not None else tum_cache_dir()
-    dest.mkdir(parents=True, exist_ok=True)
+    if dest.exists() and not dest.is_dir():
+        raise InputError.at(dest, "is a file; --dest takes a folder")
     target = dest / (f"{info.name}.bag" if bag else info.name)
     if (target.is_file() if bag else target.is_dir()) and not force:
         return target
-    url = archive_url(info, mirror, bag)
     part = partial_archive(dest, info.name, bag)
+    check_writable(part)
     _fetch(url, part, progress)
     try:
         (_install_bag if bag else _install)(part, target, url)
@@ -148,10 +159,11 @@ def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
                TimeRemainingColumn())
     received = transfer.start
     with open(part, "ab" if transfer.start else "wb") as out, \
-            Progress(*columns, disable=not progress, transient=True) as bar:
+            Progress(*columns, console=Console(stderr=True), disable=not progress, transient=True) as bar:
         task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
-        while chunk := transfer.response.read(CHUNK_BYTES):
+        while chunk := transfer.response.read1(CHUNK_BYTES):  # whatever has arrived, up to CHUNK_BYTES
             out.write(chunk)
+            out.flush()  # every byte received survives an interrupted transfer
             received += len(chunk)
             bar.update(task, completed=received)
     if transfer.total is not None and received < transfer.total:

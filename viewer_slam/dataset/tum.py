@@ -8,6 +8,8 @@ overlaps with the processing of the frames before.
 
 import logging
 import re
+import struct
+import zlib
 from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
@@ -15,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from ..errors import InputError
@@ -41,7 +42,6 @@ FREIBURG_CAMERAS = {
 ROS_DEFAULT_CAMERA = Camera(525.0, 525.0, 319.5, 239.5, 640, 480)
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_PNG_END = b"IEND\xaeB`\x82"
 
 
 @dataclass(frozen=True)
@@ -77,6 +77,8 @@ class TumSequence(TimedFrames):
 
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
+        import cv2  # OpenCV loads only when images are read, not for listings and groundtruth
+
         rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]
         rgb = cv2.cvtColor(self._read_image(rgb_path, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         raw_depth = self._read_image(depth_path, cv2.IMREAD_UNCHANGED)
@@ -110,19 +112,38 @@ class TumSequence(TimedFrames):
 
     @staticmethod
     def _read_image(path: Path, flags: int) -> np.ndarray:
+        import cv2
+
         try:
             data = path.read_bytes()
         except FileNotFoundError:
             raise InputError.at(path, "image listed in the sequence is missing") from None
         except OSError as error:
             raise InputError.at(path, f"cannot read image: {error.strerror}") from None
-        # libpng prints its own complaint on truncated files; catch the common case first.
-        if data.startswith(_PNG_SIGNATURE) and not data.rstrip(b"\0").endswith(_PNG_END):
-            raise InputError.at(path, "truncated PNG")
+        if data.startswith(_PNG_SIGNATURE):
+            _check_png(path, data)
         image = cv2.imdecode(np.frombuffer(data, np.uint8), flags) if data else None
         if image is None:
             raise InputError.at(path, "not a readable image")
         return image
+
+
+def _check_png(path: Path, data: bytes) -> None:
+    """Refuse a truncated or corrupt PNG before libpng sees it (libpng prints its own complaint
+    on stderr): every chunk must be complete, match its CRC, and the last must be IEND."""
+    offset = len(_PNG_SIGNATURE)
+    while offset + 12 <= len(data):
+        length, kind = struct.unpack(">I4s", data[offset:offset + 8])
+        end = offset + 12 + length
+        if end > len(data):
+            break
+        (crc,) = struct.unpack(">I", data[end - 4:end])
+        if zlib.crc32(data[offset + 4:end - 4]) != crc:
+            raise InputError.at(path, f"corrupt PNG (bad checksum of its {kind.decode('latin-1')} chunk)")
+        if kind == b"IEND":
+            return
+        offset = end
+    raise InputError.at(path, "truncated PNG")
 
 
 def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
@@ -140,7 +161,7 @@ def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
             raise InputError.at(path, f"not a TUM RGB-D sequence (no {required})")
     groundtruth_path = path / "groundtruth.txt"
     accelerometer_path = path / "accelerometer.txt"
-    return TumSequence(
+    sequence = TumSequence(
         path=path,
         camera=_camera_for(path),
         rgb=_read_listing(path / "rgb.txt", value_fields=1),
@@ -148,6 +169,12 @@ def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
         groundtruth=read_tum(groundtruth_path) if groundtruth_path.is_file() else None,
         accelerometer=_accelerations(accelerometer_path) if accelerometer_path.is_file() else None,
     )
+    groundtruth = sequence.groundtruth
+    if groundtruth is not None and len(sequence.frames_outside_groundtruth()) == len(sequence):
+        log.warning("%s: no frame lies within the groundtruth's time span (frames %.3f..%.3f s, groundtruth "
+                    "%.3f..%.3f s); nothing can be evaluated", groundtruth_path, sequence.timestamps[0],
+                    sequence.timestamps[-1], groundtruth.timestamps[0], groundtruth.timestamps[-1])
+    return sequence
 
 
 def _camera_for(path: Path) -> Camera:
@@ -171,7 +198,7 @@ def freiburg_camera(name: str) -> Camera | None:
 def _read_listing(path: Path, value_fields: int) -> _Listing:
     """Lines ``timestamp v1 .. vk``, ``#`` comments skipped; InputError with the line number."""
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the first line
     except (OSError, UnicodeDecodeError) as error:
         raise InputError.at(path, f"cannot read: {error}") from None
     stamps, values = [], []
