@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from ..comparison import compare_reports, comparison_to_dict, print_comparison
+from ..atomic import StagedFiles, check_writable
 from ..errors import InputError
 from ..evaluation.report import write_report
 from .app import app
@@ -20,6 +20,11 @@ def diff_command(
     """Compare two runs frame by frame: errors, frames only one tracked, losses, parameters, scores."""
     if out is not None and out.suffix != ".rrd":
         raise InputError.at(out, "the recording must have the .rrd extension")
+    for target in (out, json_path):
+        if target is not None:
+            check_writable(target)
+    from ..comparison import compare_reports, comparison_to_dict, print_comparison  # OpenCV loads only now
+
     comparison = compare_reports(a, b)
     print_comparison(comparison)
     if json_path is not None:
@@ -34,7 +39,9 @@ def diff_command(
 
 def _write_json(path: Path, data: dict) -> None:
     try:
-        write_report(path, data)
+        with StagedFiles() as staged:
+            write_report(staged.path(path), data)
+            staged.commit()
     except OSError as error:
         raise InputError.at(path, f"cannot write: {error.strerror or error}") from None
     print(f"wrote {path}")

@@ -8,6 +8,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
+from ..terminal import print_table
 from .compare import Comparison, RunComparison
 
 
@@ -66,7 +67,7 @@ def _cell(value: Any, sign: str = "") -> str:
 
 def print_comparison(comparison: Comparison, console: Console | None = None) -> None:
     """Per compared run: the scores side by side with B - A, then frames, losses and parameters."""
-    console = console or Console(markup=False, highlight=False)  # labels hold [m]; loss texts, brackets
+    console = console or Console(markup=False, highlight=False, soft_wrap=True)  # "[m]" is no markup; no wrapping
     console.print(f"A = {comparison.a.path}\nB = {comparison.b.path}\nsequence {comparison.a.sequence['name']}")
     for run in comparison.runs:
         table = Table(title=f"{run.a.name} (A) against {run.b.name} (B)", box=box.SIMPLE_HEAD, pad_edge=False)
@@ -74,7 +75,7 @@ def print_comparison(comparison: Comparison, console: Console | None = None) -> 
             table.add_column(column, justify="left" if column == "score" else "right", no_wrap=True)
         for label, (a, b) in run.summary.items():
             table.add_row(label, _cell(a), _cell(b), _cell(difference(a, b), sign="+"))
-        console.print(table)
+        print_table(table, console)
         both = np.isfinite(run.ate_difference)
         if both.any():
             console.print(f"ATE difference B - A over {both.sum()} frames both tracked: mean "

@@ -4,16 +4,16 @@ Run A's entities live under ``A/<run>``, run B's under ``B/<run>`` (``world/A/rt
 ``metrics/B/rtabmap/ate``), the difference B - A under ``metrics/difference/<run>``;
 every series is on the sequence's ``frame`` and ``time`` timelines, so scrubbing to a frame
 shows both errors and how far apart they are. The file opens laid out (see
-:func:`diff_blueprint`) and is written beside its target, then renamed into place.
+:func:`diff_blueprint`) and is written under a temporary name, renamed into place when complete.
 """
 
-import os
 from pathlib import Path
 
 import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from ..atomic import StagedFiles
 from ..comparison.compare import Comparison, RunComparison
 from ..comparison.reports import RecordedRun
 from . import layout
@@ -62,22 +62,18 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
 
 
 def write_diff_recording(comparison: Comparison, out: Path) -> None:
-    out = Path(out)
-    partial = out.with_name(f".{out.name}.partial")
-    stream = rr.RecordingStream("viewslam-diff")
-    rr.set_log_time_enabled(False, recording=stream)
-    stream.save(partial, default_blueprint=diff_blueprint(comparison))
-    try:
-        log_world(stream, comparison.sequence.groundtruth)
-        for run in comparison.runs:
-            _log_run(stream, run)
-        stream.flush()
-    except BaseException:
-        partial.unlink(missing_ok=True)  # no half-written recording is left behind
-        raise
-    finally:
-        stream.disconnect()
-    os.replace(partial, out)
+    with StagedFiles() as staged:
+        stream = rr.RecordingStream("viewslam-diff")
+        rr.set_log_time_enabled(False, recording=stream)
+        stream.save(staged.path(out), default_blueprint=diff_blueprint(comparison))
+        try:
+            log_world(stream, comparison.sequence.groundtruth)
+            for run in comparison.runs:
+                _log_run(stream, run)
+            stream.flush()
+        finally:
+            stream.disconnect()
+        staged.commit()
 
 
 def _log_run(stream: rr.RecordingStream, run: RunComparison) -> None:
