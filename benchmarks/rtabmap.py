@@ -1,7 +1,7 @@
 """Speed, memory and accuracy of the rtabmap pipeline (the figures of docs/pipelines/rtabmap.md).
 
     .venv/bin/python benchmarks/rtabmap.py            # all cases
-    .venv/bin/python benchmarks/rtabmap.py speed      # one case: speed, accuracy or memory
+    .venv/bin/python benchmarks/rtabmap.py speed      # one case: speed, accuracy, memory or fidelity
 
 Synthetic scenarios are generated into the cache on first use (minutes at 640x480).
 Times are wall-clock on this machine; per-stage figures are medians over the frames or
@@ -10,6 +10,7 @@ locations on which the stage ran, and means per frame (the stage's share of the 
 
 import resource
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -26,12 +27,15 @@ from viewer_slam.pipelines.run import run_pipeline
 REST_FRAMES = 60
 
 
-def run(name: str, frames: int, resolution: tuple[int, int], rest: int = 0, **overrides):
-    sequence = open_sequence(cached_scenario(name, frames=frames, resolution=resolution, seed=0))
+def run(name: str, frames: int, resolution: tuple[int, int], rest: int = 0, max_frames: int | None = None,
+        **overrides):
+    """``name`` is a synthetic scenario or a TUM folder (then ``frames`` and ``resolution`` are unused)."""
+    folder = Path(name) if Path(name).is_dir() else cached_scenario(name, frames=frames, resolution=resolution, seed=0)
+    sequence = open_sequence(folder)
     events = []
     params = apply_overrides(RtabmapParams(), overrides, "benchmark")
     fed = RestingStart(sequence, rest) if rest else sequence
-    result = run_pipeline(fed, "rtabmap", params, seed=0, sinks=[events.append])
+    result = run_pipeline(fed, "rtabmap", params, seed=0, max_frames=max_frames, sinks=[events.append])
     return sequence, result, events
 
 
@@ -87,7 +91,8 @@ def memory() -> None:
         tracked = [e for e in events if isinstance(e, FrameTracked)]
         per_location = [e.timings_ms["vocabulary"] + e.timings_ms["bayes"] for e in tracked
                         if e.timings_ms["bayes"] > 0]
-        early = [e for e in events if isinstance(e, GraphEdge) and e.accepted and e.from_keyframe < 10]
+        early = [e for e in events if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry"
+                 and e.from_keyframe < 10]
         last = tracked[-1].metrics
         start = f"rests {rest} frames" if rest else "moving"
         print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
@@ -97,7 +102,46 @@ def memory() -> None:
     print(f"\npeak RSS of the process over the three runs: {peak_mb:.0f} MB\n")
 
 
-CASES = {"speed": speed, "accuracy": accuracy, "memory": memory}
+def largest_step_error(sequence, trajectory) -> float:
+    """Largest difference (m) between the estimated and the true motion of consecutive poses."""
+    if len(trajectory) < 2:
+        return 0.0
+    truth, _ = sequence.groundtruth_at(trajectory.timestamps)
+    estimated = np.linalg.inv(trajectory.poses[:-1]) @ trajectory.poses[1:]
+    true = np.linalg.inv(truth[:-1]) @ truth[1:]
+    return float(np.linalg.norm(estimated[:, :3, 3] - true[:, :3, 3], axis=1).max())
+
+
+def fidelity() -> None:
+    """The cheap figures of the pipeline doc's fidelity section: real excerpts at 640x480,
+    synthetic scenarios at 320x240, default parameters unless stated."""
+    tum = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "tum"
+    cases = [
+        (str(tum / "rgbd_dataset_freiburg1_rpy"), 0, None, {}),
+        (str(tum / "rgbd_dataset_freiburg1_rpy_200"), 0, None, {}),
+        ("nostructure_texture_near_withloop", 600, None, {}),
+        ("nostructure_texture_near_withloop", 150, None, {"Rtabmap/DetectionRate": 10}),
+        ("nostructure_notexture_near_withloop", 300, 150, {}),
+        ("360_kidnap", 300, None, {}),
+        ("360_kidnap", 300, None, {"Odom/ResetCountdown": 5}),
+        ("360_kidnap", 300, None, {"Odom/ResetCountdown": 5, "Rtabmap/DetectionRate": 5}),
+        ("360_kidnap_norevisit", 300, None, {}),
+        ("360_kidnap_norevisit", 300, None, {"Odom/ResetCountdown": 5}),
+    ]
+    print("| sequence | frames | parameters | frames with a pose | ATE RMSE m | odometry ATE m "
+          "| loop closures (appearance / proximity) | largest step error m |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, frames, max_frames, overrides in cases:
+        sequence, result, events = run(name, frames, (320, 240), max_frames=max_frames, **overrides)
+        closures = [e.detection for e in events if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry"]
+        print(f"| {Path(name).name} | {result.frames} | {overrides or 'defaults'} | {len(result.trajectory)} "
+              f"| {ate(sequence, result.trajectory) or float('nan'):.4f} "
+              f"| {ate(sequence, result.odometry) or float('nan'):.4f} | {closures.count('appearance')} / {closures.count('proximity')} "
+              f"| {largest_step_error(sequence, result.trajectory):.3f} |")
+    print()
+
+
+CASES = {"speed": speed, "accuracy": accuracy, "memory": memory, "fidelity": fidelity}
 
 if __name__ == "__main__":
     for case in sys.argv[1:] or CASES:

@@ -244,6 +244,7 @@ COMMANDS_WITHOUT_HEAVY_IMPORTS = {
     "evaluate": ["evaluate", "{gt}", "{gt}"],
     "download-help": ["download", "--help"],
     "download-bad-mirror": ["download", "fr1/xyz", "--mirror", "notaurl"],
+    "sequences": ["sequences"],
 }
 
 

@@ -26,6 +26,7 @@ from viewer_slam.pipelines.run import run_pipeline
 pytestmark = pytest.mark.slow
 FRAMES = 300
 LOOP_FRAMES = 150
+DEFAULT_RATE_LOOP_FRAMES = 600
 FAST = {"Rtabmap/DetectionRate": 5}
 FAST_LOOP = {"Rtabmap/DetectionRate": 10}
 
@@ -63,6 +64,16 @@ def test_textured_loop_is_closed_by_the_bayes_filter_and_corrects_the_drift(text
     assert ate <= 0.03 and ate < odometry_ate
 
 
+def test_a_twenty_second_textured_loop_is_closed_with_rtabmap_defaults():
+    # 600 frames last 20 s: twenty locations at Rtabmap/DetectionRate 1 Hz, the last ten in
+    # STM; the return over the start is found by the Bayes filter at Rtabmap/LoopThr 0.11.
+    sequence, _ = scenario("nostructure_texture_near_withloop", DEFAULT_RATE_LOOP_FRAMES)
+    result, events = run(sequence)
+    closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
+    assert closures and all(e.score >= RtabmapParams().loop_threshold for e in closures)
+    assert min(e.from_keyframe for e in closures) <= 1 and max(e.to_keyframe for e in closures) >= 15
+
+
 def test_frame_events_carry_locations_timings_and_memory_sizes(textured_loop):
     _, result, events = textured_loop
     tracked = of_type(events, FrameTracked)
@@ -88,23 +99,43 @@ def kidnap():
     return scenario("360_kidnap")
 
 
-def test_kidnap_with_default_parameters_gives_no_pose_after_the_first_covering(kidnap):
+def view_angles(sequence, stamps, reference_stamps) -> np.ndarray:
+    """Smallest angle (degrees) between each camera's optical axis at ``stamps`` and the axes
+    at ``reference_stamps`` (groundtruth)."""
+    axes, _ = sequence.groundtruth_at(np.asarray(stamps))
+    reference, _ = sequence.groundtruth_at(np.asarray(reference_stamps))
+    cosine = np.clip(axes[:, :3, 2] @ reference[:, :3, 2].T, -1.0, 1.0)
+    return np.degrees(np.arccos(cosine.max(axis=1)))
+
+
+def test_after_each_covering_odometry_resumes_once_the_first_view_returns(kidnap):
     sequence, info = kidnap
-    result, events = run(sequence, **FAST)
-    covered = info["covered_intervals"]
-    lost = of_type(events, TrackingLost)
-    assert covered[0][0] <= lost[0].timestamp <= covered[0][1]
-    stamps = result.trajectory.timestamps
-    assert not np.any((stamps > lost[0].timestamp) & (stamps <= covered[-1][1]))
-    # It only registers again when carried back to where it was lost, against its old local map.
-    later = stamps[stamps > covered[-1][1]]
-    if len(later):
-        truth, _ = sequence.groundtruth_at(np.array([lost[0].timestamp, later[0]]))
-        assert np.linalg.norm(truth[0, :3, 3] - truth[1, :3, 3]) < 0.5
-        assert any(e.reason.startswith("registered to the local map") for e in of_type(events, TrackingRecovered))
+    result, events = run(sequence)
+    stamps, covered = result.trajectory.timestamps, info["covered_intervals"]
+    mapped = stamps[stamps < covered[0][0]]
+    after = sequence.groundtruth.timestamps
+    for start, end in covered:
+        assert not np.any((stamps >= start) & (stamps <= end))
+        resumed = stamps[stamps > end][0]
+        # The view after a covering shares nothing with the map; odometry searches its whole
+        # local map frame after frame and registers again once the view has turned back
+        # onto what it mapped before the first covering.
+        waited = after[(after > end) & (after < resumed)]
+        assert len(waited) and view_angles(sequence, waited[:1], mapped)[0] > 60
+        assert view_angles(sequence, [resumed], mapped)[0] < 35
+    recovered = of_type(events, TrackingRecovered)
+    assert len(recovered) == len(covered) and all(e.reason.startswith("registered to the local map") for e in recovered)
 
 
-def test_kidnap_with_reset_countdown_gives_poses_after_every_covering(kidnap):
+def test_without_a_revisit_there_is_no_pose_after_the_first_covering():
+    sequence, info = scenario("360_kidnap_norevisit")
+    result, events = run(sequence)
+    first = info["covered_intervals"][0]
+    assert not np.any(result.trajectory.timestamps >= first[0])
+    assert first[0] <= of_type(events, TrackingLost)[0].timestamp <= first[1]
+
+
+def test_reset_countdown_starts_new_maps_at_the_last_pose_and_loop_closures_join_them(kidnap):
     sequence, info = kidnap
     result, events = run(sequence, **{**FAST, "Odom/ResetCountdown": 5})
     stamps = result.trajectory.timestamps
@@ -112,9 +143,17 @@ def test_kidnap_with_reset_countdown_gives_poses_after_every_covering(kidnap):
         assert np.any(stamps > end)
     resets = [e for e in of_type(events, TrackingRecovered) if "new map" in e.reason]
     assert len(resets) == len(info["covered_intervals"])
+    # Odometry restarts from its last pose: the first pose of a new map is the last one before.
+    odometry = result.odometry
+    for reset in resets:
+        i = np.searchsorted(odometry.timestamps, reset.timestamp)
+        assert np.allclose(odometry.poses[i], odometry.poses[i - 1])
+    joined = [e for e in of_type(events, GraphEdge) if e.accepted and e.reason == "maps joined"]
+    assert len(joined) == len(resets)
+    assert evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"] < 0.15
 
 
-def test_texture_less_plane_loses_tracking_and_the_report_shows_the_lost_interval():
+def test_texture_less_plane_loses_tracking_without_wrong_poses_and_the_report_shows_the_lost_interval():
     sequence, _ = scenario("nostructure_notexture_near_withloop")
     result, events = run(sequence, max_frames=FRAMES // 2, **FAST)
     assert of_type(events, TrackingLost)
@@ -123,23 +162,21 @@ def test_texture_less_plane_loses_tracking_and_the_report_shows_the_lost_interva
     assert report["coverage"]["ratio"] < 0.5 and lost_intervals
     assert lost_intervals[0][0] <= of_type(events, TrackingLost)[0].timestamp + 0.05
     assert report["tracking_lost"][0]["frame"] == of_type(events, TrackingLost)[0].frame_index
+    # A frame either registers with a motion Vis/MinInliers accepts or has no pose: between
+    # consecutive poses (across lost frames too) the motion agrees with the groundtruth's to
+    # within 8 cm, about three frames of this run's motion (2.2 cm per frame).
+    truth, _ = sequence.groundtruth_at(result.trajectory.timestamps)
+    estimated = np.linalg.inv(result.trajectory.poses[:-1]) @ result.trajectory.poses[1:]
+    true = np.linalg.inv(truth[:-1]) @ truth[1:]
+    assert np.linalg.norm(estimated[:, :3, 3] - true[:, :3, 3], axis=1).max() < 0.08
 
 
-def test_memory_threshold_bounds_working_memory_and_the_loop_is_still_closed(textured_loop):
+def test_with_a_memory_threshold_the_weighted_first_place_stays_and_the_loop_is_still_closed(textured_loop):
     sequence = textured_loop[0]
-    threshold = 12
-    result, events = run(RestingStart(sequence, 30), **{**FAST_LOOP, "Rtabmap/MemoryThr": threshold})
-    tracked = of_type(events, FrameTracked)
-    assert max(e.metrics["wm"] for e in tracked) <= threshold
-    assert tracked[-1].metrics["ltm"] >= threshold
+    result, events = run(RestingStart(sequence, 30), **{**FAST_LOOP, "Rtabmap/MemoryThr": 12})
+    ltm = [e.metrics["ltm"] for e in of_type(events, FrameTracked)]
+    # (added + 1) per update at most (Memory::forget); in a map this small the hypothesis's
+    # Bayes/PredictionLC neighbourhood is immunised, so transfers are few or none.
+    assert np.diff(ltm).max() <= 2
     closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
     assert closures and min(e.from_keyframe for e in closures) <= 1
-
-
-def test_time_threshold_moves_locations_to_long_term_memory(textured_loop):
-    sequence = textured_loop[0]
-    _, events = run(sequence, max_frames=80, **{**FAST_LOOP, "Rtabmap/TimeThr": 1e-6})
-    tracked = of_type(events, FrameTracked)
-    assert tracked[-1].metrics["ltm"] > 0
-    # Only the hypothesis and the locations retrieved around it may stay in WM.
-    assert max(e.metrics["wm"] for e in tracked) <= 1 + RtabmapParams().max_retrieved

@@ -5,12 +5,16 @@ import numpy as np
 import pytest
 
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
-from viewer_slam.pipelines.params import resolve_params
+from viewer_slam.pipelines.params import apply_overrides, resolve_params
 from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
-from viewer_slam.pipelines.rtabmap.bayes import NEW_PLACE, BayesFilter, likelihood
+from viewer_slam.frontend.features import Features
+from viewer_slam.geometry.camera import Camera
+from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
+                                                 highest_hypothesis, prediction_matrix)
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
-from viewer_slam.pipelines.rtabmap.memory import Location, Memory, similarity
-from viewer_slam.pipelines.rtabmap.odometry import LocalMap, guided_matches, hamming_distances
+from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
+from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
+from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, guided_matches, hamming_distances
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
 RNG = np.random.default_rng(0)
@@ -119,33 +123,93 @@ def test_tf_idf_scores_by_hand():
     vocabulary.index(11, np.array([1, 3]))
     vocabulary.index(12, np.array([4, 5]))
     scores = vocabulary.scores(np.array([0, 1, 7]), [10, 11, 12])
-    # word 0: in 1 of 3 locations, word 1: in 2 of 3.
-    assert scores == pytest.approx([2 / 4 * np.log(3) + 1 / 4 * np.log(1.5), 1 / 2 * np.log(1.5), 0.0])
+    # Memory::computeLikelihood: word 0 is in 1 of 3 locations, word 1 in 2 of 3; idf in log10.
+    assert scores == pytest.approx([2 / 4 * np.log10(3) + 1 / 4 * np.log10(1.5), 1 / 2 * np.log10(1.5), 0.0])
 
 
-def test_likelihood_follows_rtabmap_normalisation():
-    scores = np.array([1.0, 1.0, 1.0, 5.0])
-    mean, std = scores.mean(), scores.std()
-    values, new_place = likelihood(scores)
-    assert values == pytest.approx([1, 1, 1, (5 - std) / mean])
-    assert new_place == pytest.approx(mean / std + 1)
-    assert likelihood(np.zeros(3))[1] == 1.0
+def test_a_location_with_fewer_words_than_half_the_mean_is_a_bad_signature():
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.vocabulary = vocabulary_of(8)
+    for location_id, words in enumerate(([0, 1, 2, 3, 4, 5], [0, 1, 2], [3, 4, 5, 6])):
+        pipeline.vocabulary.index(location_id, np.array(words))
+    assert pipeline.vocabulary.mean_words_per_location() == 13 // 3      # 4: Kp/BadSignRatio 0.5 of it is 2
+    keep = lambda count: len(pipeline._signature(view(scene(count), np.eye(4), descriptors(count))))  # noqa: E731
+    assert (keep(1), keep(2), keep(600)) == (0, 2, RtabmapParams().words_per_location)
 
 
-def test_bayes_filter_belief_builds_on_a_revisited_place_and_stays_on_new_place_otherwise():
-    ids = list(range(20))
-    chain, positions = np.zeros(20, int), np.arange(20)
-    flat = BayesFilter()
-    for _ in range(3):
-        posterior = flat.update(ids, positions, chain, np.ones(20), 1.0)
-    assert posterior[NEW_PLACE] == pytest.approx(max(posterior.values()))
-    assert sum(posterior.values()) == pytest.approx(1.0)
-    revisit = BayesFilter()
-    strong = np.ones(20)
-    strong[7] = 30.0
-    posteriors = [revisit.update(ids, positions, chain, strong, 2.0)[7] for _ in range(3)]
-    assert posteriors[0] < posteriors[1] < posteriors[2] and posteriors[2] > 0.11
-    assert max(revisit.posterior, key=revisit.posterior.get) == 7
+def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_gets_mean_over_std_plus_one():
+    # Non-zero scores 1, 1, 1, 1, 6: mean 2, sample std sqrt((4 * 1 + 16) / 4) = sqrt(5).
+    values, virtual = adjusted_likelihood(np.array([0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 6.0]))
+    std = np.sqrt(5.0)
+    assert values == pytest.approx([1, 1, 1, 1, 1, 1, (6 - (std - 1e-4)) / 2])
+    assert virtual == pytest.approx(2 / std + 1)
+
+
+@pytest.mark.parametrize("scores", [[0.0, 3.0, 3.0], [0.0, 0.0, 0.0]])
+def test_virtual_place_likelihood_is_two_when_no_score_stands_out(scores):
+    values, virtual = adjusted_likelihood(np.array(scores))
+    assert values.tolist() == [1.0, 1.0, 1.0] and virtual == 2.0
+
+
+def test_hypothesis_is_the_best_location_valued_at_the_sum_of_loop_closure_probabilities():
+    hypothesis = highest_hypothesis({VIRTUAL_PLACE: 0.5, 3: 0.2, 5: 0.2, 7: 0.1})
+    assert hypothesis.location == 5 and hypothesis.value == pytest.approx(0.5)    # newest of the tied best
+    assert highest_hypothesis({VIRTUAL_PLACE: 1.0, 3: 0.0}) is None
+
+
+def chain_memory(count: int, stm_size: int = 0) -> Memory:
+    """``count`` locations linked in a chain by odometry."""
+    vocabulary = vocabulary_of(8)
+    memory = Memory(vocabulary, stm_size=stm_size)
+    for i in range(count):
+        vocabulary.index(i, np.array([i % 8]))
+        memory.add(location(i, np.array([i % 8])))
+        if i:
+            memory.link(i - 1, i, Link.NEIGHBOUR)
+    return memory
+
+
+def test_prediction_spreads_by_graph_margin_and_keeps_the_missing_share_on_the_location():
+    memory = chain_memory(3)
+    matrix = prediction_matrix([0, 1, 2], lambda i: memory.neighbours(i, len(PREDICTION_LC) - 1))
+    # States: virtual place, 0, 1, 2. The virtual place keeps 0.9 and gives 0.1 / 3 to each.
+    assert matrix[:, 0] == pytest.approx([0.9, 0.1 / 3, 0.1 / 3, 0.1 / 3])
+    # End of the chain: itself 0.36, margin 1 0.30, margin 2 0.16 = 0.82; the 0.08 its absent
+    # neighbours would get stays on it, so the column still sums to 1.
+    assert matrix[:, 1] == pytest.approx([0.1, 0.36 + (sum(PREDICTION_LC) - 0.1 - 0.82), 0.30, 0.16])
+    # Middle: 0.36 + 2 x 0.30 = 0.96 > 0.9, scaled down to 0.9.
+    assert matrix[:, 2] == pytest.approx([0.1, 0.30 * 0.9 / 0.96, 0.36 * 0.9 / 0.96, 0.30 * 0.9 / 0.96])
+
+
+def test_prediction_gives_locations_joined_by_a_loop_closure_the_same_margin():
+    memory = chain_memory(3)
+    memory.link(0, 2, Link.LOOP)
+    matrix = prediction_matrix([0, 1, 2], lambda i: memory.neighbours(i, len(PREDICTION_LC) - 1))
+    # 0 and 2 are one place: 0.36 each and 0.30 for 1 make 1.02, scaled to 0.9.
+    expected = [0.1, 0.36 * 0.9 / 1.02, 0.30 * 0.9 / 1.02, 0.36 * 0.9 / 1.02]
+    assert matrix[:, 1] == pytest.approx(expected) and matrix[:, 3] == pytest.approx(expected)
+
+
+def test_bayes_update_multiplies_the_prediction_by_the_likelihood():
+    memory = chain_memory(3)
+    neighbours = lambda i: memory.neighbours(i, len(PREDICTION_LC) - 1)  # noqa: E731
+    bayes = BayesFilter()
+    first = bayes.update([0, 1, 2], neighbours, np.array([1.0, 4.0, 1.0]), 2.0)
+    # From {virtual: 1}: prior (0.9, 0.1/3, 0.1/3, 0.1/3) times (2, 1, 4, 1), normalised.
+    belief = np.array([1.8, 0.1 / 3, 0.4 / 3, 0.1 / 3])
+    assert [first[k] for k in (VIRTUAL_PLACE, 0, 1, 2)] == pytest.approx(belief / belief.sum())
+    prior = prediction_matrix([0, 1, 2], neighbours) @ (belief / belief.sum())
+    second = bayes.update([0, 1, 2], neighbours, np.ones(3), 2.0)
+    expected = prior * [2, 1, 1, 1]
+    assert [second[k] for k in (VIRTUAL_PLACE, 0, 1, 2)] == pytest.approx(expected / expected.sum())
+
+
+def test_graph_neighbours_count_margins_by_odometry_links_and_keep_loop_links_on_the_margin():
+    memory = chain_memory(5)
+    memory.link(0, 4, Link.LOOP)
+    assert memory.neighbours(0, 3) == {0: 0, 4: 0, 1: 1, 3: 1, 2: 2}
+    assert memory.neighbours(0, 3, loops_add_margin=True) == {0: 0, 1: 1, 4: 1, 2: 2, 3: 2}
+    assert memory.neighbours(0, 2, follow_loops=False) == {0: 0, 1: 1}
 
 
 def test_similarity_counts_shared_words_against_the_larger_location():
@@ -167,13 +231,80 @@ def test_memory_moves_least_weighted_oldest_to_ltm_and_retrieves_graph_neighbour
         vocabulary.index(i, words)
         memory.add(location(i, words, weight=3 if i == 1 else 0))
         if i:
-            memory.link(i - 1, i)
+            memory.link(i - 1, i, Link.NEIGHBOUR)
     assert list(memory.stm) == [6, 7] and memory.wm == [0, 1, 2, 3, 4, 5]
-    moved = memory.transfer(limit=3, protected={2})
+    # 5 is linked to 6, in STM, and may not go; 1 is heavier than the rest.
+    moved = memory.forget(3, protected={2})
     assert moved == [0, 3, 4] and memory.wm == [1, 2, 5] and memory.ltm == {0, 3, 4}
     assert vocabulary.scores(np.array([0, 3]), [0, 3]).tolist() == [0.0, 0.0]
-    assert memory.retrieve(around=2, count=1) == [3]
+    # Nearest first (2 itself, then 3 and 1, newest first), STM left out; the search may
+    # enter two LTM locations (3 and 4), so 0 stays unknown.
+    order, immune = memory.retrieval_order(2, ltm_budget=2)
+    assert order == [2, 3, 1, 4, 5] and immune == {1, 2, 3, 4, 5}
+    assert memory.retrieve(order, count=1) == [3]
     assert memory.wm == [1, 2, 3, 5] and vocabulary.scores(np.array([3]), [3])[0] > 0
+
+
+def test_locations_newer_than_the_last_loop_closure_stay_while_fewer_than_the_recent_share():
+    memory = chain_memory(21, stm_size=1)          # WM 0..19, STM 20
+    memory.link(3, 17, Link.LOOP)                  # last loop closure location: 17
+    # Mem/RecentWmRatio 0.2 of 20 = 4; 17, 18, 19 are 3 (> 1 and < 4): kept with 17 itself.
+    assert memory.removable(25, set()) == list(range(0, 17))
+    memory.locations[0].weight = 1
+    assert memory.removable(2, set()) == [1, 2]
+
+
+CAMERA = Camera(fx=300.0, fy=300.0, cx=160.0, cy=120.0, width=320, height=240)
+
+
+@pytest.mark.parametrize("overrides, elapsed_ms, moved", [
+    ({"Rtabmap/TimeThr": 50}, 80.0, [0, 1]),        # over time: (added 1) + 1 locations
+    ({"Rtabmap/TimeThr": 50}, 20.0, []),
+    ({"Rtabmap/MemoryThr": 5}, 0.0, [0, 1]),        # WM holds 7 > 5: again added + 1, not down to 5
+    ({"Rtabmap/MemoryThr": 7}, 0.0, []),
+])
+def test_over_budget_an_update_transfers_one_more_location_than_it_added(overrides, elapsed_ms, moved):
+    pipeline = PIPELINE(CAMERA, apply_overrides(RtabmapParams(), overrides, "test"))
+    pipeline.memory = chain_memory(9, stm_size=2)              # WM 0..6, STM 7, 8
+    pipeline._keep_budget(set(), 1, elapsed_ms)
+    assert sorted(pipeline.memory.ltm) == moved
+
+
+def view(points_world: np.ndarray, pose: np.ndarray, descriptors_: np.ndarray) -> Features:
+    """The features a camera at ``pose`` sees of world points (all with depth)."""
+    points = (invert(pose) @ np.c_[points_world, np.ones(len(points_world))].T).T[:, :3]
+    pixels = points[:, :2] / points[:, 2:] * [CAMERA.fx, CAMERA.fy] + [CAMERA.cx, CAMERA.cy]
+    return Features(pixels.astype(np.float32), descriptors_, np.ones(len(points)), points, True)
+
+
+def scene(count: int = 300, rng=None) -> np.ndarray:
+    rng = rng or np.random.default_rng(1)
+    return np.c_[rng.uniform(-1.5, 1.5, count), rng.uniform(-1.0, 1.0, count), rng.uniform(2.0, 4.0, count)]
+
+
+def test_after_a_loss_odometry_registers_against_the_whole_local_map():
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    assert odometry.process(view(world, np.eye(4), words)).new_session
+    blocked = odometry.process(view(world, np.eye(4), descriptors(300, np.random.default_rng(3))))
+    assert blocked.pose is None and odometry.velocity is None
+    # The camera comes back 0.4 m and 15 degrees away: far outside the 40-pixel window
+    # around the last pose, found by matching the whole map.
+    moved = make_pose(exp_so3([0, np.radians(15), 0]), [0.4, 0.1, 0.2])
+    back = odometry.process(view(world, moved, words))
+    assert back.pose is not None and np.allclose(back.pose, moved, atol=1e-3) and not back.new_session
+
+
+def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"), 0)
+    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    odometry.process(view(world, np.eye(4), words))
+    assert np.allclose(odometry.process(view(world, moved, words)).pose, moved, atol=1e-3)
+    other = np.random.default_rng(4)
+    assert odometry.process(view(scene(rng=other), moved, descriptors(300, other))).pose is None
+    restart = odometry.process(view(scene(rng=other), moved, descriptors(300, other)))
+    assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
 
 
 def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
@@ -218,6 +349,17 @@ def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     assert outcome.accepted and graph.map_of(3) == graph.map_of(0)
     assert np.allclose(graph.poses[3][:3, 3], [1.2, 0, 0.5])
     assert set(graph.pose_graph.priors) == {0}
+
+
+@pytest.mark.parametrize("axis, degrees, rejected", [
+    ([0, -1, 0], 100, True),      # about the camera's up axis (optical -y): yaw 100 degrees
+    ([0, -1, 0], 80, False),
+    ([-1, 0, 0], 95, True),       # about the camera's left axis: pitch beyond 90 degrees
+    ([0, 0, 1], 150, False),      # about the optical axis: roll, not checked
+])
+def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_believed(axis, degrees, rejected):
+    relative = make_pose(exp_so3(np.radians(degrees) * np.array(axis, float)), [0.1, 0, 0])
+    assert too_large_rotation(relative) == rejected
 
 
 def test_registration_variance_is_the_median_squared_residual_ignoring_missing_depth():

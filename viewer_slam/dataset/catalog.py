@@ -130,14 +130,14 @@ def tum_cache_dir() -> Path:
 
 
 def synthetic_scenarios() -> tuple[str, ...]:
-    from .synth import SCENARIOS
+    from .synth.catalog import SCENARIOS
 
     return tuple(SCENARIOS)
 
 
 def study_scenarios() -> tuple[str, ...]:
     """The scenarios of the study's seven situations, without the variants."""
-    from .synth import STUDY_SCENARIOS
+    from .synth.catalog import STUDY_SCENARIOS
 
     return tuple(STUDY_SCENARIOS)
 

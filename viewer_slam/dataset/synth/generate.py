@@ -29,6 +29,7 @@ from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
 from . import writer
 from .render import Renderer
+from .catalog import SCENARIOS
 from .scenarios import SCENARIOS_BY_NAME, Plan
 from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
@@ -36,8 +37,6 @@ from .trajectories import noisy_groundtruth, sensor_timing
 # Bump whenever the output for the same arguments changes: cached folders carry it in their name.
 GENERATOR_VERSION = 5
 
-SCENARIOS = tuple(SCENARIOS_BY_NAME)
-STUDY_SCENARIOS = tuple(name for name, scenario in SCENARIOS_BY_NAME.items() if scenario.in_study)
 
 # TUM's published intrinsics at 640x480 (fx, fy, cx, cy); images are rendered undistorted.
 CAMERAS = {
@@ -252,8 +251,8 @@ class _Run:
             "frames": self.frames,
             "resolution": [self.camera.width, self.camera.height],
             "camera": camera_name,
-            "mirrors": self.scenario.mirrors,
-            "tests": self.scenario.tests,
+            "mirrors": self.scenario.info.mirrors,
+            "tests": self.scenario.info.tests,
             "covered_intervals": [[float(timing.colour[a]), float(timing.colour[b])] for a, b in plan.covered],
             "loop": plan.loop,
             "notes": plan.notes,

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import textures
+from .catalog import SCENARIO_INFO, ScenarioInfo
 from .scenes import (Mover, Scene, Surface, box, cylinder, desk, person_parts, quad, room, transformed,
                      wall_poster, yaw_pose)
 from .trajectories import CAMERA_RATE, Path, Tremor, look_angles
@@ -33,12 +34,18 @@ class Plan:
 
 @dataclass(frozen=True)
 class Scenario:
-    name: str
-    mirrors: str
-    tests: str
-    default_frames: int
+    """A scenario's description and the function that plans its run."""
+
+    info: ScenarioInfo
     build: Callable[[np.random.Generator, int], Plan]
-    in_study: bool = True  # one of the seven situations of the study (the benchmark's default)
+
+    @property
+    def name(self) -> str:
+        return self.info.name
+
+    @property
+    def default_frames(self) -> int:
+        return self.info.default_frames
 
 
 def _cloth(colour):
@@ -418,29 +425,14 @@ def build_nostructure_texture(rng, frames) -> Plan:
     return Plan(scene, near_plane_path(rng, frames), [], True, 0.012, "posters cover the plane")
 
 
-SCENARIOS_BY_NAME = {s.name: s for s in (
-    Scenario("desk_with_person", "fr2/desk_with_person",
-             "dynamic objects: a person moving and shifting an object in an otherwise static office",
-             600, build_desk_with_person),
-    Scenario("pioneer_360", "fr2/pioneer_360",
-             "robot motion (planar, full turn) in a large hall with walls beyond depth range and feature-poor boxes",
-             900, build_pioneer_360),
-    Scenario("360_kidnap", "fr2/360_kidnap",
-             "recovery after the sensor is covered and moved (kidnapping), and loop closure across the gap",
-             600, build_360_kidnap),
-    Scenario("360_kidnap_norevisit", "fr2/360_kidnap (variant)",
-             "the same kidnapping, but no view mapped before a covering is seen again: nothing to re-localise on",
-             600, build_360_kidnap_norevisit, in_study=False),
-    Scenario("long_office_household", "fr3/long_office_household",
-             "a long textured round ending over the start: drift and one large loop closure",
-             1200, build_long_office_household),
-    Scenario("nostructure_notexture_near_withloop", "fr3/nostructure_notexture_near_withloop",
-             "a faint, flat wooden plane at ~1 m with a featureless stretch: feature trackers lose track",
-             900, build_nostructure_notexture),
-    Scenario("nostructure_texture_near_withloop", "fr3/nostructure_texture_near_withloop",
-             "the same motion over posters: flat but richly textured, a loop closure back to the start",
-             900, build_nostructure_texture),
-    Scenario("sitting_static", "fr3/sitting_static",
-             "an almost static camera watching two people gesture: the static-world assumption under small motion",
-             450, build_sitting_static),
-)}
+BUILDERS: dict[str, Callable[[np.random.Generator, int], Plan]] = {
+    "desk_with_person": build_desk_with_person,
+    "pioneer_360": build_pioneer_360,
+    "360_kidnap": build_360_kidnap,
+    "360_kidnap_norevisit": build_360_kidnap_norevisit,
+    "long_office_household": build_long_office_household,
+    "nostructure_notexture_near_withloop": build_nostructure_notexture,
+    "nostructure_texture_near_withloop": build_nostructure_texture,
+    "sitting_static": build_sitting_static,
+}
+SCENARIOS_BY_NAME = {name: Scenario(info, BUILDERS[name]) for name, info in SCENARIO_INFO.items()}

@@ -4,34 +4,50 @@ verified geometrically by PnP RANSAC between the two locations' features."""
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ...frontend.features import match_descriptors
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
-from ...geometry.se3 import invert, transform_points
-from .bayes import NEW_PLACE, BayesFilter, likelihood
+from ...geometry.se3 import transform_points
+from .bayes import PREDICTION_MARGINS, BayesFilter, Hypothesis, adjusted_likelihood, highest_hypothesis
 from .graph import registration_variance
-from .memory import Location, Memory
+from .memory import Link, Location, Memory
 from .params import RtabmapParams
 
 
 @dataclass
-class Hypothesis:
-    """The WM location the Bayes filter believes most is being revisited."""
+class Detection:
+    """One Bayes filter update: the hypothesis (None when no location has belief), how many
+    states the posterior holds (virtual place included), and each candidate's likelihood."""
 
-    location: int
-    posterior: float
-    new_place_posterior: float
+    hypothesis: Hypothesis | None
+    states: int
+    likelihood: dict[int, float]
 
 
 @dataclass
 class Registration:
-    """``relative = T_old^-1 T_new``, or None when too few inliers agreed."""
+    """``relative = T_old^-1 T_new``, or None with the reason it was rejected."""
 
     relative: np.ndarray | None
     matches: int
     inliers: int
     variance: float = 0.0
+    rejected: str = ""
+
+
+# RTAB-Map's robot frame (x forward, y left, z up) seen from the optical frame.
+OPTICAL_TO_ROBOT = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+MAX_LOOP_ROTATION = np.pi / 2
+
+
+def too_large_rotation(relative: np.ndarray) -> bool:
+    """Memory::computeTransform's check: a loop closure turning the robot by more than 90
+    degrees in pitch or yaw (Euler angles in its x-forward, z-up frame) is not believed."""
+    in_robot = OPTICAL_TO_ROBOT @ relative[:3, :3] @ OPTICAL_TO_ROBOT.T
+    yaw, pitch, _ = Rotation.from_matrix(in_robot).as_euler("ZYX")
+    return abs(pitch) > MAX_LOOP_ROTATION or abs(yaw) > MAX_LOOP_ROTATION
 
 
 def register(old: Location, new: Location, camera: Camera, params: RtabmapParams, seed: int) -> Registration:
@@ -42,7 +58,10 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
                                 reprojection_error=params.pnp_reprojection_error, distortion=camera.distortion,
                                 iterations=params.ransac_iterations, min_inliers=params.min_inliers, seed=seed)
     if solution is None:
-        return Registration(None, len(query), 0)
+        return Registration(None, len(query), 0,
+                            rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")
+    if too_large_rotation(solution.pose):
+        return Registration(None, len(query), solution.inlier_count, rejected="rotation over 90 degrees")
     old_points = old.points[with_depth[train[solution.inliers]]]
     new_points = transform_points(solution.pose, new.points[query[solution.inliers]])
     return Registration(solution.pose, len(query), solution.inlier_count, registration_variance(old_points, new_points))
@@ -54,34 +73,72 @@ class AppearanceDetector:
     def __init__(self):
         self.filter = BayesFilter()
 
-    def detect(self, memory: Memory, words: np.ndarray, sessions: dict[int, int]) -> Hypothesis | None:
-        """The best hypothesis for a location with ``words``; None while WM is empty.
-        ``sessions`` maps locations to their odometry session (their chain in the graph)."""
+    def detect(self, memory: Memory, words: np.ndarray) -> Detection | None:
+        """The Bayes filter's update for a location with ``words``; None while WM is empty."""
         candidates = list(memory.wm)
         if not candidates:
             return None
-        scores = memory.vocabulary.scores(words, candidates)
-        location_likelihood, new_place_likelihood = likelihood(scores)
-        ids = np.array(candidates)      # ids grow along each odometry chain: they are positions on it
-        posterior = self.filter.update(candidates, ids, np.array([sessions[i] for i in candidates]),
-                                       location_likelihood, new_place_likelihood)
-        best = max(candidates, key=lambda i: (posterior[i], -i))
-        return Hypothesis(best, posterior[best], posterior[NEW_PLACE])
+        location_likelihood, virtual_likelihood = adjusted_likelihood(memory.vocabulary.scores(words, candidates))
+        stm = set(memory.stm)
+
+        def neighbours(location: int) -> dict[int, int]:
+            # BayesFilter::generatePrediction: neighbours in STM/WM, loop links on the same margin.
+            margins = memory.neighbours(location, PREDICTION_MARGINS)
+            return {i: m for i, m in margins.items() if i not in stm}
+
+        posterior = self.filter.update(candidates, neighbours, location_likelihood, virtual_likelihood)
+        return Detection(highest_hypothesis(posterior), len(posterior),
+                         dict(zip(candidates, location_likelihood.tolist())))
 
 
-def nearby_locations(memory: Memory, poses: dict[int, np.ndarray], location: int, same_map,
-                     params: RtabmapParams) -> list[int]:
-    """WM locations of the same map within RGBD/LocalRadius and RGBD/ProximityAngle of
-    ``location``, not already linked to it, nearest first."""
-    candidates = [i for i in memory.wm if same_map(i) and i not in memory.locations[location].links]
-    if not candidates:
-        return []
+def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location: int, same_map,
+                         likelihood: dict[int, float], params: RtabmapParams) -> list[int]:
+    """Rtabmap::process, proximity detection by space: one location per path to register with.
+
+    Candidates are WM locations of the same map within RGBD/LocalRadius of ``location`` and
+    at most RGBD/ProximityMaxGraphDepth links from it (Memory::getNeighborsIdRadius); they
+    are cut into paths of consecutive locations, compared from the path of highest
+    likelihood (then newest) for at most RGBD/ProximityMaxPaths paths. In a path, the
+    locations looking within RGBD/ProximityAngle of the camera are kept and the one of
+    highest likelihood is taken, or the nearest when none has any; it must lie within
+    RGBD/ProximityPathFilteringRadius and not be linked to ``location`` already.
+    """
     here = poses[location]
-    relative = invert(here)[None] @ np.stack([poses[i] for i in candidates])
-    distance = np.linalg.norm(relative[:, :3, 3], axis=1)
-    # Angle between viewing directions (optical axes), as RTAB-Map's proximity angle.
-    axes = np.stack([poses[i][:3, 2] for i in candidates])
-    angle = np.degrees(np.arccos(np.clip(axes @ here[:3, 2], -1.0, 1.0)))
-    close = (distance <= params.local_radius) & (angle <= params.proximity_angle)
-    order = np.argsort(distance, kind="stable")
-    return [candidates[i] for i in order if close[i]]
+    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True,
+                              follow_proximity=True)
+    stm = set(memory.stm)
+    nearby = sorted(i for i in depth if i not in stm and i != location and same_map(i)
+                    and np.linalg.norm(poses[i][:3, 3] - here[:3, 3]) < params.local_radius)
+    paths: list[list[int]] = []
+    for i in nearby:
+        if paths and memory.locations[paths[-1][-1]].links.get(i) is Link.NEIGHBOUR:
+            paths[-1].append(i)
+        else:
+            paths.append([i])
+
+    def path_key(path: list[int]) -> tuple[float, int]:
+        # NearestPathKey: the path's highest likelihood and the first location holding it.
+        value, first = max((likelihood.get(i, 0.0), -i) for i in path)
+        return value, -first
+
+    ranked = sorted(paths, key=path_key, reverse=True)
+    if params.proximity_max_paths > 0:
+        ranked = ranked[:params.proximity_max_paths]
+    chosen = []
+    for path in ranked:
+        facing = [i for i in path if view_angle(poses[i], here) <= params.proximity_angle]
+        if not facing:
+            continue
+        best = max(facing, key=lambda i: (likelihood.get(i, 0.0), -i))
+        if likelihood.get(best, 0.0) <= 0:
+            best = min(facing, key=lambda i: np.linalg.norm(poses[i][:3, 3] - here[:3, 3]))
+        close = np.linalg.norm(poses[best][:3, 3] - here[:3, 3]) < params.proximity_filtering_radius \
+            or params.proximity_filtering_radius <= 0
+        if close and best not in memory.locations[location].links:
+            chosen.append(best)
+    return chosen
+
+
+def view_angle(a: np.ndarray, b: np.ndarray) -> float:
+    """Degrees between two cameras' viewing directions (optical axes)."""
+    return float(np.degrees(np.arccos(np.clip(a[:3, 2] @ b[:3, 2], -1.0, 1.0))))

@@ -1,12 +1,16 @@
-"""Frame-to-map visual odometry (RTAB-Map's Odom/Strategy 0).
+"""Frame-to-map visual odometry (RTAB-Map's Odom/Strategy 0, OdometryF2M).
 
-Each frame's features are matched to a local map of 3D features: map points are projected
-with the constant-velocity prediction, a feature may only match a map point whose
-prediction falls within Vis/CorGuessWinSize pixels, and the ratio test is applied among
-those candidates; PnP RANSAC then gives the pose. The local map grows on key frames and
-is capped at OdomF2M/MaxSize. When registration fails the odometry reports no pose and
-keeps trying against the same map from the last pose, which is why RTAB-Map stays lost
-once the camera has been carried elsewhere, unless Odom/ResetCountdown starts a new map.
+Each frame's features are matched to a local map of 3D features. With a motion guess
+(the last inter-frame motion, Odom/GuessMotion), map points are projected with it and a
+feature may only match a map point predicted within Vis/CorGuessWinSize pixels, the ratio
+test applied among those candidates; if that registration fails, or when there is no
+guess (the frame after a loss: odometry clears its velocity when lost), the frame is
+matched against the whole local map by descriptor alone. PnP RANSAC then gives the pose,
+accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
+at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
+OdomF2M/MaxSize. After Odom/ResetCountdown lost frames odometry starts a new map from
+the last good pose; the first frame of a map carries no link to what came before, which
+is what makes RTAB-Map start a new graph session there.
 """
 
 from dataclasses import dataclass
@@ -14,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ...frontend.features import Features
+from ...frontend.features import Features, match_descriptors
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
@@ -67,8 +71,11 @@ class OdometryResult:
     ``pose`` is ``T_odom_camera`` (None when lost); ``new_session`` is set on the frame
     that starts a map (the first one, or with ``reset`` the first after a reset). ``matched_pixels`` and
     ``projected_pixels`` are the current keypoints of the matches and their map points
-    projected with the estimated (or, when lost, the predicted) pose; ``variance`` that of
-    the registration (m², see :func:`registration_variance`).
+    projected with the estimated (or, when lost, the last) pose, for the map points in
+    front of that camera, ``inlier_mask`` which of those are inliers; ``variance`` that of
+    the registration (m², see :func:`registration_variance`); ``feature_index``,
+    ``map_index`` and ``match_inliers`` all the matches (indices in the frame's features and
+    in the local map) and which are inliers.
     """
 
     pose: np.ndarray | None
@@ -80,6 +87,9 @@ class OdometryResult:
     projected_pixels: np.ndarray | None = None
     inlier_mask: np.ndarray | None = None
     variance: float = 0.0
+    feature_index: np.ndarray | None = None
+    map_index: np.ndarray | None = None
+    match_inliers: np.ndarray | None = None
 
 
 def hamming_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -121,7 +131,7 @@ class FrameToMapOdometry:
         self.seed = seed
         self.map = LocalMap()
         self.pose: np.ndarray | None = None      # last registered pose
-        self.velocity = np.eye(4)                # last inter-frame motion, T_prev_current
+        self.velocity: np.ndarray | None = None  # last inter-frame motion T_prev_current; None: no guess
         self.lost_frames = 0
         self.frame_count = 0
         self.was_reset = False
@@ -136,22 +146,22 @@ class FrameToMapOdometry:
             return self._start_map(features)
         result = self._register(features)
         if result.pose is not None:
-            self.velocity = invert(self.pose) @ result.pose if self.lost_frames == 0 else np.eye(4)
+            self.velocity = invert(self.pose) @ result.pose if self.lost_frames == 0 else None
             self.pose = result.pose
             self.lost_frames = 0
             return result
         self.lost_frames += 1
-        self.velocity = np.eye(4)
+        self.velocity = None
         if self.params.reset_countdown > 0 and self.lost_frames >= self.params.reset_countdown:
             self.reset()
             return self._start_map(features)
         return result
 
     def reset(self) -> None:
-        """Forget the map and the pose; the next usable frame starts a new map at the origin."""
+        """Odometry::reset(pose): forget the local map; the next usable frame starts a new
+        one at the last registered pose."""
         self.map = LocalMap()
-        self.pose = None
-        self.velocity = np.eye(4)
+        self.velocity = None
         self.lost_frames = 0
         self.was_reset = True
 
@@ -159,15 +169,30 @@ class FrameToMapOdometry:
         with_depth = features.has_depth
         if with_depth.sum() < self.params.min_inliers:
             return OdometryResult(pose=None)
-        self.pose = np.eye(4)
-        self.velocity = np.eye(4)
-        self.map.add(features.points[with_depth], features.descriptors[with_depth], self.frame_count)
+        if self.pose is None:
+            self.pose = np.eye(4)
+        self.velocity = None
+        self.map.add(transform_points(self.pose, features.points[with_depth]), features.descriptors[with_depth],
+                     self.frame_count)
         reset, self.was_reset = self.was_reset, False
         return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset)
 
     def _register(self, features: Features) -> OdometryResult:
+        """Registration with the motion guess, then, if that fails or there is none, against
+        the whole local map (OdometryF2M::computeTransform's second try without a guess)."""
+        result = None
+        if self.velocity is not None:
+            result = self._solve(features, *self._guided(features, self.pose @ self.velocity), self.pose @ self.velocity)
+        if result is None or result.pose is None:
+            result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
+                                                              self.params.correspondence_nndr), self.pose)
+        if result.pose is not None:
+            self._update_map(features, result)
+        return result
+
+    def _guided(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Matches to the map points whose projection with ``predicted`` falls near a feature."""
         params = self.params
-        predicted = self.pose @ self.velocity
         in_camera = transform_points(invert(predicted), self.map.points)
         visible = np.flatnonzero(in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION)
         projections = self.camera.project(in_camera[visible])
@@ -178,27 +203,37 @@ class FrameToMapOdometry:
         feature_index, map_index = guided_matches(features.keypoints, features.descriptors, projections,
                                                   self.map.descriptors[visible], params.guess_window,
                                                   params.correspondence_nndr)
-        map_index = visible[map_index]
+        return feature_index, visible[map_index]
+
+    def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
+               shown_without_pose: np.ndarray) -> OdometryResult:
+        """PnP RANSAC on the matches; the matched map points are shown projected with the
+        estimated pose, or ``shown_without_pose`` when registration failed."""
+        params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
                                     reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
                                     iterations=params.ransac_iterations, min_inliers=params.min_inliers,
                                     seed=self.seed)
         pose = solution.pose if solution is not None else None
-        shown_pose = pose if pose is not None else predicted
-        projected = self.camera.project(transform_points(invert(shown_pose), self.map.points[map_index])) \
-            if len(map_index) else np.zeros((0, 2))
-        inlier_mask = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
-        result = OdometryResult(pose=pose, matches=len(map_index), inliers=int(inlier_mask.sum()),
-                                matched_pixels=features.keypoints[feature_index], projected_pixels=projected,
-                                inlier_mask=inlier_mask)
-        if pose is not None:
-            inlier_features = feature_index[inlier_mask]
-            result.variance = registration_variance(self.map.points[map_index[inlier_mask]],
-                                                    transform_points(pose, features.points[inlier_features]))
-            self.map.observe(map_index[inlier_mask], self.frame_count)
-            if result.inliers < params.keyframe_threshold * len(features):
-                self._extend_map(features, pose, np.setdiff1d(np.arange(len(features)), inlier_features))
-        return result
+        inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
+        in_camera = transform_points(invert(pose if pose is not None else shown_without_pose), self.map.points[map_index])
+        shown = in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION
+        return OdometryResult(pose=pose, matches=len(map_index), inliers=int(inliers.sum()),
+                              matched_pixels=features.keypoints[feature_index[shown]],
+                              projected_pixels=self.camera.project(in_camera[shown]), inlier_mask=inliers[shown],
+                              feature_index=feature_index, map_index=map_index, match_inliers=inliers)
+
+    def _update_map(self, features: Features, result: OdometryResult) -> None:
+        """Note the map points seen again and, on a key frame, add the frame's other features."""
+        params = self.params
+        inlier_features = result.feature_index[result.match_inliers]
+        inlier_points = result.map_index[result.match_inliers]
+        result.variance = registration_variance(self.map.points[inlier_points],
+                                                transform_points(result.pose, features.points[inlier_features]))
+        self.map.observe(inlier_points, self.frame_count)
+        if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0
+                or result.inliers <= params.keyframe_threshold * len(features) or result.inliers <= params.keyframe_inliers):
+            self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), inlier_features))
 
     def _extend_map(self, features: Features, pose: np.ndarray, candidates: np.ndarray) -> None:
         """Add the frame's unregistered features with depth, then cap the map."""

@@ -20,7 +20,11 @@ class RtabmapParams:
     ransac_iterations: int = param(300, ge=1, key="Vis/Iterations", help="PnP RANSAC iterations")
     local_map_size: int = param(2000, gt=0, key="OdomF2M/MaxSize", help="most 3D features kept in the odometry local map")
     keyframe_threshold: float = param(0.3, ge=0, le=1, key="Odom/KeyFrameThr",
-                                      help="update the local map when inliers / features falls below this")
+                                      help="update the local map when inliers / features falls to this")
+    keyframe_inliers: int = param(150, ge=0, key="Odom/VisKeyFrameThr",
+                                  help="update the local map when the inliers fall to this many")
+    min_depth: float = param(0.0, ge=0, key="Vis/MinDepth", help="nearest depth (m) a feature may have (0: no limit)")
+    max_depth: float = param(0.0, ge=0, key="Vis/MaxDepth", help="farthest depth (m) a feature may have (0: no limit)")
     reset_countdown: int = param(0, ge=0, key="Odom/ResetCountdown",
                                  help="reset odometry after this many lost frames (0: never)")
     # Locations.
@@ -31,6 +35,8 @@ class RtabmapParams:
     # Loop closure detection.
     words_per_location: int = param(500, gt=0, key="Kp/MaxFeatures", help="visual words extracted per location")
     word_nndr: float = param(0.8, gt=0, le=1, key="Kp/NndrRatio", help="ratio test quantising a descriptor to a word")
+    bad_signature_ratio: float = param(0.5, ge=0, key="Kp/BadSignRatio",
+                                       help="a location with fewer words than this share of the mean is left out of detection")
     loop_threshold: float = param(0.11, ge=0, le=1, key="Rtabmap/LoopThr", help="posterior a loop hypothesis must exceed")
     loop_ratio: float = param(0.0, ge=0, key="Rtabmap/LoopRatio",
                               help="a hypothesis must also exceed this ratio of the previous one")
@@ -39,12 +45,22 @@ class RtabmapParams:
     local_radius: float = param(10.0, ge=0, key="RGBD/LocalRadius", help="radius (m) of the proximity search")
     proximity_angle: float = param(45.0, ge=0, le=180, key="RGBD/ProximityAngle",
                                    help="largest view-direction difference (deg) of a proximity link")
+    proximity_max_graph_depth: int = param(50, ge=0, key="RGBD/ProximityMaxGraphDepth",
+                                           help="most links between the location and a proximity candidate (0: any)")
+    proximity_max_paths: int = param(3, ge=0, key="RGBD/ProximityMaxPaths",
+                                     help="most paths of nearby locations compared per update (0: all)")
+    proximity_filtering_radius: float = param(1.0, ge=0, key="RGBD/ProximityPathFilteringRadius",
+                                              help="a path's nearest location must be this close (m) to be compared")
     # Memory management.
     stm_size: int = param(10, ge=0, key="Mem/STMSize", help="newest locations kept out of loop closure detection")
     rehearsal_similarity: float = param(0.6, ge=0, le=1, key="Mem/RehearsalSimilarity",
                                         help="word similarity above which a location is rehearsed")
+    recent_wm_ratio: float = param(0.2, ge=0, le=1, key="Mem/RecentWmRatio",
+                                   help="share of WM, after the last loop closure, that cannot be transferred")
+    local_immunization_ratio: float = param(0.25, ge=0, le=1, key="RGBD/LocalImmunizationRatio",
+                                            help="share of WM near the camera kept from transfer")
     time_threshold: float = param(0.0, ge=0, key="Rtabmap/TimeThr",
-                                  help="ms per location update above which locations go to LTM (0: off)")
+                                  help="ms per location update above which (added + 1) locations go to LTM (0: off)")
     memory_threshold: int = param(0, ge=0, key="Rtabmap/MemoryThr", help="most locations in Working Memory (0: off)")
     max_retrieved: int = param(2, ge=0, key="Rtabmap/MaxRetrieved", help="locations brought back from LTM per update")
     # Graph optimisation.

@@ -17,12 +17,14 @@ from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
                       MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from .graph import LocationGraph
-from .loop_closure import AppearanceDetector, Hypothesis, nearby_locations, register
-from .memory import Location, Memory, similarity
+from .bayes import Hypothesis
+from .loop_closure import AppearanceDetector, proximity_candidates, register
+from .memory import Link, Location, Memory, similarity
 from .odometry import FrameToMapOdometry, OdometryResult
 from .params import RtabmapParams
 from .vocabulary import Vocabulary
 
+DETECTION = {Link.LOOP: "appearance", Link.PROXIMITY: "proximity"}
 STAGES = ("features", "odometry", "vocabulary", "bayes", "verification", "optimisation", "memory")
 CLOUD_POINTS_ACROSS = 64         # coarse cloud per location: this many depth samples per image row
 MAP_POINTS_LIMIT = 200_000       # a rebuilt map is subsampled to at most this many points
@@ -49,17 +51,18 @@ class Rtabmap(Pipeline):
     def __init__(self, camera: Camera, params: RtabmapParams | None = None, seed: int = 0):
         super().__init__(camera, params, seed)
         p = self.params
-        self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera)
+        self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera,
+                                          min_depth=p.min_depth, max_depth=p.max_depth or np.inf)
         self.odometry = FrameToMapOdometry(camera, p, seed)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
-        self.memory = Memory(self.vocabulary, p.stm_size)
+        self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
         self.edges = EdgeClassifier()
         self.graph = LocationGraph(p.optimizer_iterations, p.optimize_max_error)
         self.detector = AppearanceDetector()
         self.session = -1
         self.current_location: int | None = None
         self.last_tick = -np.inf
-        self.last_hypothesis = 0.0
+        self.last_hypothesis = 0.0       # the previous update's hypothesis value (Rtabmap/LoopRatio)
         self.posterior_max = 0.0
         self.lost = False
         self.odometry_variance = 0.0     # accumulated since the last location
@@ -104,6 +107,7 @@ class Rtabmap(Pipeline):
     def _track_status(self, frame: Frame, odometry: OdometryResult, events: list[Event]) -> TrackingStatus:
         if odometry.new_session:
             self.session += 1
+            self.memory.start_map()
             self.last_tick = frame.timestamp
             if odometry.reset:
                 events.append(TrackingRecovered(frame.index, frame.timestamp,
@@ -143,6 +147,15 @@ class Rtabmap(Pipeline):
         order = np.argsort(-features.responses, kind="stable")[:self.params.words_per_location]
         return features.subset(np.sort(order))
 
+    def _signature(self, features: Features) -> Features:
+        """The features a new location keeps: none when they are fewer than Kp/BadSignRatio of
+        the mean words per STM/WM location (Memory::createSignature), a bad signature that
+        takes no part in loop closure detection."""
+        kept = self._strongest(features)
+        if len(kept) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
+            return kept.subset(np.zeros(0, int))
+        return kept
+
     # -- per location ------------------------------------------------------------------
 
     def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray,
@@ -150,7 +163,7 @@ class Rtabmap(Pipeline):
         """Add a location, look for a loop closure, and keep memory within its budget."""
         p = self.params
         start = time.perf_counter()
-        kept = self._strongest(features)
+        kept = self._signature(features)
         location_id = len(self.memory.locations)
         words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
         location = Location(location_id, self.session, frame.index, frame.timestamp, odometry_pose,
@@ -161,7 +174,7 @@ class Rtabmap(Pipeline):
             self._pass_weight(self.memory.locations[previous], location)
         self.memory.add(location)
         if continues_chain:
-            self.memory.link(previous, location_id)
+            self.memory.link(previous, location_id, Link.NEIGHBOUR)
         self.edges.add_node(location_id, frame.timestamp)
         self.graph.add_location(location_id, self.session, odometry_pose, self.odometry_variance)
         self.odometry_variance = 0.0
@@ -176,18 +189,41 @@ class Rtabmap(Pipeline):
             MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
                        location.cloud_colors),
         ]
-        hypothesis = watch("bayes", self.detector.detect, self.memory, words, self.graph.session)
-        closed, retrieved = False, []
+        detection = watch("bayes", self.detector.detect, self.memory, words) if len(words) else None
+        hypothesis = detection.hypothesis if detection is not None else None
+        protected, retrieved = self._immunised_near(location), []
         if hypothesis is not None:
-            self.posterior_max = hypothesis.posterior
-            if p.memory_threshold > 0 or p.time_threshold > 0:
-                retrieved = watch("memory", self.memory.retrieve, hypothesis.location, p.max_retrieved)
-            closed = self._consider(frame, location, hypothesis, watch, events)
-        if not closed and p.proximity_by_space:
-            self._proximity(frame, location, watch, events)
-        protected = set(retrieved) | ({hypothesis.location} if hypothesis is not None else set())
-        watch("memory", self._keep_budget, protected, (time.perf_counter() - start) * 1e3)
+            self.posterior_max = hypothesis.value
+            if self._memory_managed:
+                order, immune = watch("memory", self.memory.retrieval_order, hypothesis.location, p.max_retrieved)
+                retrieved = watch("memory", self.memory.retrieve, order, p.max_retrieved)
+                protected |= immune | set(retrieved)
+        closed = hypothesis is not None and self._consider(frame, location, hypothesis, detection.states, watch,
+                                                           events)
+        self.last_hypothesis = hypothesis.value if hypothesis is not None else 0.0
+        if p.proximity_by_space and p.local_radius > 0 and not closed:
+            self._proximity(frame, location, detection.likelihood if detection else {}, watch, events)
+        watch("memory", self._keep_budget, protected, 1 + len(retrieved), (time.perf_counter() - start) * 1e3)
         return events
+
+    @property
+    def _memory_managed(self) -> bool:
+        return self.params.memory_threshold > 0 or self.params.time_threshold > 0
+
+    def _immunised_near(self, location: Location) -> set[int]:
+        """RGBD/LocalImmunizationRatio: with memory management, the WM locations nearest the
+        camera (within RGBD/LocalRadius), up to that share of WM, stay in WM; every WM
+        location within the radius counts as recent (Memory::updateAge)."""
+        if not self._memory_managed:
+            return set()
+        here = self.graph.poses[location.id][:3, 3]
+        distance = {i: float(np.linalg.norm(self.graph.poses[i][:3, 3] - here)) for i in self.memory.wm}
+        near = sorted((d, i) for i, d in distance.items() if self.params.local_radius == 0
+                      or d < self.params.local_radius)
+        for _, i in reversed(near):
+            self.memory.touch(i)
+        budget = int(self.params.local_immunization_ratio * len(self.memory.wm))
+        return {i for _, i in near[:budget]}
 
     def _pass_weight(self, previous: Location, location: Location) -> None:
         """Rehearsal while moving: a new location that looks like the previous one inherits its
@@ -196,68 +232,67 @@ class Rtabmap(Pipeline):
             location.weight = previous.weight + 1
             previous.weight = 0
 
-    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, watch: Stopwatch,
+    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, states: int, watch: Stopwatch,
                   events: list[Event]) -> bool:
-        """Verify the Bayes filter's best hypothesis if its posterior is high enough."""
-        p = self.params
-        previous, self.last_hypothesis = self.last_hypothesis, hypothesis.posterior
+        """Rtabmap::process: verify the hypothesis when the sum of the loop closure
+        probabilities reaches Rtabmap/LoopThr, there is more than one location to choose
+        from, and (with Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
+        p, value, previous = self.params, hypothesis.value, self.last_hypothesis
         reason = None
-        if hypothesis.posterior <= p.loop_threshold:
-            reason = f"posterior {hypothesis.posterior:.2f} < Rtabmap/LoopThr {p.loop_threshold:g}"
-        elif hypothesis.posterior < p.loop_ratio * previous:
-            reason = f"posterior {hypothesis.posterior:.2f} < Rtabmap/LoopRatio {p.loop_ratio:g} x {previous:.2f}"
+        if value < p.loop_threshold:
+            reason = f"hypothesis {value:.2f} < Rtabmap/LoopThr {p.loop_threshold:g}"
+        elif states <= 2:
+            reason = "a single location to choose from"
+        elif p.loop_ratio > 0 and previous and value < p.loop_ratio * previous:
+            reason = f"hypothesis {value:.2f} < Rtabmap/LoopRatio {p.loop_ratio:g} x {previous:.2f}"
+        elif p.loop_ratio > 0 and not previous:
+            reason = "no previous hypothesis (Rtabmap/LoopRatio is on)"
         if reason is None:
-            return self._close(frame, self.memory.locations[hypothesis.location], location, "appearance",
-                               hypothesis.posterior, watch, events)
-        if hypothesis.posterior > hypothesis.new_place_posterior:
+            return self._close(frame, self.memory.locations[hypothesis.location], location, Link.LOOP, value,
+                               watch, events)
+        if value >= p.loop_threshold:
             events.append(GraphEdge(frame.index, hypothesis.location, location.id, False, reason,
-                                    self.edges.kind(hypothesis.location, location.id), score=hypothesis.posterior))
+                                    self.edges.kind(hypothesis.location, location.id), score=value))
         return False
 
-    def _proximity(self, frame: Frame, location: Location, watch: Stopwatch, events: list[Event]) -> None:
-        """RGBD/ProximityBySpace: link to the nearest location of the map off the recent path."""
-        recent = location.id - 2 * self.params.stm_size
+    def _proximity(self, frame: Frame, location: Location, likelihood: dict[int, float], watch: Stopwatch,
+                   events: list[Event]) -> None:
+        """RGBD/ProximityBySpace: register with nearby locations of the same map off STM."""
         map_id = self.graph.map_of(location.id)
-        nearby = nearby_locations(self.memory, self.graph.poses, location.id,
-                                  lambda i: self.graph.map_of(i) == map_id and (
-                                      self.graph.session[i] != location.session or i < recent),
-                                  self.params)
-        if nearby:
-            self._close(frame, self.memory.locations[nearby[0]], location, "proximity", 0.0, watch, events)
+        for candidate in proximity_candidates(self.memory, self.graph.poses, location.id,
+                                              lambda i: self.graph.map_of(i) == map_id, likelihood, self.params):
+            self._close(frame, self.memory.locations[candidate], location, Link.PROXIMITY, 0.0, watch, events)
 
-    def _close(self, frame: Frame, old: Location, new: Location, kind: str, score: float, watch: Stopwatch,
+    def _close(self, frame: Frame, old: Location, new: Location, link: Link, score: float, watch: Stopwatch,
                events: list[Event]) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
         registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
         if registration.relative is None:
-            events.append(GraphEdge(frame.index, old.id, new.id, False,
-                                    f"too few inliers (< Vis/MinInliers {self.params.min_inliers}) "
-                                    f"among {registration.matches} matches", self.edges.kind(old.id, new.id), None,
-                                    score, 0, kind))
+            events.append(GraphEdge(frame.index, old.id, new.id, False, registration.rejected,
+                                    self.edges.kind(old.id, new.id), None, score, registration.inliers,
+                                    DETECTION[link]))
             return False
         outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
                         registration.variance)
         events.append(GraphEdge(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
                                 self.edges.kind(old.id, new.id), registration.relative, score, registration.inliers,
-                                kind))
+                                DETECTION[link]))
         if not outcome.accepted:
             return False
-        self.memory.link(old.id, new.id)
+        self.memory.link(old.id, new.id, link)
         ids = np.array(sorted(self.graph.poses))
         events.append(GraphOptimized(frame.index, ids, np.stack([self.graph.poses[i] for i in ids]),
                                      outcome.error_before, outcome.error_after))
         events.append(watch("optimisation", self._rebuilt_map, frame.index))
         return True
 
-    def _keep_budget(self, protected: set[int], elapsed_ms: float) -> None:
-        """Rtabmap/MemoryThr and Rtabmap/TimeThr: move locations to LTM when over budget."""
+    def _keep_budget(self, protected: set[int], added: int, elapsed_ms: float) -> None:
+        """Rtabmap/TimeThr and Rtabmap/MemoryThr: when the update took too long or WM holds too
+        many locations, (added + 1) locations go to LTM (Memory::forget)."""
         p = self.params
-        limit = p.memory_threshold if p.memory_threshold > 0 else None
-        if p.time_threshold > 0 and elapsed_ms > p.time_threshold:
-            shrunk = int(len(self.memory.wm) * p.time_threshold / elapsed_ms)
-            limit = shrunk if limit is None else min(limit, shrunk)
-        if limit is not None:
-            self.memory.transfer(limit, protected)
+        if (p.time_threshold > 0 and elapsed_ms > p.time_threshold) or \
+                (p.memory_threshold > 0 and len(self.memory.wm) > p.memory_threshold):
+            self.memory.forget(added + 1, protected)
 
     # -- map and images ----------------------------------------------------------------
 

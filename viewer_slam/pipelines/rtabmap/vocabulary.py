@@ -56,6 +56,10 @@ class Vocabulary:
         """Active words: those held by at least one indexed location."""
         return len(self._postings)
 
+    def mean_words_per_location(self) -> int:
+        """Word references per indexed location, rounded down (Memory's meanWordsPerLocation)."""
+        return sum(self._sizes.values()) // len(self._sizes) if self._sizes else 0
+
     def quantize(self, descriptors: np.ndarray) -> np.ndarray:
         """Word id of each descriptor, -1 where no active word passes the ratio test."""
         words = np.full(len(descriptors), -1)
@@ -123,7 +127,8 @@ class Vocabulary:
 
     def scores(self, words: np.ndarray, candidates: list[int]) -> np.ndarray:
         """tf-idf score of each candidate location for a query's words:
-        sum over shared words of (count in location / location size) * log(N / locations holding it)."""
+        sum over shared words of (count in location / location size) * log10(N / locations holding it),
+        N the indexed locations (Memory::computeLikelihood)."""
         position = {location: i for i, location in enumerate(candidates)}
         scores = np.zeros(len(candidates))
         indexed = len(self._sizes)
@@ -131,7 +136,7 @@ class Vocabulary:
             postings = self._postings.get(word)
             if not postings:
                 continue
-            idf = np.log(indexed / len(postings))
+            idf = np.log10(indexed / len(postings))
             for location, count in postings.items():
                 i = position.get(location)
                 if i is not None:
