@@ -252,7 +252,9 @@ def test_coverage_tracking_state_and_log_show_the_loss(recorded):
     assert states == {0: ["ok"], LOST[0]: ["lost"], LOST[-1] + 1: ["relocalised"], LOST[-1] + 2: ["ok"]}
     log = column(recorded.recording, f"/log/{name}", "TextLog:text")
     levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
-    assert log[LOST[0]] == [f"{name}: tracking lost (sensor covered)"] and levels[LOST[0]] == ["WARN"]
+    loss = recorded.report["pipelines"][name]["tracking_lost"][0]
+    assert log[LOST[0]] == [f"{loss['text']}; the pipeline: sensor covered"] and levels[LOST[0]] == ["WARN"]
+    assert loss["text"].startswith(f"{name} lost at ") and loss["cause"] in loss["text"]
     assert log[LOST[-1] + 1] == [f"{name}: tracking recovered (relocalised on keyframe 0)"]
     assert levels[LOST[-1] + 1] == ["WARN"]
 

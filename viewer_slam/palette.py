@@ -31,6 +31,10 @@ OUTLIER = Colour((235, 50, 50), "red")
 STATUS = {"initialising": Colour((150, 150, 150), "grey"), "ok": Colour((40, 220, 90), "green"),
           "relocalised": Colour((255, 200, 0), "yellow"), "lost": Colour((235, 50, 50), "red")}
 LOST = STATUS["lost"]
+CAUSES = {"sensor blocked": Colour((120, 120, 120), "grey"), "no depth": Colour((90, 60, 200), "indigo"),
+          "fast motion": Colour((255, 140, 0), "orange"), "dynamic scene": Colour((200, 80, 220), "purple"),
+          "too few features": Colour((235, 50, 50), "red"), "too few inliers": Colour((230, 200, 40), "yellow"),
+          "unknown": Colour((170, 170, 170), "grey")}
 
 
 def run_colour(name: str, position: int = 0) -> Colour:

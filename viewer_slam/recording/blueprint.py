@@ -56,9 +56,10 @@ def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | 
         *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"))
           for name in pipelines],
     )
-    state = rrb.StateTimelineView(name="tracking state", contents=_series(pipelines, "tracking_state"))
-    # Rejected loop-closure hypotheses are DEBUG lines: there are many; the view's menu shows them.
-    log = rrb.TextLogView(origin="log", name="tracking losses and loop closures",
+    state = rrb.StateTimelineView(name="tracking state and the cause of each loss",
+                                  contents=_series(pipelines, "tracking_state") + _series(pipelines, "cause"))
+    # Rejected loop-closure candidates are DEBUG lines: there are many; the view's menu shows them.
+    log = rrb.TextLogView(origin="log", name="tracking and loop-closure log",
                           rows=rrb.TextLogRows(filter_by_log_level=["INFO", "WARN", "ERROR", "CRITICAL"]))
     side = rrb.Vertical(matches, ate, details, state, log, row_shares=[3, 2, 2, 1.6, 2])
     return rrb.Blueprint(

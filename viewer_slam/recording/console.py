@@ -79,5 +79,9 @@ def print_summary(report: dict, written: list, console: Console | None = None) -
             f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",
             f"{block['timing']['fps']:.1f}")
     print_table(table, console)
+    for block in report["pipelines"].values():
+        for loss in block.get("tracking_lost", []):
+            if "text" in loss:
+                console.print(loss["text"], markup=False, highlight=False)
     for path in written:
         console.print(f"wrote {path}")

@@ -16,7 +16,7 @@ from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory
 from ..pipelines.edges import EdgeKind
 from ..pipelines.events import (Event, FeatureMatches, FrameTracked, GraphEdge, GraphOptimized, KeyframeAdded,
-                                MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+                                MapUpdated, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from . import layout
 from .budget import SnapshotBudget
 from .images import depth_png, jpeg
@@ -123,7 +123,7 @@ class PipelineRecorder:
             FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
             FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
             GraphOptimized: self._graph_optimized, MapUpdated: self._map_updated,
-            TrackingLost: self._tracking_lost, TrackingRecovered: self._tracking_recovered,
+            TrackingRecovered: self._tracking_recovered,
             TrajectoryFinal: self._trajectory_final,
         }
         self._log_styles()
@@ -135,7 +135,11 @@ class PipelineRecorder:
         set_frame_time(self.stream, frame.index, frame.timestamp)
 
     def __call__(self, event: Event) -> None:
-        self._handlers[type(event)](event)
+        """Record ``event``. A TrackingLost is not logged here: its one log line comes once the
+        run has ended, with the cause the diagnosis measured (recording/loss_causes.py)."""
+        handler = self._handlers.get(type(event))
+        if handler is not None:
+            handler(event)
 
     @property
     def sizes(self) -> SceneSizes:
@@ -212,9 +216,6 @@ class PipelineRecorder:
                              (f"{layout.matches(self.name)}/outliers", segments[~inliers])):
             self._log_instances(path, subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)],
                                 lambda drawn: rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)))
-
-    def _tracking_lost(self, event: TrackingLost) -> None:
-        self._text(f"tracking lost ({event.reason})", rr.TextLogLevel.WARN)
 
     def _tracking_recovered(self, event: TrackingRecovered) -> None:
         self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.WARN)

@@ -28,6 +28,7 @@ from ..atomic import StagedFiles, check_writable, exclusive
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
+from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
@@ -35,10 +36,11 @@ from ..geometry.trajectory import write_tum
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.selection import BOTH, select_pipelines
-from ..pipelines.run import PipelineRun, run_pipeline
+from ..pipelines.run import run_pipeline
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
+from .loss_causes import log_loss_causes
 from .recorder import PipelineRecorder, log_frame_image, log_world
 from .sizes import extent
 from .timelines import log_evaluation
@@ -249,10 +251,12 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                             log_frame_image(stream, frame)
 
                     tapped = TappedSequence(sequence, on_frame)
+                    signals = SignalRecorder()
                     try:
                         run = run_pipeline(tapped, name, params[name], seed=options.seed,
                                            max_frames=options.max_frames, stride=options.stride,
-                                           sinks=[recorder, progress.sink(name)], should_stop=stop)
+                                           sinks=[recorder, progress.sink(name), signals],
+                                           frame_sinks=[signals.frame], should_stop=stop)
                     except Exception as error:  # an unexpected failure: keep what was recorded before it
                         if not blocks and not tapped.read:
                             raise
@@ -262,6 +266,8 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                     if failure is not None and not run.frames:
                         raise failure  # not one frame was read: there is nothing to keep
                     interrupted = interrupted or run.interrupted or failure is not None
+                    frame_signals = diagnose_run(run, signals, sequence.groundtruth)
+                    log_loss_causes(stream, name, run.tracking_lost, frame_signals)
                     evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run,
                                                                    recorder.frame_timestamps)
                     if evaluation is not None:
