@@ -187,8 +187,15 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     Returns index arrays into ``query`` and ``train``; a query whose two nearest neighbours
     are too alike is dropped, as is a second query claiming an already matched train item.
     """
+    query_index, train_index, _ = match_with_ratios(query, train, binary, ratio)
+    return query_index, train_index
+
+
+def match_with_ratios(query: np.ndarray, train: np.ndarray, binary: bool,
+                      ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`match_descriptors` with each match's nearest / second-nearest distance ratio."""
     if len(query) == 0 or len(train) < 2:
-        return np.zeros(0, int), np.zeros(0, int)
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
     # batchDistance gives the two nearest neighbours as arrays (knnMatch's exact results,
     # without a Python object per match) and releases the GIL while it searches.
     distance, nearest = cv2.batchDistance(query, train, -1, normType=cv2.NORM_HAMMING if binary else cv2.NORM_L2, K=2)
@@ -197,4 +204,4 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     best_first = np.argsort(d, kind="stable")
     _, unique = np.unique(t[best_first], return_index=True)
     keep = np.sort(best_first[unique])
-    return q[keep], t[keep]
+    return q[keep], t[keep], distance[q[keep], 0] / distance[q[keep], 1]
