@@ -15,7 +15,7 @@ from viewer_slam.benchmark.runner import BenchmarkTask
 from viewer_slam.benchmark.tables import COLUMNS
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
-from viewer_slam.dataset.synth import SCENARIOS
+from viewer_slam.dataset.synth import STUDY_SCENARIOS as SCENARIOS
 from viewer_slam.pipelines import base
 
 FRAMES, RESOLUTION = 40, "160x120"

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from ..dataset.catalog import resolve_sequence, synthetic_scenarios
+from ..dataset.catalog import resolve_sequence, study_scenarios
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import params_to_dict, resolve_params
 from .runner import BenchmarkTask
@@ -22,7 +22,7 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, frames: int | N
     """
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, config)
     tasks = []
-    for spec in specs or synthetic_scenarios():
+    for spec in specs or study_scenarios():
         folder = resolve_sequence(spec, frames=frames, resolution=resolution, seed=SCENARIO_SEED)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
         for pipeline in pipelines:

@@ -130,6 +130,13 @@ def synthetic_scenarios() -> tuple[str, ...]:
     return tuple(SCENARIOS)
 
 
+def study_scenarios() -> tuple[str, ...]:
+    """The scenarios of the study's seven situations, without the variants."""
+    from .synth import STUDY_SCENARIOS
+
+    return tuple(STUDY_SCENARIOS)
+
+
 def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
                      seed: int = 0) -> Path:
     """The folder of the TUM sequence ``spec`` names (see the module docstring for the forms).

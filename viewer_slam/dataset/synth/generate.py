@@ -34,9 +34,10 @@ from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
 
 # Bump whenever the output for the same arguments changes: cached folders carry it in their name.
-GENERATOR_VERSION = 4
+GENERATOR_VERSION = 5
 
 SCENARIOS = tuple(SCENARIOS_BY_NAME)
+STUDY_SCENARIOS = tuple(name for name, scenario in SCENARIOS_BY_NAME.items() if scenario.in_study)
 
 # TUM's published intrinsics at 640x480 (fx, fy, cx, cy); images are rendered undistorted.
 CAMERAS = {
