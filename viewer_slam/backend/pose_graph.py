@@ -14,9 +14,10 @@ import numpy as np
 from ..geometry.se3 import invert, rotation_angle
 
 
-@dataclass
+@dataclass(eq=False)
 class Edge:
-    """``relative = T_from^-1 T_to`` measured with ``information`` (6x6, rotation first)."""
+    """``relative = T_from^-1 T_to`` measured with ``information`` (6x6, rotation first).
+    Edges are compared by identity: two measurements between the same nodes are distinct."""
 
     from_id: int
     to_id: int

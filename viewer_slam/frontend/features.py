@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.camera import Camera
+from .adjuster import ADJUSTABLE, ORB_THRESHOLD, SIFT_THRESHOLD, GridDetector
 
 BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
 DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
@@ -63,53 +64,18 @@ def _make_detector(kind: str, max_features: int):
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
 
 
-@dataclass(frozen=True)
-class AdjustableThreshold:
-    """A detector threshold that RGB-D SLAM v2's detector adjuster may move within bounds."""
-
-    start: float
-    floor: float
-    ceiling: float
-    setter: str
-    integer: bool = False
-
-
-# v2's DetectorAdjuster starts ORB's FAST threshold at 20 and SIFT's contrast at 0.04.
-ORB_THRESHOLD = AdjustableThreshold(20, 1, 80, "setFastThreshold", integer=True)
-SIFT_THRESHOLD = AdjustableThreshold(0.04, 0.0001, 0.16, "setContrastThreshold")
-ADJUSTABLE = {"ORB": ORB_THRESHOLD, "SIFT": SIFT_THRESHOLD}
-
-
-def _spread_over_grid(points: np.ndarray, responses: np.ndarray, shape: tuple[int, int],
-                      grid: int, limit: int) -> np.ndarray:
-    """Indices of at most ``limit`` keypoints, strongest first, at most limit/grid² per cell
-    while other cells have room, so the features cover the whole image."""
-    order = np.argsort(-responses, kind="stable")
-    if grid <= 1:
-        return order[:limit]
-    height, width = shape
-    cell = (np.minimum((points[order, 1] * grid / height).astype(int), grid - 1) * grid
-            + np.minimum((points[order, 0] * grid / width).astype(int), grid - 1))
-    # Rank of each keypoint within its cell, in decreasing response order.
-    cell_order = np.argsort(cell, kind="stable")
-    sorted_cells = cell[cell_order]
-    starts = np.searchsorted(sorted_cells, sorted_cells, side="left")
-    rank = np.empty(len(order), dtype=int)
-    rank[cell_order] = np.arange(len(order)) - starts
-    quota = max(1, limit // (grid * grid))
-    chosen = order[np.argsort(rank >= quota, kind="stable")]  # in-quota first, then the rest by strength
-    return chosen[:limit]
+def _strongest(responses: np.ndarray, limit: int) -> np.ndarray:
+    """Indices of the ``limit`` strongest keypoints, strongest first."""
+    return np.argsort(-responses, kind="stable")[:limit]
 
 
 class FeatureExtractor:
     """Detect, describe and back-project keypoints of one RGB-D frame.
 
-    With ``adjuster_iterations`` > 0 the detector threshold adapts as RGB-D SLAM v2's
-    "video" dynamic adjuster does: when a frame yields fewer than ``max_features``
-    keypoints the threshold is lowered (halved) and detection repeated, at most that many
-    times, and when it yields more than 1.5 times as many the threshold is raised for the
-    next frame. The threshold carries over from frame to frame, so faint texture (a plain
-    wooden plane) still gives keypoints while rich texture is not flooded with them.
+    With ``adjuster_iterations`` > 0 (ORB, SIFT) detection is RGB-D SLAM v2's adjusted grid
+    detector (:mod:`.adjuster`): ``grid`` x ``grid`` cells with thresholds of their own, and,
+    as v2's ``projectTo3D``, the first ``max_features`` keypoints with depth in cell order are
+    kept. Otherwise one detector gives the ``max_features`` strongest keypoints.
     """
 
     def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
@@ -117,41 +83,24 @@ class FeatureExtractor:
         self.kind = kind
         self.max_features = max_features
         self.camera = camera
-        self.grid = grid
         self.min_depth = min_depth
         self.max_depth = max_depth
         self.detector, self.describer = _make_detector(kind, max_features)
         self.binary = kind in BINARY_DESCRIPTORS
-        self.adjustable = ADJUSTABLE.get(kind) if adjuster_iterations > 0 else None
-        self.adjuster_iterations = adjuster_iterations
-        self.threshold = self.adjustable.start if self.adjustable else None
-
-    def _set_threshold(self, value: float) -> None:
-        value = float(np.clip(value, self.adjustable.floor, self.adjustable.ceiling))
-        self.threshold = int(round(value)) if self.adjustable.integer else value
-        getattr(self.detector, self.adjustable.setter)(self.threshold)
+        self.adjusted = (GridDetector(kind, max_features, grid, adjuster_iterations)
+                         if adjuster_iterations > 0 and kind in ADJUSTABLE else None)
 
     def _detect(self, gray: np.ndarray) -> list:
+        if self.adjusted is not None:
+            return self.adjusted.detect(gray)
         keypoints = self.detector.detect(gray, None)
-        if self.adjustable is None:
+        if not keypoints:
             return keypoints
-        for _ in range(self.adjuster_iterations):
-            if len(keypoints) >= self.max_features or self.threshold <= self.adjustable.floor:
-                break
-            self._set_threshold(self.threshold / 2)
-            keypoints = self.detector.detect(gray, None)
-        if len(keypoints) > 1.5 * self.max_features:
-            self._set_threshold(self.threshold * 1.5)
-        return keypoints
+        return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
 
     def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         keypoints = self._detect(gray)
-        if keypoints:
-            xy = np.array([k.pt for k in keypoints], dtype=np.float32)
-            strength = np.array([k.response for k in keypoints], dtype=np.float32)
-            keep = _spread_over_grid(xy, strength, gray.shape, self.grid, self.max_features)
-            keypoints = [keypoints[i] for i in keep]
         describer = self.describer or self.detector
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ((), None)
         if descriptors is None or not len(keypoints):
@@ -160,7 +109,11 @@ class FeatureExtractor:
                             np.zeros(0, np.float32), np.zeros((0, 3)), self.binary)
         xy = np.array([k.pt for k in keypoints], dtype=np.float32)
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
-        return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
+        features = Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
+        if self.adjusted is None:
+            return features
+        with_depth = features.has_depth
+        return features.subset(~with_depth | (np.cumsum(with_depth) <= self.max_features))
 
     def backproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """3D points of keypoints, NaN where the depth at the rounded pixel is unusable.

@@ -81,13 +81,14 @@ def mahalanobis_squared(transforms: np.ndarray, source: np.ndarray, target: np.n
     return distances
 
 
-def preferred_samples(count: int, hypotheses: int, rng: np.random.Generator) -> list[np.ndarray]:
-    """``hypotheses`` sets of SAMPLE_SIZE distinct indices into ``count`` best-first matches,
+def preferred_samples(count: int, hypotheses: int, rng: np.random.Generator,
+                      size: int = SAMPLE_SIZE) -> list[np.ndarray]:
+    """``hypotheses`` sets of ``size`` distinct indices into ``count`` best-first matches,
     each index the smaller of two uniform draws (``sample_matches_prefer_by_distance``)."""
     samples = []
     for _ in range(hypotheses):
         chosen: set[int] = set()
-        while len(chosen) < SAMPLE_SIZE:
+        while len(chosen) < size:
             chosen.add(int(rng.integers(count, size=2).min()))
         samples.append(np.array(sorted(chosen)))
     return samples
