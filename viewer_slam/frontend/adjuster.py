@@ -92,7 +92,7 @@ class GridDetector:
                           for _ in range(cells)]
 
     def detect(self, gray: np.ndarray) -> list:
-        """Keypoints of every cell, cell by cell (rows first), each cell's strongest first."""
+        """Keypoints of every cell, each cell's strongest first."""
         keypoints = []
         rows, cols = cell_ranges(gray.shape[0], self.grid), cell_ranges(gray.shape[1], self.grid)
         for i, (top, bottom) in enumerate(rows):

@@ -73,9 +73,10 @@ class FeatureExtractor:
     """Detect, describe and back-project keypoints of one RGB-D frame.
 
     With ``adjuster_iterations`` > 0 (ORB, SIFT) detection is RGB-D SLAM v2's adjusted grid
-    detector (:mod:`.adjuster`): ``grid`` x ``grid`` cells with thresholds of their own, and,
-    as v2's ``projectTo3D``, the first ``max_features`` keypoints with depth in cell order are
-    kept. Otherwise one detector gives the ``max_features`` strongest keypoints.
+    detector (:mod:`.adjuster`): ``grid`` x ``grid`` cells with thresholds of their own; then,
+    as v2's ``Node`` constructor, keypoints without depth are dropped and the ``max_features``
+    strongest of the rest described. Otherwise one detector gives the ``max_features``
+    strongest keypoints.
     """
 
     def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
@@ -90,17 +91,21 @@ class FeatureExtractor:
         self.adjusted = (GridDetector(kind, max_features, grid, adjuster_iterations)
                          if adjuster_iterations > 0 and kind in ADJUSTABLE else None)
 
-    def _detect(self, gray: np.ndarray) -> list:
+    def _detect(self, gray: np.ndarray, depth: np.ndarray) -> list:
         if self.adjusted is not None:
-            return self.adjusted.detect(gray)
-        keypoints = self.detector.detect(gray, None)
+            keypoints = self.adjusted.detect(gray)
+            if keypoints:
+                with_depth = ~np.isnan(self.backproject(np.array([k.pt for k in keypoints], np.float32), depth)[:, 0])
+                keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
+        else:
+            keypoints = self.detector.detect(gray, None)
         if not keypoints:
             return keypoints
         return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
 
     def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        keypoints = self._detect(gray)
+        keypoints = self._detect(gray, depth)
         describer = self.describer or self.detector
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ((), None)
         if descriptors is None or not len(keypoints):
@@ -109,11 +114,7 @@ class FeatureExtractor:
                             np.zeros(0, np.float32), np.zeros((0, 3)), self.binary)
         xy = np.array([k.pt for k in keypoints], dtype=np.float32)
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
-        features = Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
-        if self.adjusted is None:
-            return features
-        with_depth = features.has_depth
-        return features.subset(~with_depth | (np.cumsum(with_depth) <= self.max_features))
+        return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
     def backproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """3D points of keypoints, NaN where the depth at the rounded pixel is unusable.
