@@ -14,7 +14,7 @@ from functools import partial
 from pathlib import Path
 
 from viewer_slam.cli import main
-from viewer_slam.cli.benchmark import parse_resolution
+from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, cached_scenario
 
 IMAGES = Path(__file__).resolve().parent.parent / "docs" / "images"
@@ -31,7 +31,7 @@ def run(arguments: list[str]) -> int:
     with ProcessPoolExecutor(options.jobs) as pool:
         for name, folder in zip(SCENARIOS, pool.map(generate, SCENARIOS)):
             print(f"{name}: {folder}", flush=True)
-    size = ["--frames", str(options.frames)] if options.frames else []
+    size = ["--scenario-frames", str(options.frames)] if options.frames else []
     code = main(["benchmark", *size, "--resolution", options.resolution, "--jobs", str(options.jobs),
                  "--out", str(options.out)])
     IMAGES.mkdir(parents=True, exist_ok=True)

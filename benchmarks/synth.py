@@ -26,7 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from viewer_slam.cli.synth import parse_resolution
+from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, generate_scenario, preview_frames
 
 

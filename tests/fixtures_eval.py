@@ -1,5 +1,6 @@
-"""Trajectories and independent oracles shared by the evaluation tests."""
+"""Trajectories, independent oracles and the shared TUM excerpt used across the tests."""
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -7,7 +8,10 @@ import numpy as np
 from viewer_slam.geometry.se3 import exp_so3, make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
-SHARED_DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+# The shared data sits beside the checkout (``/work/shared`` for ``/work/main``, also for a
+# worktree deeper down): the nearest ancestor that has it.
+SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents
+                    if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[2] / "shared" / "data")
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 
@@ -84,3 +88,17 @@ def tum_horn_errors(model: np.ndarray, data: np.ndarray) -> np.ndarray:
     trans = data.mean(1, keepdims=True) - rot @ model.mean(1, keepdims=True)
     alignment_error = rot @ model + trans - data
     return np.sqrt(np.sum(alignment_error * alignment_error, 0))
+
+
+def tum_excerpt(folder: Path, frames: int) -> Path:
+    """The first ``frames`` colour and depth images of the shared fr1/rpy excerpt, with its groundtruth."""
+    for listing in ("rgb.txt", "depth.txt"):
+        lines = (TUM_RPY / listing).read_text().splitlines()
+        header = [line for line in lines if line.startswith("#")]
+        kept = [line for line in lines if not line.startswith("#")][:frames]
+        (folder / listing.removesuffix(".txt")).mkdir(parents=True)
+        for line in kept:
+            shutil.copy(TUM_RPY / line.split()[1], folder / line.split()[1])
+        (folder / listing).write_text("\n".join(header + kept) + "\n")
+    shutil.copy(TUM_RPY / "groundtruth.txt", folder / "groundtruth.txt")
+    return folder

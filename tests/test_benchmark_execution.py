@@ -70,13 +70,13 @@ def test_failures_are_reported_and_the_other_tasks_finish(folder, tmp_path):
 def test_rerun_is_served_from_the_cache_until_inputs_change(folder, tmp_path):
     cache = ResultCache(tmp_path / "results")
     tasks = [task(folder), task(folder, fail="raise")]
-    first = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False)
+    first = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False).results
     assert [result.cached for result in first] == [False, False]
-    second = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False)
+    second = run_benchmark(tasks, LocalExecutor(jobs=1), cache, progress=False).results
     assert [result.cached for result in second] == [True, False]  # failures are retried
     assert second[0].report == first[0].report and second[0].time_span == first[0].time_span
     changed = [task(folder, offset_m=0.02)]
-    assert not run_benchmark(changed, LocalExecutor(jobs=1), cache, progress=False)[0].cached
+    assert not run_benchmark(changed, LocalExecutor(jobs=1), cache, progress=False).results[0].cached
     (folder / "groundtruth.txt").write_text((folder / "groundtruth.txt").read_text() + "\n")
     assert not ResultCache(tmp_path / "results").load(tasks[0])  # the next run sees the change
 

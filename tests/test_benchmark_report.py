@@ -104,7 +104,7 @@ def test_findings_without_losses_say_so(results):
 def test_cli_runs_writes_outputs_and_reuses_the_cache(tmp_path, capsys):
     folder = write_tum_folder(tmp_path / "tiny", frames=20)
     out = tmp_path / "out"
-    arguments = ["benchmark", str(folder), "--pipelines", "fake", "--out", str(out), "--jobs", "1", "--quiet",
+    arguments = ["benchmark", str(folder), "--pipeline", "fake", "--out", str(out), "--jobs", "1", "--quiet",
                  "--param", "wobble_m=0.02"]
     assert main(arguments) == 0
     first = (out / "results.csv").read_text()
@@ -117,13 +117,14 @@ def test_cli_runs_writes_outputs_and_reuses_the_cache(tmp_path, capsys):
 
 @pytest.mark.parametrize("arguments, message", [
     (["--resolution", "64by48"], "--resolution '64by48': expected WIDTHxHEIGHT"),
-    (["--pipelines", "fake,orb"], "--pipelines 'fake,orb': valid pipelines are"),
+    (["--pipeline", "orb"], "--pipeline 'fake,orb': valid pipelines are"),
+    (["--pipelines", "orb"], "--pipeline 'orb,fake': valid pipelines are"),  # the old spelling, still read
     (["--param", "nonsense=1"], "--param: unknown parameter 'nonsense'"),
     (["--executor", "slurm"], "--executor 'slurm': expected local or ray"),
     (["--ray-address", "auto"], "--ray-address needs --executor ray"),
 ])
 def test_cli_bad_options_exit_2_with_one_line(tmp_path, capsys, arguments, message):
     folder = write_tum_folder(tmp_path / "tiny", frames=3)
-    assert main(["benchmark", str(folder), "--pipelines", "fake", "--out", str(tmp_path / "o"), *arguments]) == 2
+    assert main(["benchmark", str(folder), "--pipeline", "fake", "--out", str(tmp_path / "o"), *arguments]) == 2
     error = capsys.readouterr().err
     assert error.count("\n") == 1 and error.startswith("viewslam: error: ") and message in error

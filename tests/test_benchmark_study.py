@@ -19,7 +19,7 @@ from viewer_slam.dataset.synth import STUDY_SCENARIOS as SCENARIOS
 from viewer_slam.pipelines import base
 
 FRAMES, RESOLUTION = 40, "160x120"
-SIZE = ["--frames", str(FRAMES), "--resolution", RESOLUTION]
+SIZE = ["--scenario-frames", str(FRAMES), "--resolution", RESOLUTION]
 
 pytestmark = pytest.mark.slow
 
@@ -82,7 +82,7 @@ def test_ray_gives_the_local_results(tmp_path, monkeypatch):
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
     # Ray's workers are fresh interpreters: they find the scripted pipeline's module via PYTHONPATH.
     monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))
-    tasks = plan_tasks(["360_kidnap"], ["rgbdslam", "rtabmap"], frames=FRAMES, resolution=(160, 120))
+    tasks = plan_tasks(["360_kidnap"], ["rgbdslam", "rtabmap"], scenario_frames=FRAMES, resolution=(160, 120))
     crash = BenchmarkTask(name="crash", sequence=tasks[0].sequence, pipeline="fake", parameters={"fail": "exit"})
     local = run_tasks(tasks, LocalExecutor(jobs=2))
     remote = run_tasks([*tasks, crash], RayExecutor(jobs=2))

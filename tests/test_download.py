@@ -4,7 +4,6 @@ import http.server
 import io
 import random
 import re
-import shutil
 import socket
 import tarfile
 import threading
@@ -12,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
+from bag_writer import write_tum_bag
 from benchmark_fake_pipeline import write_tum_folder
-from fixtures_eval import TUM_RPY
+from fixtures_eval import TUM_RPY, tum_excerpt
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.tum import open_sequence
@@ -83,10 +83,10 @@ def mirror(tmp_path):
     server.server_close()
 
 
-def serve(server, payload: bytes, name: str = NAME) -> bytes:
+def serve(server, payload: bytes, name: str = NAME, suffix: str = ".tgz") -> bytes:
     camera = name.split("_")[2]
     (server.root / camera).mkdir(exist_ok=True)
-    (server.root / camera / f"{name}.tgz").write_bytes(payload)
+    (server.root / camera / f"{name}{suffix}").write_bytes(payload)
     return payload
 
 
@@ -249,18 +249,36 @@ def test_network_failure_says_what_to_retry(tmp_path, capsys):
     assert list(tmp_path.iterdir()) == []
 
 
-def tum_excerpt(folder: Path, frames: int) -> Path:
-    """The first ``frames`` colour and depth images of the shared fr1/rpy excerpt, with its groundtruth."""
-    for listing in ("rgb.txt", "depth.txt"):
-        lines = (TUM_RPY / listing).read_text().splitlines()
-        header = [line for line in lines if line.startswith("#")]
-        kept = [line for line in lines if not line.startswith("#")][:frames]
-        (folder / listing.removesuffix(".txt")).mkdir(parents=True)
-        for line in kept:
-            shutil.copy(TUM_RPY / line.split()[1], folder / line.split()[1])
-        (folder / listing).write_text("\n".join(header + kept) + "\n")
-    shutil.copy(TUM_RPY / "groundtruth.txt", folder / "groundtruth.txt")
-    return folder
+def test_download_bag_fetches_the_bag_resumably_and_the_name_resolves_to_it(mirror, tmp_path, capsys):
+    source = write_tum_folder(tmp_path / "source", frames=4)
+    bag = serve(mirror, write_tum_bag(source, tmp_path / "source.bag").read_bytes(), suffix=".bag")
+    cut = len(bag) // 2
+    mirror.cut_after = cut
+    tum = tmp_path / "cache" / "tum"
+    assert main(["download", "fr1/xyz", "--bag", "--mirror", mirror.url, "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"viewslam: error: {mirror.url}/freiburg1/{NAME}.bag: download failed: ")
+    assert f"to resume from the {cut:,} bytes in {tum / f'.{NAME}.bag.part'}" in error
+    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "partial"] in \
+        [line.split() for line in capsys.readouterr().out.splitlines()]
+
+    assert main(["download", "fr1/xyz", "--bag", "--mirror", mirror.url, "--quiet"]) == 0
+    assert capsys.readouterr().out == f"fr1/xyz: {tum / f'{NAME}.bag'}\n"
+    assert mirror.ranges == [None, f"bytes={cut}-"] and mirror.sent == len(bag)
+    assert (tum / f"{NAME}.bag").read_bytes() == bag and [p.name for p in tum.iterdir()] == [f"{NAME}.bag"]
+    assert resolve_sequence("fr1/xyz") == tum / f"{NAME}.bag" and len(open_sequence(tum / f"{NAME}.bag")) == 4
+    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "bag"] in \
+        [line.split() for line in capsys.readouterr().out.splitlines()]
+
+
+def test_a_downloaded_bag_that_does_not_open_is_discarded(mirror, tmp_path, capsys):
+    serve(mirror, b"#ROSBAG V2.0\n but nothing after the magic", suffix=".bag")
+    dest = tmp_path / "dest"
+    assert main(["download", "fr1/xyz", "--bag", "--dest", str(dest), "--mirror", mirror.url, "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"viewslam: error: {mirror.url}/freiburg1/{NAME}.bag: download is not a usable ROS bag "
+                            f"(<download>: ") and error.count("\n") == 1
+    assert list(dest.iterdir()) == []  # nothing to resume: the retry downloads afresh
 
 
 @pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")

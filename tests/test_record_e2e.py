@@ -119,9 +119,12 @@ def test_sigint_stops_cleanly_with_a_valid_partial_recording(scenario, tmp_path)
     process = subprocess.Popen([BIN / "viewslam", "record", str(scenario), "--out", str(out)],
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
-    while (not out.exists() or out.stat().st_size < 64 * 1024) and time.monotonic() < deadline:
+    # The recording grows under a temporary name beside its target until the run ends.
+    while not any(part.stat().st_size >= 64 * 1024 for part in tmp_path.glob(".stopped.rrd.*.part")) \
+            and time.monotonic() < deadline:
         assert process.poll() is None, process.communicate()
         time.sleep(0.2)
+    assert not out.exists()
     process.send_signal(signal.SIGINT)
     stdout, stderr = process.communicate(timeout=120)
     assert process.returncode == 130, stderr

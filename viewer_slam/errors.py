@@ -12,3 +12,11 @@ class InputError(ValueError):
     def at(cls, path, problem: str, line: int | None = None) -> "InputError":
         where = f"{path}:{line}" if line is not None else f"{path}"
         return cls(f"{where}: {problem}")
+
+
+class Interrupted(BaseException):
+    """Ctrl-C, SIGTERM or SIGHUP outside a run that stops cleanly on its own.
+
+    Not a KeyboardInterrupt, which the command-line framework would swallow into a silent
+    exit code: the command line turns it into one line and exit code 130.
+    """

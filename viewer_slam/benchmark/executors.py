@@ -82,7 +82,7 @@ class LocalExecutor:
         return self
 
     def __exit__(self, *exc) -> None:
-        self._pool.shutdown(cancel_futures=True)
+        self._pool.shutdown(wait=exc[0] is None, cancel_futures=True)  # an interrupt does not wait for tasks
 
     def submit(self, task: BenchmarkTask) -> Future:
         try:

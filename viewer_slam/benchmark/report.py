@@ -10,6 +10,8 @@ from itertools import combinations
 from pathlib import Path
 
 from .. import __version__
+from ..atomic import StagedFiles
+from ..errors import InputError
 from .plots import CHARTS, plot_all
 from .runner import TaskResult
 from .tables import result_row, write_csv, write_json
@@ -18,16 +20,24 @@ from .tables import result_row, write_csv, write_json
 COVERAGE_TIE = 0.01
 
 
-def write_outputs(results: list[TaskResult], out_dir: Path) -> dict[str, Path]:
-    """Write every output into ``out_dir``; returns the main files by kind."""
+OUTPUT_FILES = ("results.csv", "results.json", "report.md")
+
+
+def write_outputs(results: list[TaskResult], out_dir: Path) -> list[Path]:
+    """Write every output into ``out_dir`` (each file renamed into place once complete); returns them all."""
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = [result_row(result) for result in results]
-    paths = {"csv": out_dir / "results.csv", "json": out_dir / "results.json", "report": out_dir / "report.md"}
-    write_csv(paths["csv"], rows)
-    write_json(paths["json"], rows)
-    plot_all(rows, out_dir)
-    paths["report"].write_text(markdown_report(results))
-    return paths
+    csv_path, json_path, report_path = (out_dir / name for name in OUTPUT_FILES)
+    try:
+        with StagedFiles() as staged:
+            write_csv(staged.path(csv_path), rows)
+            write_json(staged.path(json_path), rows)
+            staged.path(report_path).write_text(markdown_report(results))
+            staged.commit()
+        charts = plot_all(rows, out_dir)
+    except OSError as error:
+        raise InputError.at(out_dir, f"cannot write the results: {error.strerror or error}") from None
+    return [csv_path, json_path, report_path, *charts]
 
 
 def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_") -> str:
@@ -36,8 +46,8 @@ def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_")
     failed = [result for result in results if not result.ok]
     lines = [
         "# Benchmark results", "",
-        f"{sequences} sequences x pipelines {pipelines}; viewslam {__version__}. ATE and RPE follow Sturm et al. "
-        "(RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
+        f"{sequences} sequence{'s' if sequences != 1 else ''} x pipelines {pipelines}; viewslam {__version__}. "
+        "ATE and RPE follow Sturm et al. (RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
         "that lost time with the error of the last pose held.", "",
         "## Results", "",
         results_table(results), "",

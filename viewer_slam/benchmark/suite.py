@@ -1,24 +1,42 @@
-"""A benchmark run: cached results first, the rest on an executor, with one progress bar."""
+"""A benchmark run: cached results first, the rest on an executor, with one progress bar on stderr.
+
+Ctrl-C (or SIGTERM) stops the run: the tasks that finished are returned, in order, so that
+their rows are written.
+"""
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
+from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from ..errors import Interrupted
 from .cache import ResultCache
 from .executors import Executor, run_tasks
 from .runner import BenchmarkTask, TaskResult
 
 
+@dataclass
+class BenchmarkOutcome:
+    """The results of the tasks that finished, in task order; ``interrupted`` if some never ran."""
+
+    results: list[TaskResult]
+    interrupted: bool = False
+
+
 def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: ResultCache | None = None,
-                  *, progress: bool = True) -> list[TaskResult]:
-    """Results for ``tasks`` in their order; cached ones are not re-run, new successes are cached."""
-    cached = {index: cache.load(task) for index, task in enumerate(tasks)} if cache is not None else {}
-    pending = [index for index in range(len(tasks)) if cached.get(index) is None]
+                  *, progress: bool = True) -> BenchmarkOutcome:
+    """Results for ``tasks``; cached ones are not re-run, new successes are cached."""
+    results = {index: cache.load(task) for index, task in enumerate(tasks)} if cache is not None else {}
+    results = {index: result for index, result in results.items() if result is not None}
+    pending = [index for index in range(len(tasks)) if index not in results]
+    position = {id(tasks[index]): index for index in pending}
     running: list[str] = []
+    interrupted = False
     columns = (TextColumn("[bold]benchmark"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                TextColumn("{task.fields[running]}"))
-    with Progress(*columns, disable=not progress) as bar:
-        overall = bar.add_task("benchmark", total=len(tasks), completed=len(tasks) - len(pending), running="")
+    with Progress(*columns, console=Console(stderr=True), disable=not progress) as bar:
+        overall = bar.add_task("benchmark", total=len(tasks), completed=len(results), running="")
 
         def started(task: BenchmarkTask) -> None:
             running.append(task.label)
@@ -27,12 +45,15 @@ def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: Res
         def finished(task: BenchmarkTask, result: TaskResult) -> None:
             running.remove(task.label)
             bar.update(overall, advance=1, running=", ".join(running))
+            results[position[id(task)]] = result
             if not result.ok:
                 bar.console.print(f"[red]failed[/red] {task.label}: {result.error}")
             if cache is not None:
                 cache.store(task, result)
 
-        fresh = run_tasks([tasks[index] for index in pending], executor, on_start=started, on_finish=finished) \
-            if pending else []
-    results = dict(cached) | dict(zip(pending, fresh))
-    return [results[index] for index in range(len(tasks))]
+        try:
+            if pending:
+                run_tasks([tasks[index] for index in pending], executor, on_start=started, on_finish=finished)
+        except (KeyboardInterrupt, Interrupted):
+            interrupted = True
+    return BenchmarkOutcome([results[index] for index in sorted(results)], interrupted)

@@ -59,3 +59,33 @@ def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
 
 def write_json(path: Path, rows: list[dict[str, Any]]) -> None:
     Path(path).write_text(json.dumps(rows, indent=2) + "\n")
+
+
+def print_results(results: list[TaskResult]) -> None:
+    """The results table on stdout: the headline scores of every task, full numbers."""
+    from rich import box
+    from rich.table import Table
+
+    from ..terminal import print_table
+
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, caption="RMSE in m, RPE rot in deg; RPE over 1 s")
+    headers = {"sequence": "sequence", "pipeline": "pipeline", "ate_rmse": "ATE", "penalized_ate_rmse": "penal. ATE",
+               "rpe_trans_rmse": "RPE trans", "rpe_rot_rmse": "RPE rot", "coverage": "coverage",
+               "frames_with_pose": "poses", "frames": "frames", "fps": "fps", "status": "status"}
+    for key, title in headers.items():
+        table.add_column(title, justify="left" if key in ("sequence", "pipeline", "status") else "right",
+                         no_wrap=True)
+    for result in results:
+        row = result_row(result)
+        table.add_row(*(_cell(key, row[key]) for key in headers))
+    print_table(table)
+
+
+def _cell(key: str, value: Any) -> str:
+    if value is None:
+        return "-"
+    if key == "coverage":
+        return f"{value:.1%}"
+    if key == "fps":
+        return f"{value:.1f}"
+    return f"{value:.4f}" if isinstance(value, float) else str(value)

@@ -1,37 +1,107 @@
 """The ``viewslam`` command line: thin wrappers that parse options and call the library.
 
-Bad input of any kind ends in one line on stderr and exit code 2, never a traceback.
+Bad input of any kind ends in one line on stderr and exit code 2, never a traceback; an
+unexpected error ends in one line naming a log file that holds the full traceback. Each
+command imports the heavy libraries (Rerun, OpenCV, Open3D, GTSAM) only when it runs and
+only those it uses, so ``viewslam --help`` and the light commands start at once.
 """
 
+import logging
+import os
+import signal
 import sys
+import tempfile
+import time
+import traceback
+from pathlib import Path
 
-import typer
-
-from ..errors import InputError
-from . import benchmark, datasets, evaluate, record, synth  # noqa: F401  (register commands)
-from .app import app
+from ..errors import InputError, Interrupted
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
+# Rerun's Rust side logs its own errors on stderr (e.g. the file sink's "No space left on
+# device"); the command reports them in its one line instead.
+RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off"
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def _interrupt(signum, frame) -> None:
+    raise Interrupted(signal.Signals(signum).name)
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line)."""
+    previous = {number: signal.signal(number, _interrupt) for number in STOP_SIGNALS}
     try:
+        return _run(argv)
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _run(argv: list[str] | None) -> int:
+    os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
+    logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
+    try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
+        import typer
+
+        from . import benchmark, datasets, evaluate, pipelines, record, synth  # noqa: F401  (register commands)
+        from .app import app
+
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
     except InputError as error:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except typer.TyperException as error:  # usage errors: unknown option, missing argument
+    except _typer_exception("Abort"):
+        print("viewslam: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except _typer_exception("TyperException") as error:  # usage errors: unknown option, missing argument
         if not error.format_message():  # bare `viewslam`: help was printed
             return 0
         context = getattr(error, "ctx", None)
         command = context.command_path if context is not None else "viewslam"
         print(f"{command}: error: {error.format_message()}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except (typer.Abort, KeyboardInterrupt):
+    except (Interrupted, KeyboardInterrupt):
         print("viewslam: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:  # `viewslam ... | head`: the reader left
+        sys.stderr.close()
+        return 0
+    except Exception as error:  # a bug: one line, and the traceback where it can be sent to us
+        print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
+              f"{_traceback_note(error)}", file=sys.stderr)
+        return 1
     return result if isinstance(result, int) else 0
+
+
+def _typer_exception(name: str) -> type[BaseException]:
+    """typer's exception class ``name`` once typer is loaded (an ``except`` clause evaluates it only
+    when an exception is being matched), else a class nothing raises."""
+    typer = sys.modules.get("typer")
+    return getattr(typer, name) if typer is not None else _Never
+
+
+class _Never(Exception):
+    pass
+
+
+def _traceback_note(error: Exception) -> str:
+    """Write the full traceback to a log file; ``"; full traceback in PATH"`` (or nothing if unwritable)."""
+    text = "".join(traceback.format_exception(error))
+    name = f"viewslam-crash-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"
+    for folder in (os.environ.get("VIEWSLAM_LOG_DIR"), tempfile.gettempdir()):
+        if not folder:
+            continue
+        path = Path(folder) / name
+        try:
+            path.write_text(f"viewslam {' '.join(sys.argv[1:])}\n{text}")
+        except OSError:
+            continue
+        return f"; full traceback in {path}"
+    return ""
 
 
 def entry_point() -> None:

@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from .app import app
+from .options import QUIET_HELP
 
 
 @app.command()
@@ -15,7 +16,8 @@ def download(
     mirror: str = typer.Option(None, help="Base URL holding freiburgN/<name>.tgz (default: $VIEWSLAM_TUM_MIRROR, "
                                           "else the TUM server)."),
     force: bool = typer.Option(False, help="Download again even if the sequence is present."),
-    quiet: bool = typer.Option(False, help="No progress bar."),
+    bag: bool = typer.Option(False, "--bag", help="Fetch the sequence's ROS bag (NAME.bag) instead of the archive."),
+    quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Download TUM RGB-D sequences (resuming a partial download; verified, then moved into place)."""
     from ..dataset.catalog import known_tum_sequence
@@ -24,7 +26,7 @@ def download(
     for name in names:  # every name is checked before anything is downloaded
         known_tum_sequence(name)
     for name in names:
-        folder = download_sequence(name, dest, mirror, progress=not quiet, force=force)
+        folder = download_sequence(name, dest, mirror, progress=not quiet, force=force, bag=bag)
         typer.echo(f"{name}: {folder}")
 
 
@@ -47,9 +49,12 @@ def sequences() -> None:
 
 
 def _state(folder: Path, name: str) -> str:
-    """``downloaded``, ``partial`` (an interrupted download that the next one resumes) or nothing."""
+    """``downloaded``, ``bag`` (its ROS bag is downloaded), ``partial`` (an interrupted download
+    that the next one resumes) or nothing."""
     from ..dataset.download import partial_archive
 
     if (folder / name).is_dir():
         return "downloaded"
-    return "partial" if partial_archive(folder, name).is_file() else ""
+    if (folder / f"{name}.bag").is_file():
+        return "bag"
+    return "partial" if any(partial_archive(folder, name, bag).is_file() for bag in (False, True)) else ""

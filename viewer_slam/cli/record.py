@@ -6,10 +6,9 @@ from pathlib import Path
 import typer
 
 from ..errors import InputError
-from ..recording.console import print_summary
-from ..recording.session import BOTH, RecordOptions, record
 from ..recording.viewer import viewer_binary
 from .app import app
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
 
 EXIT_INTERRUPTED = 130
 
@@ -18,23 +17,26 @@ EXIT_INTERRUPTED = 130
 def record_command(
     sequence: str | None = typer.Argument(
         None, help="TUM folder, synthetic scenario or TUM sequence name; none: the built-in demo."),
-    pipeline: str = typer.Option(BOTH, help="rgbdslam, rtabmap or both."),
+    pipeline: list[str] = typer.Option(["both"], help=PIPELINE_HELP),
     out: Path | None = typer.Option(None, help="Recording to write (default recordings/<sequence>.rrd); "
                                               "NAME.json and NAME.<pipeline>.txt go beside it."),
-    max_frames: int | None = typer.Option(None, min=1, help="Process at most this many frames."),
+    max_frames: int | None = typer.Option(None, min=1, help=MAX_FRAMES_HELP),
     stride: int = typer.Option(1, min=1, help="Use every K-th frame."),
     param: list[str] = typer.Option([], help="Pipeline parameter under its original name, KEY=VALUE."),
     config: Path | None = typer.Option(None, help="TOML file of parameters (flat, or one table per pipeline)."),
-    seed: int = typer.Option(0, help="Seed of every random choice."),
+    seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of every random choice."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar and no summary."),
     spawn: bool = typer.Option(False, "--spawn", help="Also stream live into a Rerun viewer."),
 ) -> int:
     """Run SLAM pipelines over SEQUENCE into a Rerun recording, with a report and trajectories."""
-    result = record(RecordOptions(sequence=sequence, pipeline=pipeline, out=out, max_frames=max_frames,
+    from ..recording.console import print_summary
+    from ..recording.session import RecordOptions, record
+
+    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline), out=out, max_frames=max_frames,
                                   stride=stride, params=param, config=config, seed=seed, quiet=quiet,
                                   spawn=spawn))
     if not quiet:
-        print_summary(result.report, [result.recording, result.report_path, *result.trajectories.values()])
+        print_summary(result.report, result.written)
     return EXIT_INTERRUPTED if result.interrupted else 0
 
 

@@ -1,10 +1,10 @@
 """Known sequences: what a SEQUENCE argument may name, and where its folder is.
 
-A SEQUENCE is, in order of precedence, an existing TUM folder, a synthetic scenario name
+A SEQUENCE is, in order of precedence, an existing TUM folder or ROS bag, a synthetic scenario name
 (generated once into the cache), or a TUM RGB-D sequence name, either the official archive
 name (``rgbd_dataset_freiburg2_360_kidnap``) or its short form (``fr2/360_kidnap``),
 which must have been downloaded into the TUM folder (see :func:`tum_cache_dir`) with
-``viewslam download``.
+``viewslam download`` (the folder, else the ``.bag`` that ``download --bag`` fetched).
 """
 
 import difflib
@@ -78,6 +78,11 @@ class TumSequenceInfo:
         return f"{self.camera}/{self.name}.tgz"
 
     @property
+    def bag(self) -> str:
+        """Path of the sequence's ROS bag below a mirror's base URL."""
+        return f"{self.camera}/{self.name}.bag"
+
+    @property
     def groundtruth_public(self) -> bool:
         """Whether the archive holds ``groundtruth.txt`` (all but the validation sequences)."""
         return self.category != "validation"
@@ -145,7 +150,7 @@ def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[
     recorded sequences.
     """
     path = Path(spec).expanduser()
-    if path.is_dir():
+    if path.is_dir() or (path.suffix == ".bag" and path.is_file()):
         return path
     scenarios = synthetic_scenarios()
     if spec in scenarios:
@@ -154,9 +159,11 @@ def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[
         return cached_scenario(spec, frames=frames, resolution=resolution, seed=seed)
     info = tum_sequence(spec)
     if info is not None:
-        folder = tum_cache_dir() / info.name
+        folder, bag = tum_cache_dir() / info.name, tum_cache_dir() / f"{info.name}.bag"
         if folder.is_dir():
             return folder
+        if bag.is_file():
+            return bag
         raise InputError(f"{spec}: TUM sequence not downloaded; run `viewslam download {info.alias}`")
     raise InputError(
         f"{spec}: not a folder, synthetic scenario or TUM sequence; {_did_you_mean(spec, scenarios)}"

@@ -5,7 +5,9 @@ transfer so that the next call asks only for the missing bytes (HTTP Range). The
 folder appears in ``dest`` only once it is complete and opens as a TUM sequence, because
 it is extracted into a temporary folder beside it and renamed into place. The ``.part``
 is removed once the sequence is in place, or as soon as the archive proves unusable, so
-that a retry starts from a clean download.
+that a retry starts from a clean download. With ``bag``, the sequence's ROS bag is fetched
+the same way into ``<dest>/.<name>.bag.part`` and published as ``<dest>/<name>.bag`` once it
+opens as a sequence.
 """
 
 import gzip
@@ -16,18 +18,21 @@ import shutil
 import tarfile
 import tempfile
 import urllib.error
+import urllib.parse
 import urllib.request
 import zlib
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
+from ..atomic import check_writable
 from ..errors import InputError
 from .catalog import TumSequenceInfo, known_tum_sequence, tum_cache_dir
 
 TUM_MIRROR = "https://cvg.cit.tum.de/rgbd/dataset"
-CHUNK_BYTES = 1 << 20
+CHUNK_BYTES = 1 << 16
 TIMEOUT_S = 60
 RETRY = "run the same `viewslam download` again"
 
@@ -51,39 +56,48 @@ def default_mirror() -> str:
     return os.environ.get("VIEWSLAM_TUM_MIRROR") or TUM_MIRROR
 
 
-def archive_url(info: TumSequenceInfo, mirror: str | None = None) -> str:
-    """The archive's URL below ``mirror`` (default: :func:`default_mirror`)."""
-    return f"{(mirror or default_mirror()).rstrip('/')}/{info.archive}"
+def archive_url(info: TumSequenceInfo, mirror: str | None = None, bag: bool = False) -> str:
+    """The archive's (with ``bag``, the bag's) URL below ``mirror`` (default: :func:`default_mirror`);
+    InputError if that is no URL."""
+    base = mirror or default_mirror()
+    parts = urllib.parse.urlsplit(base)
+    if parts.scheme not in ("http", "https", "file") or (parts.scheme != "file" and not parts.netloc):
+        source = "--mirror" if mirror else "VIEWSLAM_TUM_MIRROR"
+        raise InputError(f"{source} {base!r}: not a URL; expected http://HOST/PATH, https://... or file:///PATH")
+    return f"{base.rstrip('/')}/{info.bag if bag else info.archive}"
 
 
-def partial_archive(dest: Path, name: str) -> Path:
-    """Where the archive of the sequence officially called ``name`` accumulates in ``dest``
-    until it is extracted."""
-    return Path(dest) / f".{name}.tgz.part"
+def partial_archive(dest: Path, name: str, bag: bool = False) -> Path:
+    """Where the archive (or bag) of the sequence officially called ``name`` accumulates in
+    ``dest`` until it is installed."""
+    return Path(dest) / f".{name}.{'bag' if bag else 'tgz'}.part"
 
 
 def download_sequence(name: str, dest: Path | None = None, mirror: str | None = None, *,
-                      progress: bool = True, force: bool = False) -> Path:
-    """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its folder.
+                      progress: bool = True, force: bool = False, bag: bool = False) -> Path:
+    """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its
+    folder, or with ``bag`` its ROS bag ``<dest>/<name>.bag``.
 
-    An already present folder is returned as it is unless ``force``; ``mirror`` defaults to
-    :func:`default_mirror`.
+    An already present folder (bag) is returned as it is unless ``force``; ``mirror``
+    defaults to :func:`default_mirror`.
     """
     info = known_tum_sequence(name)
+    url = archive_url(info, mirror, bag)
     dest = Path(dest) if dest is not None else tum_cache_dir()
-    dest.mkdir(parents=True, exist_ok=True)
-    target = dest / info.name
-    if target.is_dir() and not force:
+    if dest.exists() and not dest.is_dir():
+        raise InputError.at(dest, "is a file; --dest takes a folder")
+    target = dest / (f"{info.name}.bag" if bag else info.name)
+    if (target.is_file() if bag else target.is_dir()) and not force:
         return target
-    url = archive_url(info, mirror)
-    part = partial_archive(dest, info.name)
+    part = partial_archive(dest, info.name, bag)
+    check_writable(part)
     _fetch(url, part, progress)
     try:
-        _install(part, target, url)
+        (_install_bag if bag else _install)(part, target, url)
     except BadArchive:
         part.unlink(missing_ok=True)
         raise
-    part.unlink()
+    part.unlink(missing_ok=True)
     return target
 
 
@@ -145,10 +159,11 @@ def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
                TimeRemainingColumn())
     received = transfer.start
     with open(part, "ab" if transfer.start else "wb") as out, \
-            Progress(*columns, disable=not progress, transient=True) as bar:
+            Progress(*columns, console=Console(stderr=True), disable=not progress, transient=True) as bar:
         task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
-        while chunk := transfer.response.read(CHUNK_BYTES):
+        while chunk := transfer.response.read1(CHUNK_BYTES):  # whatever has arrived, up to CHUNK_BYTES
             out.write(chunk)
+            out.flush()  # every byte received survives an interrupted transfer
             received += len(chunk)
             bar.update(task, completed=received)
     if transfer.total is not None and received < transfer.total:
@@ -163,6 +178,22 @@ def _install(archive: Path, target: Path, url: str) -> None:
         if target.exists():
             shutil.rmtree(target)
         folder.rename(target)
+
+
+def _install_bag(part: Path, target: Path, url: str) -> None:
+    """Open the downloaded bag as a sequence, and only then move it to ``target``."""
+    from .rosbag import open_bag
+
+    checked = target.with_name(f".{target.name}")  # rosbags tells a ROS 1 bag by its .bag suffix
+    part.replace(checked)
+    try:
+        open_bag(checked)
+    except InputError as error:
+        checked.unlink()
+        problem = str(error).replace(str(checked), "<download>")
+        raise BadArchive(f"{url}: download is not a usable ROS bag ({problem}); {RETRY} to download it afresh") \
+            from None
+    checked.replace(target)
 
 
 def _extract(archive: Path, into: Path, url: str) -> Path:

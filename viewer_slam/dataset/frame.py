@@ -8,6 +8,7 @@ from typing import Protocol
 import numpy as np
 
 from ..geometry.camera import Camera
+from ..geometry.interpolation import interpolate_poses
 from ..geometry.trajectory import Trajectory
 
 
@@ -42,3 +43,36 @@ class Sequence(Protocol):
     def __len__(self) -> int: ...
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]: ...
+
+
+class TimedFrames:
+    """Timing and groundtruth look-ups of a sequence with one colour stamp per frame.
+
+    Subclasses set ``timestamps`` (seconds, increasing) and ``groundtruth``.
+    """
+
+    timestamps: np.ndarray
+    groundtruth: Trajectory | None
+
+    def __len__(self) -> int:
+        return len(self.timestamps)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.timestamps[-1] - self.timestamps[0])
+
+    @property
+    def frame_period(self) -> float | None:
+        """Median time between associated frames (None for a single frame)."""
+        return float(np.median(np.diff(self.timestamps))) if len(self.timestamps) > 1 else None
+
+    def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""
+        if self.groundtruth is None:
+            stamps = np.asarray(stamps, dtype=np.float64).reshape(-1)
+            return np.full((len(stamps), 4, 4), np.nan), np.zeros(len(stamps), dtype=bool)
+        return interpolate_poses(self.groundtruth, stamps)
+
+    def frames_outside_groundtruth(self) -> np.ndarray:
+        """Indices of the frames at which no groundtruth pose can be interpolated."""
+        return np.flatnonzero(~self.groundtruth_at(self.timestamps)[1])

@@ -8,21 +8,25 @@ overlaps with the processing of the frames before.
 
 import logging
 import re
+import struct
+import zlib
 from collections import deque
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from ..errors import InputError
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.interpolation import interpolate_poses
 from ..geometry.trajectory import Trajectory, read_tum
-from .frame import Frame
+from .frame import Frame, TimedFrames
+
+if TYPE_CHECKING:
+    from .rosbag import BagSequence
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +42,6 @@ FREIBURG_CAMERAS = {
 ROS_DEFAULT_CAMERA = Camera(525.0, 525.0, 319.5, 239.5, 640, 480)
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_PNG_END = b"IEND\xaeB`\x82"
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,7 @@ class _Listing:
     values: list[list[str]]
 
 
-class TumSequence:
+class TumSequence(TimedFrames):
     """A TUM RGB-D folder as a :class:`~viewer_slam.dataset.frame.Sequence`.
 
     ``timestamps`` are the associated colour stamps (one per frame), ``depth_timestamps``
@@ -72,20 +75,10 @@ class TumSequence:
         self._rgb_files = [rgb.values[i][0] for i in rgb_index]
         self._depth_files = [depth.values[i][0] for i in depth_index]
 
-    def __len__(self) -> int:
-        return len(self.timestamps)
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.timestamps[-1] - self.timestamps[0])
-
-    @property
-    def frame_period(self) -> float | None:
-        """Median time between associated frames (None for a single frame)."""
-        return float(np.median(np.diff(self.timestamps))) if len(self.timestamps) > 1 else None
-
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
+        import cv2  # OpenCV loads only when images are read, not for listings and groundtruth
+
         rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]
         rgb = cv2.cvtColor(self._read_image(rgb_path, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         raw_depth = self._read_image(depth_path, cv2.IMREAD_UNCHANGED)
@@ -117,37 +110,50 @@ class TumSequence:
                 for future in pending:
                     future.cancel()
 
-    def groundtruth_at(self, stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Groundtruth poses at ``stamps`` and the mask of stamps it covers (see interpolate_poses)."""
-        if self.groundtruth is None:
-            stamps = np.asarray(stamps, dtype=np.float64).reshape(-1)
-            return np.full((len(stamps), 4, 4), np.nan), np.zeros(len(stamps), dtype=bool)
-        return interpolate_poses(self.groundtruth, stamps)
-
-    def frames_outside_groundtruth(self) -> np.ndarray:
-        """Indices of the frames at which no groundtruth pose can be interpolated."""
-        return np.flatnonzero(~self.groundtruth_at(self.timestamps)[1])
-
     @staticmethod
     def _read_image(path: Path, flags: int) -> np.ndarray:
+        import cv2
+
         try:
             data = path.read_bytes()
         except FileNotFoundError:
             raise InputError.at(path, "image listed in the sequence is missing") from None
         except OSError as error:
             raise InputError.at(path, f"cannot read image: {error.strerror}") from None
-        # libpng prints its own complaint on truncated files; catch the common case first.
-        if data.startswith(_PNG_SIGNATURE) and not data.rstrip(b"\0").endswith(_PNG_END):
-            raise InputError.at(path, "truncated PNG")
+        if data.startswith(_PNG_SIGNATURE):
+            _check_png(path, data)
         image = cv2.imdecode(np.frombuffer(data, np.uint8), flags) if data else None
         if image is None:
             raise InputError.at(path, "not a readable image")
         return image
 
 
-def open_sequence(path: Path) -> TumSequence:
-    """Open a TUM RGB-D folder; :class:`InputError` if it is not one."""
+def _check_png(path: Path, data: bytes) -> None:
+    """Refuse a truncated or corrupt PNG before libpng sees it (libpng prints its own complaint
+    on stderr): every chunk must be complete, match its CRC, and the last must be IEND."""
+    offset = len(_PNG_SIGNATURE)
+    while offset + 12 <= len(data):
+        length, kind = struct.unpack(">I4s", data[offset:offset + 8])
+        end = offset + 12 + length
+        if end > len(data):
+            break
+        (crc,) = struct.unpack(">I", data[end - 4:end])
+        if zlib.crc32(data[offset + 4:end - 4]) != crc:
+            raise InputError.at(path, f"corrupt PNG (bad checksum of its {kind.decode('latin-1')} chunk)")
+        if kind == b"IEND":
+            return
+        offset = end
+    raise InputError.at(path, "truncated PNG")
+
+
+def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
+    """Open a TUM RGB-D folder, or a ROS bag (see :func:`~viewer_slam.dataset.rosbag.open_bag`
+    for ``bag_options``); :class:`InputError` if it is neither."""
+    from .rosbag import is_bag, open_bag  # a bag's reader loads only for a bag
+
     path = Path(path)
+    if is_bag(path):
+        return open_bag(path, **bag_options)
     if not path.is_dir():
         raise InputError.at(path, "no such folder" if not path.exists() else "not a folder")
     for required in ("rgb.txt", "depth.txt"):
@@ -155,7 +161,7 @@ def open_sequence(path: Path) -> TumSequence:
             raise InputError.at(path, f"not a TUM RGB-D sequence (no {required})")
     groundtruth_path = path / "groundtruth.txt"
     accelerometer_path = path / "accelerometer.txt"
-    return TumSequence(
+    sequence = TumSequence(
         path=path,
         camera=_camera_for(path),
         rgb=_read_listing(path / "rgb.txt", value_fields=1),
@@ -163,24 +169,36 @@ def open_sequence(path: Path) -> TumSequence:
         groundtruth=read_tum(groundtruth_path) if groundtruth_path.is_file() else None,
         accelerometer=_accelerations(accelerometer_path) if accelerometer_path.is_file() else None,
     )
+    groundtruth = sequence.groundtruth
+    if groundtruth is not None and len(sequence.frames_outside_groundtruth()) == len(sequence):
+        log.warning("%s: no frame lies within the groundtruth's time span (frames %.3f..%.3f s, groundtruth "
+                    "%.3f..%.3f s); nothing can be evaluated", groundtruth_path, sequence.timestamps[0],
+                    sequence.timestamps[-1], groundtruth.timestamps[0], groundtruth.timestamps[-1])
+    return sequence
 
 
 def _camera_for(path: Path) -> Camera:
     """camera.json, else the published calibration named by the folder, else ROS's default."""
     if (path / "camera.json").is_file():
         return Camera.load(path / "camera.json")
-    match = re.search(r"freiburg[123]", path.resolve().name)
-    if match:
-        return FREIBURG_CAMERAS[match.group(0)]
+    camera = freiburg_camera(path.resolve().name)
+    if camera is not None:
+        return camera
     log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
                 "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
     return ROS_DEFAULT_CAMERA
 
 
+def freiburg_camera(name: str) -> Camera | None:
+    """The published calibration of the sensor a TUM name (folder or bag) says, if it says one."""
+    match = re.search(r"freiburg[123]", name)
+    return FREIBURG_CAMERAS[match.group(0)] if match else None
+
+
 def _read_listing(path: Path, value_fields: int) -> _Listing:
     """Lines ``timestamp v1 .. vk``, ``#`` comments skipped; InputError with the line number."""
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is not part of the first line
     except (OSError, UnicodeDecodeError) as error:
         raise InputError.at(path, f"cannot read: {error}") from None
     stamps, values = [], []

@@ -4,6 +4,9 @@ import json
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
+from functools import cache
+from typing import Annotated
+
 import numpy as np
 
 from ..errors import InputError
@@ -71,21 +74,44 @@ class Camera:
 
     @classmethod
     def load(cls, path: Path) -> "Camera":
-        """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion)."""
+        """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion), checked."""
         try:
             data = json.loads(Path(path).read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise InputError.at(path, f"cannot read camera calibration: {error}") from None
-        required = ("fx", "fy", "cx", "cy", "width", "height")
-        missing = [key for key in required if key not in data]
-        if missing:
-            raise InputError.at(path, f"camera calibration lacks {', '.join(missing)}")
+        import pydantic  # only where a calibration file is read: it adds to every command's start-up
+
         try:
-            return cls(
-                fx=float(data["fx"]), fy=float(data["fy"]), cx=float(data["cx"]), cy=float(data["cy"]),
-                width=int(data["width"]), height=int(data["height"]),
-                depth_factor=float(data.get("depth_factor", TUM_DEPTH_FACTOR)),
-                distortion=tuple(float(v) for v in data.get("distortion", (0.0,) * 5)),
-            )
-        except (TypeError, ValueError) as error:
-            raise InputError.at(path, f"bad camera calibration value: {error}") from None
+            checked = _camera_schema().model_validate(data)
+        except pydantic.ValidationError as error:
+            raise InputError.at(path, _problem(error)) from None
+        return cls(**checked.model_dump())
+
+
+def _problem(error) -> str:
+    """The missing keys, else ``FIELD must be ..., got VALUE`` for the first problem of a pydantic
+    ValidationError."""
+    missing = [str(detail["loc"][0]) for detail in error.errors() if detail["type"] == "missing"]
+    if missing:
+        return f"camera calibration lacks {', '.join(missing)}"
+    detail = error.errors()[0]
+    if detail["type"] == "model_type":
+        return f"bad camera calibration: expected a JSON object with fx, fy, cx, cy, width, height, " \
+               f"got {detail['input']!r}"
+    where = ".".join(map(str, detail["loc"]))
+    return f"bad camera calibration: {where} {detail['msg'].replace('Input should be', 'must be')}, " \
+           f"got {detail['input']!r}"
+
+
+@cache
+def _camera_schema():
+    """The schema of camera.json: positive focal lengths, size and depth factor, finite numbers."""
+    import pydantic
+
+    finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
+    positive = Annotated[float, pydantic.Field(gt=0, allow_inf_nan=False)]
+    pixels = Annotated[int, pydantic.Field(gt=0, le=100_000)]
+    return pydantic.create_model(
+        "CameraFile", __config__=pydantic.ConfigDict(extra="ignore"),
+        fx=(positive, ...), fy=(positive, ...), cx=(finite, ...), cy=(finite, ...), width=(pixels, ...),
+        height=(pixels, ...), depth_factor=(positive, TUM_DEPTH_FACTOR), distortion=(tuple[finite, ...], (0.0,) * 5))

@@ -38,18 +38,36 @@ class Trajectory:
         return cls(np.zeros(0), np.zeros((0, 4, 4)))
 
 
-def read_tum(path: Path) -> Trajectory:
-    """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
-
-    Every malformed line raises :class:`InputError` naming the file and line number.
-    """
-    path = Path(path)
+def read_text(path: Path) -> str:
+    """The text of a trajectory file; a missing or unreadable file is an :class:`InputError`."""
     try:
-        text = path.read_text()
+        return Path(path).read_text()
     except FileNotFoundError:
         raise InputError.at(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as error:
         raise InputError.at(path, f"cannot read: {error}") from None
+
+
+def parse_numbers(path: Path, fields: list[str], line: int) -> list[float]:
+    """The fields of line ``line`` of ``path`` as finite numbers, else an :class:`InputError` there."""
+    try:
+        values = [float(field) for field in fields]
+    except ValueError:
+        raise InputError.at(path, "a field is not a number", line) from None
+    if not all(math.isfinite(value) for value in values):
+        raise InputError.at(path, "a field is NaN or infinite", line)
+    return values
+
+
+def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
+    """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
+
+    Every malformed line raises :class:`InputError` naming the file and line number. Lines
+    out of time order are sorted, unless ``in_order`` demands strictly increasing stamps
+    (an estimate whose stamps go backwards is more likely broken than shuffled).
+    """
+    path = Path(path)
+    text = read_text(path)
     rows = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
@@ -58,14 +76,12 @@ def read_tum(path: Path) -> Trajectory:
         fields = stripped.replace(",", " ").split()
         if len(fields) != 8:
             raise InputError.at(path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number)
-        try:
-            values = [float(v) for v in fields]
-        except ValueError:
-            raise InputError.at(path, "a field is not a number", number) from None
-        if not all(math.isfinite(v) for v in values):
-            raise InputError.at(path, "a field is NaN or infinite", number)
+        values = parse_numbers(path, fields, number)
         if math.sqrt(sum(v * v for v in values[4:])) < 1e-9:
             raise InputError.at(path, "zero quaternion", number)
+        if in_order and rows and values[0] <= rows[-1][0]:
+            raise InputError.at(path, f"timestamp {fields[0]} does not increase (previous {rows[-1][0]:.6f})",
+                                number)
         rows.append(values)
     if not rows:
         raise InputError.at(path, "no poses in trajectory file")

@@ -1,7 +1,16 @@
-"""The pipeline interface and the registry that builds pipelines by name."""
+"""The pipeline interface and the registry that builds pipelines by name.
 
+The registry holds the built-in pipelines and every installed plugin: a distribution that
+declares an entry point in the ``viewslam.pipelines`` group, named after the pipeline and
+pointing at a :class:`Pipeline` subclass (see docs/plugins.md). Plugins are imported only
+when one is used or listed, and a plugin that cannot be imported, or is not a pipeline, is
+an :class:`InputError` naming it when it is selected, never an obstacle to the others.
+"""
+
+import dataclasses
 import importlib
 from abc import ABC, abstractmethod
+from importlib.metadata import EntryPoint, entry_points
 from typing import Any, ClassVar
 
 from ..dataset.frame import Frame
@@ -9,6 +18,7 @@ from ..errors import InputError
 from ..geometry.camera import Camera
 from .events import Event
 
+ENTRY_POINT_GROUP = "viewslam.pipelines"
 # Pipelines are imported on first use so that `viewslam evaluate` never pays for them.
 PIPELINE_MODULES = {
     "rgbdslam": "viewer_slam.pipelines.rgbdslam",
@@ -40,11 +50,51 @@ class Pipeline(ABC):
         """Final optimisation; the list ends with a TrajectoryFinal."""
 
 
+def plugin_entry_points() -> dict[str, EntryPoint]:
+    """Installed plugins by pipeline name (not imported yet), in discovery order."""
+    return {point.name: point for point in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def pipeline_names() -> list[str]:
+    """Every pipeline that can be selected: the built-in ones, then the plugins."""
+    return [*PIPELINE_MODULES, *(name for name in plugin_entry_points() if name not in PIPELINE_MODULES)]
+
+
 def pipeline_class(name: str) -> type[Pipeline]:
-    if name not in PIPELINE_MODULES:
-        raise InputError(f"unknown pipeline {name!r}; valid: {', '.join(PIPELINE_MODULES)}")
-    module = importlib.import_module(PIPELINE_MODULES[name])
-    return module.PIPELINE
+    if name in PIPELINE_MODULES:
+        return importlib.import_module(PIPELINE_MODULES[name]).PIPELINE
+    plugin = plugin_entry_points().get(name)
+    if plugin is None:
+        raise InputError(f"unknown pipeline {name!r}; valid: {', '.join(pipeline_names())}")
+    return load_plugin(plugin)
+
+
+def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
+    """The class a plugin's entry point names, checked to be a pipeline."""
+    where = f"pipeline plugin {plugin.name!r} ({plugin.value})"
+    if plugin.name in PIPELINE_MODULES:
+        raise InputError(f"{where}: the name is taken by a built-in pipeline")
+    try:
+        loaded = plugin.load()
+    except Exception as error:  # whatever the plugin's import raises, it is the plugin's fault
+        raise InputError(f"{where}: cannot be imported: {type(error).__name__}: {' '.join(str(error).split())}") \
+            from None
+    problem = interface_problem(loaded)
+    if problem is not None:
+        raise InputError(f"{where}: {problem}")
+    return loaded
+
+
+def interface_problem(candidate: Any) -> str | None:
+    """What keeps ``candidate`` from being a usable pipeline class, or None."""
+    if not (isinstance(candidate, type) and issubclass(candidate, Pipeline)):
+        return f"{candidate!r} is not a subclass of viewer_slam.pipelines.base.Pipeline"
+    if candidate.__abstractmethods__:
+        return f"{candidate.__name__} does not implement {', '.join(sorted(candidate.__abstractmethods__))}"
+    params = getattr(candidate, "Params", None)
+    if not (isinstance(params, type) and dataclasses.is_dataclass(params)):
+        return f"{candidate.__name__}.Params is not a dataclass of parameters"
+    return None
 
 
 def make_pipeline(name: str, camera: Camera, params: Any = None, seed: int = 0) -> Pipeline:

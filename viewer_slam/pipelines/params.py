@@ -6,8 +6,10 @@ for RTAB-Map, ``predecessor_candidates`` for RGB-D SLAM) on the command line
 """
 
 import dataclasses
+import difflib
 import tomllib
 import typing
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -41,56 +43,69 @@ def params_to_dict(params: Any) -> dict[str, Any]:
     return {_key(f): getattr(params, f.name) for f in dataclasses.fields(params)}
 
 
-def _convert(key: str, value: Any, field: dataclasses.Field, kind: type, source: str) -> Any:
-    def bad(expected: str) -> InputError:
-        return InputError(f"{source}: parameter {key} expects {expected}, got {value!r}")
+# Integers go to OpenCV and GTSAM as C ints.
+INT_MAX = 2**31 - 1
 
-    if kind is bool:
-        if isinstance(value, bool):
-            converted = value
-        elif str(value).lower() in ("true", "1", "yes", "on"):
-            converted = True
-        elif str(value).lower() in ("false", "0", "no", "off"):
-            converted = False
-        else:
-            raise bad("true or false")
-    elif kind is int:
-        try:
-            if isinstance(value, bool) or float(value) != int(float(value)):
-                raise ValueError
-            converted = int(float(value))
-        except (TypeError, ValueError):
-            raise bad("an integer") from None
-    elif kind is float:
-        try:
-            if isinstance(value, bool):
-                raise ValueError
-            converted = float(value)
-        except (TypeError, ValueError):
-            raise bad("a number") from None
-    else:
-        converted = str(value)
-    choices = field.metadata.get("choices")
-    if choices and converted not in choices:
-        raise InputError(f"{source}: parameter {key} must be one of {', '.join(map(str, choices))}, got {value!r}")
-    return converted
+
+@cache
+def schema(params_type: type):
+    """A pydantic model of ``params_type``'s fields under their external keys, with the declared
+    choices and bounds; every number must be finite, every integer fit a C int."""
+    import pydantic  # only where parameters are checked: it adds to every command's start-up
+
+    hints = typing.get_type_hints(params_type)
+    fields = {}
+    for field in dataclasses.fields(params_type):
+        kind = hints[field.name]
+        choices = field.metadata.get("choices")
+        bounds = dict(field.metadata.get("bounds") or {})
+        if kind is int and "le" not in bounds and "lt" not in bounds:
+            bounds["le"] = INT_MAX
+        if kind is int and "ge" not in bounds and "gt" not in bounds:
+            bounds["ge"] = -INT_MAX
+        annotation = typing.Literal[tuple(choices)] if choices else kind
+        numeric = {"allow_inf_nan": False} if kind is float else {}
+        fields[field.name] = (annotation, pydantic.Field(field.default, alias=_key(field), **bounds, **numeric))
+    config = pydantic.ConfigDict(extra="forbid", populate_by_name=False)
+    return pydantic.create_model(f"{params_type.__name__}Schema", __config__=config, **fields)
+
+
+_EXPECTED = {"int": "expects an integer", "float": "expects a number", "bool": "expects true or false",
+             "string": "expects text", "finite": "expects a finite number"}
+
+
+def _problem(error, params_type: type) -> str:
+    """``KEY problem, got VALUE`` for the first problem of a validation error, in our one-line style."""
+    detail = error.errors()[0]
+    key = str(detail["loc"][0]) if detail["loc"] else "?"
+    kind = detail["type"]
+    if kind == "literal_error":
+        problem = "must be one of " + ", ".join(map(str, param_fields(params_type)[key].metadata["choices"]))
+    elif kind.split("_")[0] in _EXPECTED:
+        problem = _EXPECTED[kind.split("_")[0]]
+    else:  # a bound: "Input should be greater than 0"
+        problem = detail["msg"].replace("Input should be", "must be")
+    return f"{key} {problem}, got {detail['input']!r}"
 
 
 def apply_overrides(params: Any, overrides: dict[str, Any], source: str) -> Any:
-    """A copy of ``params`` with ``overrides`` (external key -> raw value) applied.
+    """A copy of ``params`` with ``overrides`` (external key -> raw value) applied and checked.
 
-    Unknown keys and values of the wrong type raise :class:`InputError` naming ``source``
-    and, for unknown keys, the valid keys.
+    Unknown keys and values of the wrong type or outside the declared choices and bounds
+    raise :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys).
     """
     fields = param_fields(type(params))
-    hints = typing.get_type_hints(type(params))
-    changes = {}
-    for key, value in overrides.items():
+    for key in overrides:
         if key not in fields:
             raise InputError(f"{source}: unknown parameter {key!r}; valid: {', '.join(fields)}")
-        field = fields[key]
-        changes[field.name] = _convert(key, value, field, hints[field.name], source)
-    return dataclasses.replace(params, **changes)
+    import pydantic
+
+    values = params_to_dict(params) | dict(overrides)
+    try:
+        checked = schema(type(params)).model_validate(values)
+    except pydantic.ValidationError as error:
+        raise InputError(f"{source}: parameter {_problem(error, type(params))}") from None
+    return dataclasses.replace(params, **{name: getattr(checked, name) for name in type(checked).model_fields})
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, str]:
@@ -111,6 +126,10 @@ def load_config(path: Path) -> dict[str, Any]:
             return tomllib.load(handle)
     except FileNotFoundError:
         raise InputError.at(path, "no such file") from None
+    except IsADirectoryError:
+        raise InputError.at(path, "is a folder, not a TOML file") from None
+    except UnicodeDecodeError as error:
+        raise InputError.at(path, f"cannot read config: not UTF-8 text (byte {error.start})") from None
     except (OSError, tomllib.TOMLDecodeError) as error:
         raise InputError.at(path, f"cannot read config: {error}") from None
 
@@ -126,6 +145,11 @@ def resolve_params(params_types: dict[str, type], assignments: list[str] = (), c
     layers: list[tuple[str, dict[str, Any]]] = []
     if config is not None:
         data = load_config(config)
+        for table in (key for key, value in data.items() if isinstance(value, dict) and key not in params_types):
+            close = difflib.get_close_matches(table, params_types, n=1)
+            hint = f"did you mean [{close[0]}]? " if close else ""
+            raise InputError.at(config, f"table [{table}] names no selected pipeline; {hint}"
+                                f"tables: {', '.join(f'[{name}]' for name in params_types)}")
         for name in params_types:
             table = data.get(name)
             if isinstance(table, dict):

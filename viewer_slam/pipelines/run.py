@@ -9,7 +9,7 @@ import numpy as np
 
 from ..dataset.frame import Sequence
 from ..geometry.trajectory import Trajectory
-from .base import make_pipeline
+from .base import Pipeline, make_pipeline
 from .edges import EdgeKind
 from .events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingLost, TrajectoryFinal
 from .params import params_to_dict
@@ -82,14 +82,29 @@ def run_pipeline(
     sinks: Iterable[Sink] = (),
     should_stop: Callable[[], bool] = lambda: False,
 ) -> PipelineRun:
-    """Run ``pipeline_name`` over ``sequence`` and return its summary.
+    """Run ``pipeline_name`` over ``sequence`` and return its summary (see :func:`drive`)."""
+    pipeline = make_pipeline(pipeline_name, sequence.camera, params, seed)
+    return drive(pipeline, pipeline_name, sequence, max_frames=max_frames, stride=stride, sinks=sinks,
+                 should_stop=should_stop)
+
+
+def drive(
+    pipeline: Pipeline,
+    name: str,
+    sequence: Sequence,
+    *,
+    max_frames: int | None = None,
+    stride: int = 1,
+    sinks: Iterable[Sink] = (),
+    should_stop: Callable[[], bool] = lambda: False,
+) -> PipelineRun:
+    """Feed ``sequence``'s frames through ``pipeline`` as the run called ``name``; its summary.
 
     Ctrl-C (KeyboardInterrupt) or ``should_stop()`` ends the frame loop early; the
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
     the run is marked interrupted, so everything up to that point is kept.
     """
-    pipeline = make_pipeline(pipeline_name, sequence.camera, params, seed)
-    run = PipelineRun(pipeline=pipeline_name, parameters=params_to_dict(pipeline.params), seed=seed)
+    run = PipelineRun(pipeline=name, parameters=params_to_dict(pipeline.params), seed=pipeline.seed)
     sinks = [run.observe, *sinks]
 
     def emit(events: list[Event]) -> None:

@@ -9,6 +9,7 @@ from rich.table import Table
 
 from ..pipelines.events import Event, FrameTracked
 from ..pipelines.run import Sink
+from ..terminal import print_table
 
 _STATE_STYLES = {"ok": "green", "relocalised": "yellow", "lost": "bold red", "initialising": "dim"}
 
@@ -73,6 +74,6 @@ def print_summary(report: dict, written: list, console: Console | None = None) -
             _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot"), 2),
             f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",
             f"{block['timing']['fps']:.1f}")
-    console.print(table)
+    print_table(table, console)
     for path in written:
         console.print(f"wrote {path}")

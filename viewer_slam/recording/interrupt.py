@@ -1,4 +1,5 @@
-"""Ctrl-C as a request to stop after the current frame, not an exception at a random line."""
+"""Ctrl-C (and SIGTERM, SIGHUP) as a request to stop after the current frame, not an
+exception at a random line."""
 
 import signal
 import sys
@@ -6,9 +7,14 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from ..errors import Interrupted
+
+# A terminal closing (SIGHUP) or a job scheduler stopping the run (SIGTERM) is a Ctrl-C.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
 
 class StopRequest:
-    """Set by the first Ctrl-C; a second Ctrl-C aborts at once (KeyboardInterrupt)."""
+    """Set by the first stop signal; a second one aborts at once (:class:`Interrupted`)."""
 
     def __init__(self):
         self.requested = False
@@ -18,18 +24,19 @@ class StopRequest:
 
     def _handle(self, signum, frame) -> None:
         if self.requested:
-            raise KeyboardInterrupt
+            raise Interrupted(signal.Signals(signum).name)
         self.requested = True
-        print("\nviewslam: stopping after this frame and writing what was recorded "
-              "(Ctrl-C again to abort)", file=sys.stderr)
+        print(f"\nviewslam: {signal.Signals(signum).name}: stopping after this frame and writing what was "
+              "recorded (Ctrl-C again to abort)", file=sys.stderr)
 
     @contextmanager
     def installed(self) -> Iterator["StopRequest"]:
         if threading.current_thread() is not threading.main_thread():
             yield self
             return
-        previous = signal.signal(signal.SIGINT, self._handle)
+        previous = {number: signal.signal(number, self._handle) for number in STOP_SIGNALS}
         try:
             yield self
         finally:
-            signal.signal(signal.SIGINT, previous)
+            for number, handler in previous.items():
+                signal.signal(number, handler)

@@ -5,12 +5,16 @@ before the first frame is read. Pipelines run one after the other into the same
 recording, sharing the ``frame`` and ``time`` timelines. Ctrl-C stops after the current
 frame: the running pipeline finishes on the frames it saw, no further pipeline starts, and
 the recording, report and trajectories are written as far as they got. A frame that turns
-out unreadable mid-run (a corrupt PNG) ends the run the same way, and its error is then
-raised: what came before it is kept.
+out unreadable mid-run (a corrupt PNG), or an unexpected error, ends the run the same way,
+and its error is then raised: what came before it is kept. Every output is written under a
+temporary name and renamed into place at the end, and a lock keeps two runs from writing
+the same ``--out``. A recording the disk could not hold is removed (the previous one, if
+any, stays) and the report says so.
 """
 
+import shutil
+import warnings
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,6 +23,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from ..atomic import StagedFiles, check_writable, exclusive
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
@@ -26,8 +31,9 @@ from ..errors import InputError
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
-from ..pipelines.base import PIPELINE_MODULES, pipeline_class
+from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
+from ..pipelines.selection import BOTH, select_pipelines
 from ..pipelines.run import PipelineRun, run_pipeline
 from . import layout
 from .blueprint import default_blueprint
@@ -43,7 +49,8 @@ DEMO_RESOLUTION = (320, 240)
 DEMO_OUT = Path("recordings/demo.rrd")
 # Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
 BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
-BOTH = "both"
+# Less free space than this after the file sink failed means the disk was full.
+FULL_DISK_BYTES = 1 << 20
 
 
 @dataclass
@@ -68,18 +75,11 @@ class RecordResult:
     report_path: Path
     trajectories: dict[str, Path]
     report: dict[str, Any]
+    written: list[Path] = field(default_factory=list)
 
     @property
     def interrupted(self) -> bool:
         return self.report["interrupted"]
-
-
-def select_pipelines(choice: str) -> list[str]:
-    if choice == BOTH:
-        return list(PIPELINE_MODULES)
-    if choice not in PIPELINE_MODULES:
-        raise InputError(f"--pipeline {choice!r}: valid: {', '.join([*PIPELINE_MODULES, BOTH])}")
-    return [choice]
 
 
 def output_path(sequence: str | None, out: Path | None) -> Path:
@@ -91,21 +91,15 @@ def output_path(sequence: str | None, out: Path | None) -> Path:
     return Path("recordings") / f"{Path(sequence.rstrip('/')).name}.rrd"
 
 
-def check_writable(out: Path) -> None:
-    """Fail now, not after an hour of processing, if the recording cannot be written."""
+def check_outputs(out: Path, pipelines: list[str]) -> None:
+    """Fail now, not after an hour of processing, if the recording or a file beside it cannot be written."""
     if out.suffix != ".rrd":
         raise InputError.at(out, "the recording must have the .rrd extension")
     if out.is_dir():
         raise InputError.at(out, "is a folder; --out takes a file name ending in .rrd")
-    existed = out.exists()
-    try:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        with open(out, "ab"):
-            pass
-    except OSError as error:
-        raise InputError.at(out, f"cannot write the recording: {error.strerror or error}") from None
-    if not existed:
-        out.unlink()
+    report, trajectories = report_paths(out, pipelines)
+    for path in (out, report, *trajectories.values()):
+        check_writable(path)
 
 
 def open_input(sequence: str | None) -> TumSequence:
@@ -126,6 +120,7 @@ class TappedSequence:
 
     An unreadable frame ends the frames there, as a stop request would, and is kept in
     ``error``: the pipeline finishes on what it saw, and the caller saves it before failing.
+    ``read`` counts the frames handed out.
     """
 
     def __init__(self, sequence: Sequence, on_frame: Callable[[Frame], None]):
@@ -134,6 +129,7 @@ class TappedSequence:
         self.name, self.path = sequence.name, sequence.path
         self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
         self.error: InputError | None = None
+        self.read = 0
 
     def __len__(self) -> int:
         return len(self._sequence)
@@ -142,26 +138,63 @@ class TappedSequence:
         try:
             for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
                 self._on_frame(frame)
+                self.read += 1
                 yield frame
         except InputError as error:
             self.error = error
 
 
-@contextmanager
-def recording_stream(out: Path, blueprint: rrb.Blueprint, spawn: bool) -> Iterator[rr.RecordingStream]:
-    """A stream saved to ``out`` (and shown live with ``spawn``), closed even on errors."""
-    stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
-    rr.set_log_time_enabled(False, recording=stream)  # the dataset's time is the one that matters
-    if spawn:
-        rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=stream)
-        stream.set_sinks(rr.FileSink(out), rr.GrpcSink(), default_blueprint=blueprint)
-    else:
-        stream.save(out, default_blueprint=blueprint)
-    try:
-        yield stream
-    finally:
-        stream.flush()
-        stream.disconnect()
+class RecordingFile:
+    """A Rerun stream saved to ``path`` (and shown live with ``spawn``); ``target`` names it in errors.
+
+    The file sink reports write errors (a full disk) only when flushed; :meth:`close`
+    flushes, and ``error`` then says what went wrong, or is None when the file is complete
+    (it ends with the RRD footer that readers need).
+    """
+
+    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, spawn: bool):
+        self.path = path
+        self.error: str | None = None
+        self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
+        rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
+        try:
+            if spawn:
+                rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=self.stream)
+                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(), default_blueprint=blueprint)
+            else:
+                self.stream.save(path, default_blueprint=blueprint)
+        except RuntimeError as error:
+            raise InputError.at(target, f"cannot write the recording: {_disk_problem(path, error)}") from None
+
+    def close(self) -> None:
+        try:
+            self.stream.flush()
+        except RuntimeError as error:
+            self.error = _disk_problem(self.path, error)
+        finally:
+            self.stream.disconnect()
+        if self.error is None and not _has_footer(self.path):
+            self.error = _disk_problem(self.path, None)
+
+
+def _has_footer(path: Path) -> bool:
+    from rerun.chunk import RrdReader
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a file without footer opens with a warning
+        try:
+            RrdReader(path)
+        except (Warning, RuntimeError, OSError):
+            return False
+    return True
+
+
+def _disk_problem(path: Path, error: Exception | None) -> str:
+    """What most likely stopped the file sink: the free space says whether it was a full disk."""
+    free = shutil.disk_usage(path.parent).free
+    if free < FULL_DISK_BYTES:
+        return f"no space left on device ({free:,} bytes free)"
+    return f"the file sink failed ({error})" if error is not None else "the recording is incomplete (no footer)"
 
 
 def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
@@ -175,56 +208,93 @@ def record(options: RecordOptions) -> RecordResult:
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)
-    check_writable(out)
-    return record_sequence(open_input(options.sequence), params, out, options)
+    check_outputs(out, pipelines)
+    with exclusive([out]):
+        return record_sequence(open_input(options.sequence), params, out, options)
 
 
 def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, options: RecordOptions) -> RecordResult:
     """Record the pipelines of ``params`` (name -> parameters), in order, over ``sequence``.
 
     Uses ``options`` for the frame selection, seed, progress and viewer; ``out`` is trusted.
+    Every file is written under a temporary name and renamed into place at the end (also
+    after a stop request or a failure mid-run), so a run that fails before its first frame
+    leaves the previous outputs as they were.
     """
     pipelines = list(params)
     report_path, trajectory_paths = report_paths(out, pipelines)
     blocks: dict[str, dict] = {}
     interrupted = False
-    failure: InputError | None = None
+    failure: Exception | None = None
     groundtruth = sequence.groundtruth
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
-    with StopRequest().installed() as stop, recording_stream(out, blueprint, options.spawn) as stream, \
-            RecordProgress(total, quiet=options.quiet) as progress:
-        log_world(stream, groundtruth)
-        for position, name in enumerate(pipelines):
-            if stop.requested:
-                break
-            recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+    with StagedFiles() as staged, StopRequest().installed() as stop:
+        recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
+        stream = recording.stream
+        try:
+            with RecordProgress(total, quiet=options.quiet) as progress:
+                log_world(stream, groundtruth)
+                for position, name in enumerate(pipelines):
+                    if stop.requested:
+                        break
+                    recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
 
-            def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
-                recorder.begin_frame(frame)
-                if first:  # one copy of each image serves every pipeline's view
-                    log_frame_image(stream, frame)
+                    def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
+                        recorder.begin_frame(frame)
+                        if first:  # one copy of each image serves every pipeline's view
+                            log_frame_image(stream, frame)
 
-            tapped = TappedSequence(sequence, on_frame)
-            run = run_pipeline(tapped, name, params[name], seed=options.seed, max_frames=options.max_frames,
-                               stride=options.stride, sinks=[recorder, progress.sink(name)], should_stop=stop)
-            failure = tapped.error
-            if failure is not None and not run.frames:
-                raise failure  # not one frame was read: there is nothing to keep
-            interrupted = interrupted or run.interrupted or failure is not None
-            evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, recorder.frame_timestamps)
-            if evaluation is not None:
-                log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
-                               np.array(recorder.frame_timestamps))
-            blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
-            write_tum(trajectory_paths[name], run.trajectory)
-            if failure is not None:
-                break
-        report = build_report(sequence, blocks, interrupted or len(blocks) < len(pipelines))
-        if failure is not None:
-            report["error"] = str(failure)
-        write_report(report_path, report)
-    if failure is not None:
+                    tapped = TappedSequence(sequence, on_frame)
+                    try:
+                        run = run_pipeline(tapped, name, params[name], seed=options.seed,
+                                           max_frames=options.max_frames, stride=options.stride,
+                                           sinks=[recorder, progress.sink(name)], should_stop=stop)
+                    except Exception as error:  # an unexpected failure: keep what was recorded before it
+                        if not blocks and not tapped.read:
+                            raise
+                        failure = error
+                        break
+                    failure = tapped.error
+                    if failure is not None and not run.frames:
+                        raise failure  # not one frame was read: there is nothing to keep
+                    interrupted = interrupted or run.interrupted or failure is not None
+                    evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run,
+                                                                   recorder.frame_timestamps)
+                    if evaluation is not None:
+                        log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
+                                       np.array(recorder.frame_timestamps))
+                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
+                    _write(trajectory_paths[name], lambda path: write_tum(path, run.trajectory), staged)
+                    if failure is not None:
+                        break
+        finally:
+            recording.close()
+        if recording.error is not None:
+            staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
+        report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
+        errors = [str(failure) if failure is not None else None,
+                  f"{out}: {recording.error}" if recording.error is not None else None]
+        report["failed"] = any(errors)
+        if report["failed"]:
+            report["error"] = "; ".join(error for error in errors if error)
+        _write(report_path, lambda path: write_report(path, report), staged)
+        staged.commit()
+    written = [path for path in (out, report_path, *trajectory_paths.values()) if path.exists()]
+    if recording.error is not None:
+        raise InputError(f"{out}: recording not written: {recording.error}; the report and trajectories "
+                         f"are in {report_path.parent}")
+    if isinstance(failure, InputError):
         raise InputError(f"{failure}; the frames before it are recorded in {out}, with the report and "
                          f"trajectories beside it")
-    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report)
+    if failure is not None:
+        raise failure
+    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
+
+
+def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
+    """``write`` to ``target``'s temporary file; a failure (a full disk) is one line naming ``target``."""
+    try:
+        write(staged.path(target))
+    except OSError as error:
+        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None

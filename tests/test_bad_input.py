@@ -1,0 +1,328 @@
+"""Bad input to every command: exit code 2, one line on stderr naming the file or option, no
+traceback, and the outputs of an earlier run left exactly as they were.
+
+Almost every case fails before the first frame; the few that fail on the first frame read a
+three-frame excerpt of the shared fr1/rpy sequence.
+"""
+
+import json
+import shutil
+import struct
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from fixtures_eval import TUM_RPY, tum_excerpt
+from viewer_slam.cli import main
+
+pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+
+EARLIER = {"run.rrd": b"earlier recording", "run.json": b'{"earlier": true}\n',
+           "run.rgbdslam.txt": b"# earlier rgbdslam\n", "run.rtabmap.txt": b"# earlier rtabmap\n"}
+
+
+@dataclass
+class Case:
+    """``arguments`` may use {seq}, {out} and {tmp}; ``prepare`` alters the sequence copy first."""
+
+    arguments: list[str]
+    names: str
+    prepare: Callable[[Path, Path], None] | None = None
+
+
+def write(relative: str, content: bytes | str) -> Callable[[Path, Path], None]:
+    def prepare(seq: Path, tmp: Path) -> None:
+        path = tmp / relative.removeprefix("tmp/") if relative.startswith("tmp/") else seq / relative
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(content.encode() if isinstance(content, str) else content)
+    return prepare
+
+
+def mkdir(relative: str) -> Callable[[Path, Path], None]:
+    def prepare(seq: Path, tmp: Path) -> None:
+        (tmp / relative).mkdir(parents=True)
+    return prepare
+
+
+def first_image(seq: Path, folder: str) -> Path:
+    return sorted((seq / folder).iterdir())[0]
+
+
+def corrupt_image_data(seq: Path, tmp: Path) -> None:
+    """Zeroes in the middle of the first colour image's compressed data (its chunks' lengths kept)."""
+    image = first_image(seq, "rgb")
+    data = bytearray(image.read_bytes())
+    data[len(data) // 2:len(data) // 2 + 64] = bytes(64)
+    image.write_bytes(bytes(data))
+
+
+def truncate_image(seq: Path, tmp: Path) -> None:
+    image = first_image(seq, "rgb")
+    image.write_bytes(image.read_bytes()[:5000])
+
+
+def remove_image(seq: Path, tmp: Path) -> None:
+    first_image(seq, "depth").unlink()
+
+
+def eight_bit_depth(seq: Path, tmp: Path) -> None:
+    import cv2
+    import numpy as np
+
+    cv2.imwrite(str(first_image(seq, "depth")), np.zeros((480, 640), np.uint8))
+
+
+def shift_depth_stamps(seq: Path, tmp: Path) -> None:
+    lines = (seq / "depth.txt").read_text().splitlines()
+    (seq / "depth.txt").write_text("\n".join(
+        f"{float(line.split()[0]) + 100:.6f} {line.split()[1]}" if not line.startswith("#") else line
+        for line in lines) + "\n")
+
+
+def replace_line(listing: str, text: str) -> Callable[[Path, Path], None]:
+    def prepare(seq: Path, tmp: Path) -> None:
+        lines = (seq / listing).read_text().splitlines()
+        index = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+        lines[index] = text
+        (seq / listing).write_text("\n".join(lines) + "\n")
+    return prepare
+
+
+CAMERA = {"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480}
+
+
+def camera(**changes) -> Callable[[Path, Path], None]:
+    return write("camera.json", json.dumps(CAMERA | changes).replace("Infinity", "1e999"))
+
+
+RECORD = ["record", "{seq}", "--out", "{out}", "--quiet"]
+RGBDSLAM = [*RECORD, "--pipeline", "rgbdslam"]
+
+RECORD_CASES = {
+    # options
+    "pipeline-unknown": Case([*RECORD, "--pipeline", "orbslam"], "--pipeline 'orbslam'"),
+    "pipeline-empty": Case([*RECORD, "--pipeline", ","], "--pipeline ','"),
+    "pipeline-list-one-unknown": Case([*RECORD, "--pipeline", "both,orb"], "--pipeline 'both,orb'"),
+    "max-keypoints-negative": Case([*RECORD, "--param", "max_keypoints=-5"], "max_keypoints"),
+    "predecessors-zero": Case([*RECORD, "--param", "predecessor_candidates=0"], "predecessor_candidates"),
+    "stm-size-negative": Case([*RECORD, "--param", "Mem/STMSize=-3"], "Mem/STMSize"),
+    "predecessors-inf": Case([*RECORD, "--param", "predecessor_candidates=inf"], "predecessor_candidates"),
+    "predecessors-1e400": Case([*RECORD, "--param", "predecessor_candidates=1e400"], "predecessor_candidates"),
+    "predecessors-huge": Case([*RECORD, "--param", "predecessor_candidates=99999999999"], "predecessor_candidates"),
+    "grid-zero": Case([*RECORD, "--param", "detector_grid_resolution=0"], "detector_grid_resolution"),
+    "ratio-nan": Case([*RECORD, "--param", "nn_distance_ratio=nan"], "nn_distance_ratio"),
+    "ratio-1e400": Case([*RECORD, "--param", "nn_distance_ratio=1e400"], "nn_distance_ratio"),
+    "ratio-above-one": Case([*RECORD, "--param", "nn_distance_ratio=1.5"], "nn_distance_ratio"),
+    "ratio-text": Case([*RECORD, "--param", "nn_distance_ratio=high"], "nn_distance_ratio"),
+    "integer-fraction": Case([*RECORD, "--param", "max_keypoints=2.5"], "max_keypoints"),
+    "detector-surf": Case([*RECORD, "--param", "feature_detector_type=SURF"], "SURF"),
+    "detector-unknown": Case([*RECORD, "--param", "feature_detector_type=FAST"], "feature_detector_type"),
+    "boolean-maybe": Case([*RECORD, "--param", "RGBD/ProximityBySpace=maybe"], "RGBD/ProximityBySpace"),
+    "param-unknown": Case([*RECORD, "--param", "nonsense=1"], "'nonsense'"),
+    "param-no-equals": Case([*RECORD, "--param", "max_keypoints"], "--param 'max_keypoints'"),
+    "param-no-key": Case([*RECORD, "--param", "=5"], "--param '=5'"),
+    "seed-negative": Case([*RECORD, "--seed", "-1"], "--seed"),
+    "seed-too-large": Case([*RECORD, "--seed", "99999999999"], "--seed"),
+    "seed-text": Case([*RECORD, "--seed", "one"], "--seed"),
+    "max-frames-zero": Case([*RECORD, "--max-frames", "0"], "--max-frames"),
+    "stride-zero": Case([*RECORD, "--stride", "0"], "--stride"),
+    "unknown-option": Case([*RECORD, "--frames", "3"], "--frames"),
+    # --config
+    "config-missing": Case([*RECORD, "--config", "{tmp}/nope.toml"], "nope.toml"),
+    "config-undecodable": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", b"\xff\xfe = 1\n")),
+    "config-misspelt-table": Case([*RECORD, "--config", "{tmp}/c.toml"], "[rgbd_slam]",
+                                  write("tmp/c.toml", "[rgbd_slam]\nmax_keypoints = 100\n")),
+    "config-broken": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", "max_keypoints = = 1\n")),
+    "config-folder": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", mkdir("c.toml")),
+    "config-wrong-type": Case([*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints",
+                              write("tmp/c.toml", 'max_keypoints = "many"\n')),
+    "config-table-out-of-range": Case([*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints",
+                                      write("tmp/c.toml", "[rgbdslam]\nmax_keypoints = -1\n")),
+    "config-table-unknown-key": Case([*RECORD, "--config", "{tmp}/c.toml"], "'Mem/STMSize'",
+                                     write("tmp/c.toml", '[rgbdslam]\n"Mem/STMSize" = 3\n')),
+    # outputs
+    "out-not-rrd": Case([*RECORD[:3], "{tmp}/out/run.txt", "--quiet"], "run.txt"),
+    "out-is-folder": Case([*RECORD[:3], "{tmp}/out/dir.rrd", "--quiet"], "dir.rrd", mkdir("out/dir.rrd")),
+    "out-under-a-file": Case([*RECORD[:3], "{seq}/rgb.txt/x.rrd", "--quiet"], "rgb.txt/x.rrd"),
+    "report-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.json", mkdir("out/other.json")),
+    "trajectory-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.rtabmap.txt",
+                                 mkdir("out/other.rtabmap.txt")),
+    # the sequence
+    "sequence-missing": Case(["record", "{tmp}/nothing", "--out", "{out}"], "nothing"),
+    "sequence-is-file": Case(["record", "{seq}/rgb.txt", "--out", "{out}"], "rgb.txt"),
+    "sequence-unknown-name": Case(["record", "fr9/nothing", "--out", "{out}"], "fr9/nothing"),
+    "sequence-not-downloaded": Case(["record", "fr1/xyz", "--out", "{out}"], "fr1/xyz"),
+    "no-rgb-listing": Case(RECORD, "rgb.txt", lambda seq, tmp: (seq / "rgb.txt").unlink()),
+    "listing-three-fields": Case(RECORD, "rgb.txt:4", replace_line("rgb.txt", "1.0 rgb/a.png extra")),
+    "listing-bad-stamp": Case(RECORD, "rgb.txt:4", replace_line("rgb.txt", "soon rgb/a.png")),
+    "listing-nan-stamp": Case(RECORD, "rgb.txt:4", replace_line("rgb.txt", "nan rgb/a.png")),
+    "listing-empty": Case(RECORD, "depth.txt", write("depth.txt", "# nothing\n")),
+    "listing-undecodable": Case(RECORD, "rgb.txt", write("rgb.txt", b"\xff\xfe1.0 rgb/a.png\n")),
+    "no-association": Case(RECORD, "depth.txt", shift_depth_stamps),
+    "groundtruth-bad-line": Case(RECORD, "groundtruth.txt", write("groundtruth.txt", "1.0 2.0 3.0\n")),
+    "accelerometer-bad": Case(RECORD, "accelerometer.txt", write("accelerometer.txt", "1.0 x y z\n")),
+    "camera-null": Case(RECORD, "camera.json", write("camera.json", "null")),
+    "camera-number": Case(RECORD, "camera.json", write("camera.json", "42")),
+    "camera-list": Case(RECORD, "camera.json", write("camera.json", "[1, 2]")),
+    "camera-not-json": Case(RECORD, "camera.json", write("camera.json", "{fx: 1")),
+    "camera-fx-zero": Case(RECORD, "camera.json", camera(fx=0)),
+    "camera-fx-nan": Case(RECORD, "camera.json", write("camera.json", json.dumps(CAMERA).replace("517.3", "NaN"))),
+    "camera-fx-infinite": Case(RECORD, "camera.json", camera(fx=float("inf"))),
+    "camera-fy-negative": Case(RECORD, "camera.json", camera(fy=-500)),
+    "camera-depth-factor-zero": Case(RECORD, "camera.json", camera(depth_factor=0)),
+    "camera-width-zero": Case(RECORD, "camera.json", camera(width=0)),
+    "camera-width-text": Case(RECORD, "camera.json", camera(width="wide")),
+    "camera-missing-key": Case(RECORD, "camera.json",
+                               write("camera.json", json.dumps({k: v for k, v in CAMERA.items() if k != "cy"}))),
+    "camera-distortion-text": Case(RECORD, "camera.json", camera(distortion=[0, "a", 0, 0, 0])),
+    # the first frame
+    "camera-size-differs": Case(RGBDSLAM, "rgb/", camera(width=320, height=240)),
+    "png-corrupt-data": Case(RGBDSLAM, "rgb/", corrupt_image_data),
+    "png-truncated": Case(RGBDSLAM, "rgb/", truncate_image),
+    "png-not-an-image": Case(RGBDSLAM, "rgb/", lambda seq, tmp: first_image(seq, "rgb").write_bytes(b"hello")),
+    "image-missing": Case(RGBDSLAM, "depth/", remove_image),
+    "depth-eight-bit": Case(RGBDSLAM, "depth/", eight_bit_depth),
+}
+
+BENCHMARK = ["benchmark", "{seq}", "--out", "{tmp}/bench", "--quiet", "--no-cache"]
+BENCHMARK_CASES = {
+    "benchmark-out-is-file": Case(["benchmark", "{seq}", "--out", "{seq}/rgb.txt"], "rgb.txt: is a file"),
+    "benchmark-pipeline-unknown": Case([*BENCHMARK, "--pipeline", "orb"], "--pipeline 'orb'"),
+    "benchmark-old-pipelines-unknown": Case([*BENCHMARK, "--pipelines", "orb"], "--pipeline 'orb'"),
+    "benchmark-resolution": Case([*BENCHMARK, "--resolution", "64by48"], "--resolution '64by48'"),
+    "benchmark-resolution-huge": Case([*BENCHMARK, "--resolution", "99999x10"], "--resolution '99999x10'"),
+    "benchmark-executor": Case([*BENCHMARK, "--executor", "slurm"], "--executor 'slurm'"),
+    "benchmark-ray-address": Case([*BENCHMARK, "--ray-address", "auto"], "--ray-address"),
+    "benchmark-param": Case([*BENCHMARK, "--param", "max_keypoints=-5"], "max_keypoints"),
+    "benchmark-param-inf": Case([*BENCHMARK, "--param", "predecessor_candidates=inf"], "predecessor_candidates"),
+    "benchmark-seed-negative": Case([*BENCHMARK, "--seed", "-1"], "--seed"),
+    "benchmark-max-frames-one": Case([*BENCHMARK, "--max-frames", "1"], "--max-frames"),
+    "benchmark-jobs-zero": Case([*BENCHMARK, "--jobs", "0"], "--jobs"),
+    "benchmark-timeout-zero": Case([*BENCHMARK, "--timeout", "0"], "--timeout"),
+    "benchmark-config-undecodable": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "c.toml",
+                                         write("tmp/c.toml", b"\xff\xfe\n")),
+    "benchmark-config-misspelt-table": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "[rtab_map]",
+                                            write("tmp/c.toml", "[rtab_map]\n")),
+    "benchmark-old-frames-option": Case([*BENCHMARK, "--frames", "60"], "--frames"),
+    "benchmark-unknown-sequence": Case(["benchmark", "fr9/none", "--out", "{tmp}/bench", "--quiet"], "fr9/none"),
+}
+
+OTHER_CASES = {
+    "download-unknown": Case(["download", "fr9/none", "--dest", "{tmp}/d"], "fr9/none"),
+    "download-mirror-not-url": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "notaurl"],
+                                    "--mirror 'notaurl'"),
+    "download-mirror-ftp": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "ftp://host/x"],
+                                "--mirror 'ftp://host/x'"),
+    "download-dest-is-file": Case(["download", "fr1/xyz", "--dest", "{seq}/rgb.txt", "--mirror", "http://localhost:9"],
+                                  "rgb.txt"),
+    "evaluate-groundtruth-missing": Case(["evaluate", "{tmp}/none.txt", "{seq}/groundtruth.txt"], "none.txt"),
+    "evaluate-estimate-bad-line": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt",
+                                       write("tmp/e.txt", "1.0 2.0\n")),
+    "evaluate-no-overlap": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt",
+                                write("tmp/e.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")),
+    "evaluate-folder-without-groundtruth": Case(["evaluate", "{seq}", "{tmp}/gt.txt"], "groundtruth.txt",
+                                                lambda seq, tmp: (seq / "groundtruth.txt").rename(tmp / "gt.txt")),
+    "synth-unknown-scenario": Case(["synth", "nowhere", "--out", "{tmp}/s"], "nowhere"),
+    "synth-resolution": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--resolution", "0x480"], "--resolution"),
+    "synth-frames-zero": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--frames", "0"], "--frames"),
+    "synth-seed-negative": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--seed", "-1"], "--seed"),
+    "synth-out-not-empty": Case(["synth", "360_kidnap", "--out", "{seq}", "--frames", "2"], "--force"),
+    "synth-camera-unknown": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--camera", "fr9"], "fr9"),
+    "view-missing": Case(["view", "{tmp}/none.rrd"], "none.rrd"),
+}
+
+CASES = RECORD_CASES | BENCHMARK_CASES | OTHER_CASES
+
+
+@pytest.fixture(scope="module")
+def excerpt(tmp_path_factory) -> Path:
+    return tum_excerpt(tmp_path_factory.mktemp("excerpt") / "rgbd_dataset_freiburg1_rpy", frames=3)
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(path.relative_to(folder)): path.read_bytes() for path in sorted(folder.rglob("*")) if path.is_file()}
+
+
+def test_the_suite_covers_at_least_eighty_cases():
+    assert len(CASES) >= 80
+
+
+@pytest.mark.parametrize("case", CASES.values(), ids=CASES.keys())
+def test_bad_input_is_one_line_exit_2_and_loses_nothing(case, excerpt, tmp_path, capfd, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name, content in EARLIER.items():
+        (out / name).write_bytes(content)
+    if case.prepare is not None:
+        case.prepare(seq, tmp_path)
+    before = snapshot(out)
+    arguments = [argument.format(seq=seq, out=out / "run.rrd", tmp=tmp_path) for argument in case.arguments]
+    assert main(arguments) == 2
+    error = capfd.readouterr().err
+    assert error.count("\n") == 1 and error.endswith("\n"), error
+    assert "Traceback" not in error and "libpng" not in error
+    assert case.names in error
+    assert snapshot(out) == before
+    assert not [path for path in out.iterdir() if path.name.startswith(".")]  # no temporary or lock file left
+
+
+@pytest.mark.parametrize("arguments", [["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
+                                       ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
+                                       ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"]],
+                         ids=["download", "record", "benchmark"])
+def test_a_cache_that_is_a_file_is_one_line_naming_the_variable(arguments, tmp_path, monkeypatch, capfd):
+    (tmp_path / "cache").write_text("not a folder")
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
+    assert main([argument.format(tmp=tmp_path) for argument in arguments]) == 2
+    error = capfd.readouterr().err
+    assert error.count("\n") == 1 and f"VIEWSLAM_CACHE {tmp_path / 'cache'}: cannot create" in error
+    assert (tmp_path / "cache").read_text() == "not a folder"
+
+
+def test_a_bom_in_the_listings_is_read_like_any_text(excerpt, tmp_path):
+    from viewer_slam.dataset.tum import open_sequence
+
+    seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
+    for listing in ("rgb.txt", "depth.txt"):
+        (seq / listing).write_bytes(b"\xef\xbb\xbf" + (seq / listing).read_bytes())
+    assert len(open_sequence(seq)) == len(open_sequence(excerpt)) == 3
+
+
+def test_groundtruth_beside_the_frames_is_a_warning_not_silence(excerpt, tmp_path, caplog):
+    from viewer_slam.dataset.tum import open_sequence
+
+    seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
+    (seq / "groundtruth.txt").write_text("1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")
+    open_sequence(seq)
+    assert [record.levelname for record in caplog.records] == ["WARNING"]
+    assert "groundtruth.txt: no frame lies within the groundtruth's time span" in caplog.text
+    caplog.clear()
+    open_sequence(excerpt)
+    assert not caplog.records
+
+
+def png_chunks(data: bytes) -> list[bytes]:
+    """The chunk types of a PNG, read with the format's own layout (length, type, data, CRC)."""
+    kinds, offset = [], 8
+    while offset < len(data):
+        (length,) = struct.unpack(">I", data[offset:offset + 4])
+        kinds.append(data[offset + 4:offset + 8])
+        assert zlib.crc32(data[offset + 4:offset + 8 + length]) == struct.unpack(
+            ">I", data[offset + 8 + length:offset + 12 + length])[0]
+        offset += 12 + length
+    return kinds
+
+
+def test_the_png_check_accepts_every_image_of_the_real_excerpt(excerpt):
+    from viewer_slam.dataset.tum import open_sequence
+
+    for image in sorted((excerpt / "rgb").iterdir()) + sorted((excerpt / "depth").iterdir()):
+        assert png_chunks(image.read_bytes())[-1] == b"IEND"
+    frames = list(open_sequence(excerpt).frames())
+    assert [frame.rgb.shape for frame in frames] == [(480, 640, 3)] * 3

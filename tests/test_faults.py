@@ -1,0 +1,258 @@
+"""Faults during a run: a full disk, two runs on one --out, stop signals, Ctrl-C at start-up,
+an unexpected error, an interrupted benchmark; and what each command imports at start-up."""
+
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from fixtures_eval import TUM_RPY, tum_excerpt
+from viewer_slam.atomic import exclusive, lock_path
+from viewer_slam.cli import main
+
+pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+
+ROOT = Path(__file__).resolve().parents[1]
+BIN = Path(sys.executable).parent
+TMPFS_BYTES = 600 * 1024
+FRAMES = 60
+
+
+@pytest.fixture(scope="module")
+def excerpt(tmp_path_factory) -> Path:
+    return tum_excerpt(tmp_path_factory.mktemp("excerpt") / "rgbd_dataset_freiburg1_rpy", frames=FRAMES)
+
+
+def viewslam(*arguments, **options) -> subprocess.Popen:
+    environment = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    return subprocess.Popen([sys.executable, "-m", "viewer_slam", *map(str, arguments)], env=environment,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **options)
+
+
+def verify(path: Path) -> bool:
+    return subprocess.run([BIN / "rerun", "rrd", "verify", str(path)], capture_output=True).returncode == 0
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 600 KiB file system (a tmpfs when root), or None where none can be mounted."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "tmpfs", str(mount)],
+                                           capture_output=True).returncode != 0:
+        yield None
+        return
+    yield mount
+    subprocess.run(["umount", str(mount)], check=True)
+
+
+def limit_file_size() -> None:
+    """In the child: files may not grow beyond TMPFS_BYTES; writes past it fail (EFBIG), not kill."""
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (TMPFS_BYTES, TMPFS_BYTES))
+
+
+def test_a_full_disk_is_exit_2_the_report_says_so_and_the_earlier_recording_stays(excerpt, small_disk, tmp_path):
+    folder = small_disk or tmp_path / "limited"
+    folder.mkdir(exist_ok=True)
+    earlier = folder / "run.rrd"
+    earlier.write_bytes(b"earlier recording")
+    child = viewslam("record", excerpt, "--out", earlier, "--pipeline", "rgbdslam", "--max-frames", 12, "--quiet",
+                     preexec_fn=None if small_disk else limit_file_size)
+    out, error = child.communicate(timeout=300)
+    assert child.returncode == 2, error
+    assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {earlier}: recording not written: ")
+    if small_disk:
+        assert "no space left on device" in error
+    assert earlier.read_bytes() == b"earlier recording"
+    report = json.loads((folder / "run.json").read_text())
+    assert report["failed"] is True and "run.rrd" in report["error"]
+    assert report["pipelines"]["rgbdslam"]["frames_with_pose"] > 0
+    assert len((folder / "run.rgbdslam.txt").read_text().splitlines()) == report["pipelines"]["rgbdslam"][
+        "frames_with_pose"]
+    assert sorted(path.name for path in folder.iterdir()) == ["run.json", "run.rgbdslam.txt", "run.rrd"]
+
+
+def test_a_second_run_on_the_same_out_says_so_and_leaves_the_first_alone(excerpt, tmp_path):
+    out = tmp_path / "run.rrd"
+    with exclusive([out]):  # the first run, holding its outputs
+        child = viewslam("record", excerpt, "--out", out, "--quiet")
+        _, error = child.communicate(timeout=120)
+        assert child.returncode == 2
+        assert error == f"viewslam: error: {out}: another viewslam run is writing this output; wait for it or " \
+                        f"choose another --out\n"
+        assert sorted(path.name for path in tmp_path.iterdir()) == [lock_path(out).name]
+    assert not lock_path(out).exists()
+    with exclusive([out]):  # free again once the first run is over
+        pass
+
+
+def test_two_runs_at_once_one_writes_one_refuses(excerpt, tmp_path):
+    out = tmp_path / "run.rrd"
+    runs = [viewslam("record", excerpt, "--out", out, "--pipeline", "rgbdslam", "--max-frames", 4, "--quiet")
+            for _ in range(2)]
+    results = sorted((run.wait(timeout=300), run.stderr.read()) for run in runs)
+    assert [code for code, _ in results] == [0, 2]
+    assert "another viewslam run is writing this output" in results[1][1] and results[1][1].count("\n") == 1
+    assert verify(out) and json.loads(out.with_suffix(".json").read_text())["interrupted"] is False
+
+
+@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
+def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stop):
+    out = tmp_path / "run.rrd"
+    child = viewslam("record", excerpt, "--out", out, "--pipeline", "rgbdslam", "--quiet")
+    deadline = time.monotonic() + 120
+    while not any(path.stat().st_size > 20_000 for path in tmp_path.glob(".run.rrd.*.part")):
+        assert child.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    child.send_signal(stop)
+    _, error = child.communicate(timeout=120)
+    assert child.returncode == 130 and "Traceback" not in error
+    assert f"viewslam: {stop.name}: stopping after this frame" in error
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert report["interrupted"] is True and report["failed"] is False
+    poses = report["pipelines"]["rgbdslam"]["frames_with_pose"]
+    assert 0 < poses < FRAMES
+    assert len(out.with_name("run.rgbdslam.txt").read_text().splitlines()) == poses
+    assert verify(out)
+
+
+def test_ctrl_c_during_start_up_is_one_line_and_exit_130(excerpt, tmp_path, monkeypatch, capsys):
+    import viewer_slam.recording.session as session
+
+    def interrupted(*arguments, **options):
+        signal.raise_signal(signal.SIGINT)  # Ctrl-C while the options are being checked
+
+    monkeypatch.setattr(session, "resolve_params", interrupted)
+    assert main(["record", str(excerpt), "--out", str(tmp_path / "run.rrd"), "--quiet"]) == 130
+    assert capsys.readouterr().err == "viewslam: interrupted\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ctrl_c_while_importing_is_one_line_and_exit_130(excerpt, tmp_path):
+    child = viewslam("record", excerpt, "--out", tmp_path / "run.rrd", "--quiet")
+    time.sleep(1.0)  # in viewslam's imports or option checks (a signal before the interpreter has
+    # loaded the entry point is Python's own)
+    child.send_signal(signal.SIGINT)
+    _, error = child.communicate(timeout=120)
+    assert child.returncode == 130 and "Traceback" not in error and error.count("\n") <= 2, error
+
+
+def test_an_unexpected_error_is_one_line_with_a_log_and_keeps_what_was_recorded(excerpt, tmp_path, monkeypatch,
+                                                                                capsys):
+    from viewer_slam.pipelines.rtabmap import PIPELINE as RtabMap
+
+    def broken(self, frame):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(RtabMap, "process", broken)
+    monkeypatch.setenv("VIEWSLAM_LOG_DIR", str(tmp_path / "logs"))
+    (tmp_path / "logs").mkdir()
+    out = tmp_path / "run.rrd"
+    assert main(["record", str(excerpt), "--out", str(out), "--max-frames", "3", "--quiet"]) == 1
+    error = capsys.readouterr().err
+    log = next((tmp_path / "logs").iterdir())
+    assert error == f"viewslam: internal error: ZeroDivisionError: a bug; full traceback in {log}\n"
+    assert "Traceback (most recent call last)" in log.read_text() and "broken" in log.read_text()
+    report = json.loads(out.with_suffix(".json").read_text())  # rgbdslam ran before rtabmap failed
+    assert report["failed"] is True and "a bug" in report["error"]
+    assert list(report["pipelines"]) == ["rgbdslam"] and report["pipelines"]["rgbdslam"]["frames_with_pose"] == 3
+    assert verify(out)
+
+
+def test_an_interrupted_benchmark_writes_the_finished_rows(tmp_path, monkeypatch, capsys):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    import viewer_slam.benchmark.suite as suite
+    from viewer_slam.benchmark.runner import execute_task
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+
+    def first_then_ctrl_c(tasks, executor, *, on_start, on_finish):
+        on_start(tasks[0])
+        on_finish(tasks[0], execute_task(tasks[0]))
+        signal.raise_signal(signal.SIGTERM)
+
+    monkeypatch.setattr(suite, "run_tasks", first_then_ctrl_c)
+    folders = [write_tum_folder(tmp_path / name, frames=10) for name in ("one", "two")]
+    out = tmp_path / "out"
+    assert main(["benchmark", *map(str, folders), "--pipeline", "fake", "--out", str(out), "--quiet",
+                 "--no-cache"]) == 130
+    rows = (out / "results.csv").read_text().splitlines()
+    assert len(rows) == 2 and rows[1].startswith("one,fake,") and rows[1].endswith(",ok")
+    printed = capsys.readouterr().out
+    assert "1 of 1 task ok; interrupted with 1 not run; wrote " in printed and str(out / "results.csv") in printed
+
+
+def test_benchmark_prints_its_table_with_full_numbers_when_piped(tmp_path, monkeypatch, capsys):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    folder = write_tum_folder(tmp_path / "a_sequence_with_a_long_name_indeed", frames=10)
+    out = tmp_path / "out"
+    assert main(["benchmark", str(folder), "--pipeline", "fake", "--out", str(out), "--quiet", "--no-cache",
+                 "--param", "wobble_m=0.02"]) == 0
+    printed = capsys.readouterr().out
+    row = json.loads((out / "results.json").read_text())[0]
+    assert "…" not in printed and "a_sequence_with_a_long_name_indeed" in printed
+    assert f"{row['ate_rmse']:.4f}" in printed and f"{row['coverage']:.1%}" in printed
+    assert f"1 of 1 task ok; wrote {out / 'results.csv'}, {out / 'results.json'}, {out / 'report.md'}" in printed
+
+
+def test_the_record_summary_is_not_cut_on_a_narrow_console():
+    import io
+
+    from rich.console import Console
+
+    from viewer_slam.recording.console import print_summary
+
+    block = {"frames_with_pose": 1234, "coverage": {"ratio": 0.5}, "ate": {"rmse": 0.123456},
+             "penalized_ate": {"rmse": 1.5}, "rpe": None, "loop_closures": {"accepted": 12, "rejected": 345},
+             "timing": {"fps": 12.5}}
+    stream = io.StringIO()
+    print_summary({"sequence": {"name": "n"}, "interrupted": False, "pipelines": {"rgbdslam": block}}, [],
+                  Console(file=stream, width=30))
+    text = stream.getvalue()
+    assert "…" not in text and "0.123" in text and "1234" in text and "12/345" in text
+
+
+def test_benchmark_max_frames_cuts_the_scenario_rendered_at_its_own_length(monkeypatch):
+    import viewer_slam.benchmark.plan as plan
+
+    rendered = []
+
+    def resolve(spec, *, frames=None, resolution=(640, 480), seed=0):
+        rendered.append((spec, frames))
+        return Path("/scenarios") / spec
+
+    monkeypatch.setattr(plan, "resolve_sequence", resolve)
+    tasks = plan.plan_tasks(["360_kidnap"], ["rgbdslam"], max_frames=60)
+    assert rendered == [("360_kidnap", None)] and tasks[0].max_frames == 60
+
+
+COMMANDS_WITHOUT_HEAVY_IMPORTS = {
+    "help": ["--help"],
+    "evaluate-help": ["evaluate", "--help"],
+    "evaluate": ["evaluate", "{gt}", "{gt}"],
+    "download-help": ["download", "--help"],
+    "download-bad-mirror": ["download", "fr1/xyz", "--mirror", "notaurl"],
+}
+
+
+@pytest.mark.parametrize("arguments", COMMANDS_WITHOUT_HEAVY_IMPORTS.values(), ids=COMMANDS_WITHOUT_HEAVY_IMPORTS)
+def test_light_commands_never_import_rerun_opencv_open3d_or_gtsam(arguments):
+    groundtruth = TUM_RPY / "groundtruth.txt"
+    script = ("import sys\nfrom viewer_slam.cli import main\ncode = main(sys.argv[1:])\n"
+              "print(sorted({name.split('.')[0] for name in sys.modules} & {'rerun', 'cv2', 'open3d', 'gtsam'}))")
+    environment = {**os.environ, "PYTHONPATH": str(ROOT)}
+    result = subprocess.run([sys.executable, "-c", script, *(a.format(gt=groundtruth) for a in arguments)],
+                            capture_output=True, text=True, env=environment, timeout=120)
+    assert result.stdout.splitlines()[-1] == "[]", result.stderr

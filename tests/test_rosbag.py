@@ -1,0 +1,212 @@
+"""ROS bags as sequences: real bags written from the shared TUM excerpt give the folder's frames."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bag_writer import BagWriter, write_tum_bag
+from fixtures_eval import TUM_RPY, tum_excerpt
+from viewer_slam.cli import main
+from viewer_slam.dataset.catalog import resolve_sequence
+from viewer_slam.dataset.rosbag import BagSequence, open_bag
+from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
+from viewer_slam.errors import InputError
+from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
+
+FRAMES = 6
+NAME = "rgbd_dataset_freiburg1_rpy"
+needs_excerpt = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+
+
+@pytest.fixture(autouse=True)
+def private_cache(monkeypatch, tmp_path):
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+
+
+@pytest.fixture(scope="module")
+def excerpt(tmp_path_factory) -> Path:
+    return tum_excerpt(tmp_path_factory.mktemp("excerpt") / NAME, frames=FRAMES)
+
+
+def bag_path(folder: Path, ros: int) -> Path:
+    return folder / (f"{NAME}.bag" if ros == 1 else NAME)
+
+
+@pytest.fixture(scope="module", params=[1, 2], ids=["ros1", "ros2"])
+def bag(request, excerpt, tmp_path_factory) -> Path:
+    return write_tum_bag(excerpt, bag_path(tmp_path_factory.mktemp(f"ros{request.param}"), request.param),
+                         request.param)
+
+
+@needs_excerpt
+def test_a_tum_bag_opens_with_no_options_and_gives_the_folder_frames(bag, excerpt):
+    folder, sequence = open_sequence(excerpt), open_sequence(bag)
+    assert isinstance(sequence, BagSequence) and sequence.name == NAME
+    assert sequence.topics == ("/camera/rgb/image_color", "/camera/depth/image")
+    assert len(sequence) == len(folder) == FRAMES
+    np.testing.assert_array_equal(sequence.timestamps, folder.timestamps)
+    np.testing.assert_array_equal(sequence.depth_timestamps, folder.depth_timestamps)
+    assert sequence.camera == folder.camera == FREIBURG_CAMERAS["freiburg1"]
+    for ours, theirs in zip(sequence.frames(), folder.frames(), strict=True):
+        assert (ours.index, ours.timestamp) == (theirs.index, theirs.timestamp)
+        np.testing.assert_array_equal(ours.rgb, theirs.rgb)
+        np.testing.assert_array_equal(ours.depth, theirs.depth)
+        assert ours.depth.dtype == np.float32 and (ours.depth == 0).any()  # NaN became "no measurement"
+    assert [frame.index for frame in sequence.frames(max_frames=2, stride=2)] == [0, 2]
+    np.testing.assert_array_equal(sequence.frame(3).rgb, folder.frame(3).rgb)
+
+
+@needs_excerpt
+def test_the_tf_chain_from_world_to_the_colour_frame_is_the_groundtruth(bag, excerpt):
+    folder, sequence = open_sequence(excerpt), open_sequence(bag)
+    ours, covered = sequence.groundtruth_at(sequence.timestamps)
+    theirs, folder_covered = folder.groundtruth_at(folder.timestamps)
+    assert covered.all() and folder_covered.all()
+    np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-9)
+    first, last = sequence.groundtruth.timestamps[[0, -1]]
+    assert first < sequence.timestamps[0] and last > sequence.timestamps[-1]
+
+
+@needs_excerpt
+def test_a_groundtruth_file_replaces_the_tf_chain(bag, excerpt):
+    sequence = open_bag(bag, groundtruth=excerpt / "groundtruth.txt")
+    assert len(sequence.groundtruth) == len(open_sequence(excerpt).groundtruth)
+
+
+@needs_excerpt
+@pytest.mark.slow
+def test_recording_the_bag_writes_the_folder_trajectory_byte_for_byte(excerpt, tmp_path):
+    bag = write_tum_bag(excerpt, tmp_path / f"{NAME}.bag", ros=1)
+    outputs = {}
+    for label, source in (("folder", excerpt), ("bag", bag)):
+        out = tmp_path / label / "run.rrd"
+        assert main(["record", str(source), "--pipeline", "rgbdslam", "--max-frames", "5", "--out", str(out),
+                     "--quiet"]) == 0
+        outputs[label] = out.with_name("run.rgbdslam.txt").read_bytes()
+    assert outputs["bag"] == outputs["folder"] and outputs["bag"].count(b"\n") == 5
+
+
+def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
+                  more=lambda bag: None) -> tuple[np.ndarray, np.ndarray]:
+    """A 32x24 bag with a bgr8 topic and a 16UC1 millimetre topic (where ``topics`` names them),
+    and what ``more(bag)`` writes."""
+    rng = np.random.default_rng(0)
+    bgr = rng.integers(0, 256, (frames, 24, 32, 3), dtype=np.uint8)
+    millimetres = rng.integers(0, 6000, (frames, 24, 32), dtype=np.uint16)
+    with BagWriter(path, ros) as bag:
+        for k in range(frames):
+            stamp = 5 * 10**9 + k * 33_333_333
+            if "colour" in topics:
+                bag.image(topics["colour"], stamp, "cam", bgr[k], "bgr8")
+                bag.camera_info("/cam/camera_info", stamp, "cam", 32, 24, (40.0, 41.0, 15.5, 11.5),
+                                (0.1, -0.2, 0.0, 0.0, 0.05))
+            if "depth" in topics:
+                bag.image(topics["depth"], stamp + 1000, "cam", millimetres[k], "16UC1")
+            bag.transform(stamp, "/map", "/base", np.eye(4))  # tf that never moves: no groundtruth
+        more(bag)
+    return bgr, millimetres
+
+
+def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_path):
+    path = tmp_path / "desk"
+    bgr, millimetres = synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})
+    sequence = open_sequence(path)
+    assert (sequence.camera.fx, sequence.camera.fy, sequence.camera.cx, sequence.camera.cy) == (40.0, 41.0, 15.5, 11.5)
+    assert sequence.camera.distortion == (0.1, -0.2, 0.0, 0.0, 0.05) and sequence.groundtruth is None
+    np.testing.assert_array_equal(sequence.timestamps, 5 + np.arange(3) * 0.033333333)
+    for k, frame in enumerate(sequence.frames()):
+        np.testing.assert_array_equal(frame.rgb, bgr[k][:, :, ::-1])
+        np.testing.assert_array_equal(frame.depth, (millimetres[k] / 1000.0).astype(np.float32))
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_groundtruth_from_a_pose_topic(tmp_path, ros):
+    expected = [make_pose(exp_so3(np.array([0.1 * k, 0.0, 0.2])), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
+
+    def poses(bag):
+        types = bag.types
+        for k, pose in enumerate(expected):
+            (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
+            stamp = 5 * 10**9 + k * 10**8
+            message = types["geometry_msgs/msg/PoseStamped"](
+                header=bag.header(stamp, "map"),
+                pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+                                                     orientation=types["geometry_msgs/msg/Quaternion"](
+                                                         x=qx, y=qy, z=qz, w=qw)))
+            bag.add("/mocap/pose", "geometry_msgs/msg/PoseStamped", stamp, message)
+
+    path = tmp_path / ("desk.bag" if ros == 1 else "desk")
+    synthetic_bag(path, ros, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
+    sequence = open_bag(path, groundtruth_topic="/mocap/pose")
+    np.testing.assert_array_equal(sequence.groundtruth.timestamps, 5 + np.arange(4) / 10)
+    np.testing.assert_allclose(sequence.groundtruth.poses, expected, rtol=0, atol=1e-12)
+    with pytest.raises(InputError, match="--groundtruth-topic /cam/image_raw: sensor_msgs/msg/Image, not one of"):
+        open_bag(path, groundtruth_topic="/cam/image_raw")
+
+
+def test_a_ros1_bag_path_resolves_as_a_sequence(tmp_path):
+    path = tmp_path / "desk.bag"
+    synthetic_bag(path, 1, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})
+    assert resolve_sequence(str(path)) == path and len(open_sequence(path)) == 3
+
+
+@pytest.mark.parametrize("topics, options, problem", [
+    pytest.param({}, {}, "no colour image topic (sensor_msgs/msg/Image in rgb8, bgr8, rgba8, bgra8, mono8); "
+                 "topics: /tf (tf2_msgs/msg/TFMessage)", id="no-image"),
+    pytest.param({"colour": "/cam/image_raw"}, {}, "no depth image topic", id="no-depth"),
+    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"rgb_topic": "/tf"},
+                 "--rgb-topic /tf: is tf2_msgs/msg/TFMessage, not an image (sensor_msgs/msg/Image)", id="not-image"),
+    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"rgb_topic": "/cam/depth_mm"},
+                 "--rgb-topic /cam/depth_mm: encoding '16UC1' is not a colour encoding", id="depth-as-colour"),
+    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"depth_topic": "/nothing"},
+                 "--depth-topic /nothing: no such topic", id="missing-topic"),
+    pytest.param({"colour": "/a/image", "depth": "/cam/depth_mm", "second": "/b/image"}, {},
+                 "several colour image topics (/a/image, /b/image); choose one with --rgb-topic", id="ambiguous"),
+])
+def test_bags_without_usable_images_name_the_bag_and_the_problem(tmp_path, topics, options, problem):
+    path = tmp_path / "bad"
+
+    def second_camera(bag):
+        if "second" in topics:
+            bag.image(topics["second"], 5 * 10**9, "other", np.zeros((24, 32, 3), np.uint8), "rgb8")
+
+    synthetic_bag(path, 2, topics, more=second_camera)
+    with pytest.raises(InputError) as raised:
+        open_bag(path, **options)
+    assert str(raised.value).startswith(f"{path}: {problem}") and "\n" not in str(raised.value)
+
+
+def test_an_image_whose_data_do_not_fill_it_is_one_line(tmp_path):
+    path = tmp_path / "short"
+
+    def truncated(bag):
+        message = bag.types["sensor_msgs/msg/Image"](
+            header=bag.header(6 * 10**9, "cam"), height=24, width=32, encoding="bgr8", is_bigendian=0, step=96,
+            data=np.zeros(100, np.uint8))
+        bag.add("/cam/image_raw", "sensor_msgs/msg/Image", 6 * 10**9, message)
+        bag.image("/cam/depth_mm", 6 * 10**9, "cam", np.zeros((24, 32), np.uint16), "16UC1")
+
+    synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=truncated)
+    sequence = open_sequence(path)
+    assert len(sequence) == 4 and sequence.frame(2).rgb.shape == (24, 32, 3)
+    with pytest.raises(InputError, match=rf"^{path}: frame 3 \(6.000000 s\): malformed image \(ValueError: "):
+        sequence.frame(3)
+
+
+def test_record_of_a_bag_without_images_is_one_line_and_exit_2(tmp_path, capsys):
+    path = tmp_path / "empty.bag"
+    synthetic_bag(path, 1, {})
+    out = tmp_path / "out.rrd"
+    assert main(["record", str(path), "--pipeline", "rgbdslam", "--out", str(out), "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"viewslam: error: {path}: no colour image topic") and error.count("\n") == 1
+    assert not out.exists()
+
+
+def test_a_folder_that_is_not_a_bag_is_one_line(tmp_path):
+    path = tmp_path / "broken"
+    path.mkdir()
+    (path / "metadata.yaml").write_text("not: [a, rosbag2")
+    with pytest.raises(InputError, match=rf"^{path}: not a readable ROS bag: "):
+        open_sequence(path)

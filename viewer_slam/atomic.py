@@ -1,0 +1,122 @@
+"""Outputs that appear complete or not at all, and one writer per output at a time.
+
+Every file is written under a temporary name beside its target (same folder, hence same
+file system) and renamed onto it once complete, so a run that fails never leaves a
+half-written file where the last good one was. A lock file beside the target keeps a
+second run from writing the same outputs at the same time.
+"""
+
+import errno
+import fcntl
+import os
+import tempfile
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from .errors import InputError
+
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
+def check_writable(target: Path) -> None:
+    """Fail now, before any work, if ``target`` cannot be written (its folder is created)."""
+    target = Path(target)
+    if target.is_dir():
+        raise InputError.at(target, "is a folder, not a file name")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=target.parent):
+            pass
+    except OSError as error:
+        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+
+
+class StagedFiles:
+    """Temporary files beside their targets, renamed into place together by :meth:`commit`.
+
+    Leaving the ``with`` block without a commit removes the temporary files, so the targets
+    keep whatever they held before.
+    """
+
+    def __init__(self):
+        self._staged: dict[Path, Path] = {}
+
+    def path(self, target: Path) -> Path:
+        """The temporary path that stands for ``target`` until the commit."""
+        target = Path(target)
+        if target not in self._staged:
+            handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+            os.fchmod(handle, 0o666 & ~_UMASK)  # as an ordinary new file, not mkstemp's owner-only mode
+            os.close(handle)
+            self._staged[target] = Path(name)
+        return self._staged[target]
+
+    def discard(self, target: Path) -> None:
+        """Forget ``target``: its temporary file is removed and it is not committed."""
+        staged = self._staged.pop(Path(target), None)
+        if staged is not None:
+            staged.unlink(missing_ok=True)
+
+    def commit(self) -> None:
+        """Rename every temporary file onto its target, in the order they were staged."""
+        for target, staged in list(self._staged.items()):
+            os.replace(staged, target)
+            del self._staged[target]
+
+    def __enter__(self) -> "StagedFiles":
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        for target in list(self._staged):
+            self.discard(target)
+
+
+def write_text(target: Path, text: str) -> None:
+    """Write ``text`` to ``target`` through a temporary file renamed into place."""
+    with StagedFiles() as staged:
+        staged.path(target).write_text(text)
+        staged.commit()
+
+
+def lock_path(target: Path) -> Path:
+    return Path(target).with_name(f".{Path(target).name}.lock")
+
+
+@contextmanager
+def exclusive(targets: Iterable[Path]) -> Iterator[None]:
+    """Hold a lock per target for the block; :class:`InputError` if another run holds one."""
+    held: list[tuple[Path, int]] = []
+    try:
+        for target in targets:
+            held.append((lock_path(target), _lock(Path(target))))
+        yield
+    finally:
+        for path, handle in reversed(held):
+            path.unlink(missing_ok=True)  # while still locked: a waiting run then re-checks the inode
+            os.close(handle)
+
+
+def _lock(target: Path) -> int:
+    path = lock_path(target)
+    while True:
+        try:
+            handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as error:
+            raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as error:
+            os.close(handle)
+            if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
+                raise InputError.at(target, "another viewslam run is writing this output; wait for it "
+                                    "or choose another --out") from None
+            raise
+        try:
+            same = os.stat(path).st_ino == os.fstat(handle).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            return handle
+        os.close(handle)  # the previous holder removed the file between our open and flock: retry

@@ -1,0 +1,113 @@
+"""An estimate from another system (a trajectory file) replayed as a run over its sequence.
+
+The replay emits the events a pipeline would have: one ``FrameTracked`` per processed
+frame, carrying the estimate's pose associated with the frame's stamp (TUM's rule, within
+0.02 s) or none; ``TrackingLost`` / ``TrackingRecovered`` around every stretch without
+poses that the coverage score counts as lost (its gap rule, on the processed frames'
+period), so the tracking-state timeline, the report's losses and the coverage agree; and a
+``TrajectoryFinal`` with the estimate's poses inside the processed frames' time span,
+exactly as the file gives them (not resampled at the frames). A frame without a pose in a
+gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
+``initialising``.
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..dataset.frame import Frame, Sequence
+from ..errors import InputError
+from ..geometry.association import associate
+from ..geometry.trajectory_formats import FORMATS, read_trajectory
+from ..pipelines.base import Pipeline
+from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
+from ..pipelines.params import param
+from ..pipelines.run import PipelineRun, Sink, drive
+from .coverage import coverage, median_period
+
+ASSOCIATION_MAX_DIFFERENCE_S = 0.02
+
+
+@dataclass
+class EstimateParams:
+    file: str = param("", key="file", help="the trajectory file")
+    format: str = param("", key="format", choices=("", *FORMATS), help="its format ('': detected)")
+
+
+def parse_estimate(text: str) -> tuple[str, Path]:
+    """``NAME=FILE`` (the ``--estimate`` option) as the run's name and the file."""
+    name, sep, file = text.partition("=")
+    if not sep or not name.strip() or not file.strip():
+        raise InputError(f"--estimate {text!r}: expected NAME=FILE, e.g. orbslam3=CameraTrajectory.txt")
+    return name.strip(), Path(file.strip())
+
+
+class EstimateReplay(Pipeline):
+    """The events of an estimate over the frames at ``frame_stamps`` (the ones the run processes).
+
+    ``sequence_stamps`` are all the sequence's frame stamps: a KITTI file has one pose per
+    frame of the sequence.
+    """
+
+    name = "estimate"
+    Params = EstimateParams
+
+    def __init__(self, params: EstimateParams, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):
+        super().__init__(camera=None, params=params)
+        estimate, detected = read_trajectory(Path(params.file), params.format or None, sequence_stamps)
+        self.params = EstimateParams(params.file, detected)
+        inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & \
+                 (estimate.timestamps <= frame_stamps[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
+        self.trajectory = estimate.subset(inside)
+        frame_rows, pose_rows = associate(frame_stamps, self.trajectory.timestamps, 0.0, ASSOCIATION_MAX_DIFFERENCE_S)
+        self._pose_at = dict(zip(np.asarray(frame_stamps)[frame_rows].tolist(), pose_rows.tolist()))
+        span = (float(frame_stamps[0]), float(frame_stamps[-1]))
+        self._lost_intervals = coverage(span, self.trajectory.timestamps, median_period(frame_stamps)).lost_intervals
+        self._frame_stamps = np.asarray(frame_stamps)
+        self._frame_indices: list[int] = []
+        self._state: TrackingStatus | None = None
+
+    def process(self, frame: Frame) -> list[Event]:
+        self._frame_indices.append(frame.index)
+        row = self._pose_at.get(frame.timestamp)
+        events: list[Event] = []
+        if row is not None:
+            state = TrackingStatus.OK
+        elif any(start <= frame.timestamp <= end for start, end in self._lost_intervals):
+            state = TrackingStatus.LOST
+        else:
+            state = TrackingStatus.INITIALISING if self._state in (None, TrackingStatus.INITIALISING) else \
+                TrackingStatus.OK
+        if state is TrackingStatus.LOST and self._state is not TrackingStatus.LOST:
+            events.append(TrackingLost(frame.index, frame.timestamp, f"no pose in {Path(self.params.file).name} "
+                                       f"for {self._gap_at(frame.timestamp):.2f} s"))
+        elif state is TrackingStatus.OK and self._state is TrackingStatus.LOST:
+            events.append(TrackingRecovered(frame.index, frame.timestamp, "the estimate has poses again"))
+        self._state = state
+        pose = None if row is None else self.trajectory.poses[row]
+        return [FrameTracked(frame.index, frame.timestamp, pose, state), *events]
+
+    def finish(self) -> list[Event]:
+        """The estimate's poses in the span of the frames seen, each placed at its nearest frame."""
+        seen = self._frame_stamps[:len(self._frame_indices)]
+        if len(seen) == 0:
+            return [TrajectoryFinal(np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 4, 4)))]
+        kept = self.trajectory.subset(self.trajectory.timestamps <= seen[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
+        after = np.clip(np.searchsorted(seen, kept.timestamps), 0, len(seen) - 1)
+        before = np.maximum(after - 1, 0)
+        nearest = np.where(kept.timestamps - seen[before] <= seen[after] - kept.timestamps, before, after)
+        return [TrajectoryFinal(np.asarray(self._frame_indices, dtype=int)[nearest], kept.timestamps, kept.poses)]
+
+    def _gap_at(self, stamp: float) -> float:
+        return next(end - start for start, end in self._lost_intervals if start <= stamp <= end)
+
+
+def replay_estimate(sequence: Sequence, name: str, path: Path, format: str | None = None, *,
+                    max_frames: int | None = None, stride: int = 1, sinks: tuple[Sink, ...] = ()) -> PipelineRun:
+    """The run ``name`` of the estimate in ``path`` over ``sequence``'s frames (as :func:`drive` feeds them)."""
+    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
+    processed = stamps[range(0, len(stamps), stride)][:max_frames]
+    replay = EstimateReplay(EstimateParams(str(path), format or ""), stamps, processed)
+    return drive(replay, name, sequence, max_frames=max_frames, stride=stride, sinks=sinks)
+
