@@ -49,7 +49,8 @@ class RgbdSlamParams:
     optimizer_iterations: float = param(
         0.01, gt=0, help="online optimisation: iterations if >= 1, else stop when the error improves by less than this fraction")
     optimizer_skip_step: int = param(1, ge=1, help="optimise online after every N-th new node")
-    maximum_depth: float = param(float("inf"), gt=0, help="keypoints farther than this (metres) get no 3D point")
+    maximum_depth: float = param(
+        0.0, ge=0, help="keypoints farther than this (metres) get no 3D point (0 = no limit, v2's infinity)")
     minimum_depth: float = param(0.1, ge=0, help="keypoints nearer than this (metres) get no 3D point")
     viewslam_min_inlier_ratio: float = param(
         0.0, ge=0, le=1, help="ours: share of the matches that must be RANSAC inliers for a loop closure or relocalisation (0 = off)")

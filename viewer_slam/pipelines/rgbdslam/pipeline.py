@@ -98,7 +98,7 @@ class RgbdSlam(Pipeline):
         super().__init__(camera, params, seed)
         p = self.params
         self.extractor = FeatureExtractor(p.feature_detector_type, p.max_keypoints, camera, p.detector_grid_resolution,
-                                          min_depth=p.minimum_depth, max_depth=p.maximum_depth,
+                                          min_depth=p.minimum_depth, max_depth=p.maximum_depth or np.inf,
                                           adjuster_iterations=p.adjuster_max_iterations)
         self.rng = np.random.default_rng(seed)
         self.graph = NodeGraph()
