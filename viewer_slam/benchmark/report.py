@@ -85,7 +85,7 @@ def results_table(results: list[TaskResult]) -> str:
 
 def findings(results: list[TaskResult]) -> list[str]:
     ok = [result for result in results if result.ok]
-    found = [text for result in ok if (text := tracking_finding(result))]
+    found = [line for result in ok if (text := tracking_finding(result)) for line in (text, *cause_findings(result))]
     if not found and any(result_row(result)["coverage"] is not None for result in ok):
         found.append("No pipeline lost tracking on any sequence.")
     by_sequence = defaultdict(list)
@@ -118,6 +118,12 @@ def tracking_finding(result: TaskResult) -> str | None:
     total = sum(lost_to - lost_from for lost_from, lost_to in intervals)
     return (f"{who} lost tracking {len(intervals)} time{'s' if len(intervals) > 1 else ''} "
             f"({total:.1f} s of {end - start:.1f} s; coverage {100 * row['coverage']:.1f} %): " + "; ".join(parts) + ".")
+
+
+def cause_findings(result: TaskResult) -> list[str]:
+    """The diagnosed cause of each of ``result``'s losses, one line each."""
+    return [f"*{result.sequence}*: {event['text']}" for event in result.report.get("tracking_lost") or []
+            if "text" in event]
 
 
 def ranking_finding(sequence: str, first: TaskResult, second: TaskResult) -> str | None:

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..dataset.tum import open_sequence
+from ..diagnosis import SignalRecorder, diagnose_run
 from ..evaluation.report import pipeline_report
 from ..evaluation.run import evaluate_run
 from ..pipelines import base
@@ -128,7 +129,10 @@ def _run(task: BenchmarkTask) -> TaskResult:
         frames = len(sequence) if task.max_frames is None else min(len(sequence), task.max_frames)
     else:
         params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
-        run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames)
+        signals = SignalRecorder()
+        run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames,
+                           sinks=[signals], frame_sinks=[signals.frame])
+        diagnose_run(run, signals, sequence.groundtruth)
         frames = run.frames
         report = pipeline_report(run, *evaluate_run(sequence.groundtruth, run, sequence.timestamps[:frames]))
     if frames == 0:

@@ -1,12 +1,9 @@
-"""`viewslam record` and `viewslam view`."""
+"""`viewslam record`."""
 
-import subprocess
 from pathlib import Path
 
 import typer
 
-from ..errors import InputError
-from ..recording.viewer import viewer_binary
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
 
@@ -58,10 +55,3 @@ def record_command(
         print_summary(result.report, result.written)
     return EXIT_INTERRUPTED if result.interrupted else 0
 
-
-@app.command("view")
-def view_command(recording: Path = typer.Argument(..., help="A .rrd file written by `viewslam record`.")) -> int:
-    """Open RECORDING in the Rerun viewer that ships with rerun-sdk."""
-    if not recording.is_file():
-        raise InputError.at(recording, "no such recording" if not recording.exists() else "not a file")
-    return subprocess.call([str(viewer_binary()), str(recording)])

@@ -11,6 +11,7 @@ gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 ``initialising``.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,7 +114,8 @@ def estimate_replay(sequence: Sequence, path: Path, format: str | None = None, *
 
 
 def replay_estimate(sequence: Sequence, name: str, path: Path, format: str | None = None, *,
-                    max_frames: int | None = None, stride: int = 1, sinks: tuple[Sink, ...] = ()) -> PipelineRun:
+                    max_frames: int | None = None, stride: int = 1, sinks: tuple[Sink, ...] = (),
+                    frame_sinks: tuple[Callable[[Frame], None], ...] = ()) -> PipelineRun:
     """The run ``name`` of the estimate in ``path`` over ``sequence``'s frames (as :func:`drive` feeds them)."""
     replay = estimate_replay(sequence, path, format, max_frames=max_frames, stride=stride)
-    return drive(replay, name, sequence, max_frames=max_frames, stride=stride, sinks=sinks)
+    return drive(replay, name, sequence, max_frames=max_frames, stride=stride, sinks=sinks, frame_sinks=frame_sinks)

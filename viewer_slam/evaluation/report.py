@@ -29,7 +29,7 @@ def pipeline_report(run: PipelineRun, evaluation: Evaluation | None,
     ``source`` says where its poses came from: ``"pipeline"``, or ``"estimate"`` (a
     trajectory file replayed; its parameters are the file and the format read)."""
     metrics = evaluation.to_dict() if evaluation is not None else {
-        "ate": None, "rpe": None, "coverage": None, "penalized_ate": None}
+        "alignment": None, "ate": None, "ate_segments": None, "rpe": None, "coverage": None, "penalized_ate": None}
     return {
         "source": source,
         "frames_with_pose": len(run.trajectory),

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset.frame import Sequence
+from ..dataset.frame import Frame, Sequence
 from ..geometry.trajectory import Trajectory
 from .base import Pipeline, make_pipeline
 from .edges import EdgeKind
@@ -80,12 +80,13 @@ def run_pipeline(
     max_frames: int | None = None,
     stride: int = 1,
     sinks: Iterable[Sink] = (),
+    frame_sinks: Iterable[Callable[[Frame], None]] = (),
     should_stop: Callable[[], bool] = lambda: False,
 ) -> PipelineRun:
     """Run ``pipeline_name`` over ``sequence`` and return its summary (see :func:`drive`)."""
     pipeline = make_pipeline(pipeline_name, sequence.camera, params, seed)
     return drive(pipeline, pipeline_name, sequence, max_frames=max_frames, stride=stride, sinks=sinks,
-                 should_stop=should_stop)
+                 frame_sinks=frame_sinks, should_stop=should_stop)
 
 
 def drive(
@@ -96,9 +97,12 @@ def drive(
     max_frames: int | None = None,
     stride: int = 1,
     sinks: Iterable[Sink] = (),
+    frame_sinks: Iterable[Callable[[Frame], None]] = (),
     should_stop: Callable[[], bool] = lambda: False,
 ) -> PipelineRun:
     """Feed ``sequence``'s frames through ``pipeline`` as the run called ``name``; its summary.
+
+    ``frame_sinks`` see each frame just before the pipeline does (signal measurements).
 
     Ctrl-C (KeyboardInterrupt) or ``should_stop()`` ends the frame loop early; the
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
@@ -115,6 +119,8 @@ def drive(
     start = time.perf_counter()
     try:
         for frame in sequence.frames(max_frames=max_frames, stride=stride):
+            for frame_sink in frame_sinks:
+                frame_sink(frame)
             emit(pipeline.process(frame))
             if should_stop():
                 run.interrupted = True

@@ -30,10 +30,12 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import palette
 from ..atomic import StagedFiles, check_writable, exclusive
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
+from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
 from ..evaluation.imported import EstimateReplay, estimate_replay, parse_estimate
 from ..evaluation.run import evaluate_run
@@ -44,11 +46,12 @@ from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.selection import BOTH, select_pipelines
 from ..pipelines.run import drive
-from . import layout
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
+from .loss_causes import log_loss_causes
 from .recorder import PipelineRecorder, log_frame_image, log_world
+from .sizes import extent
 from .timelines import log_evaluation
 from .viewer import viewer_binary
 
@@ -294,6 +297,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
+    scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
     with StagedFiles() as staged, StopRequest().installed() as stop:
         recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
@@ -304,7 +308,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                 for position, name in enumerate(pipelines):
                     if stop.requested:
                         break
-                    recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+                    recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
+                                                scene_extent)
 
                     def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
                         recorder.begin_frame(frame)
@@ -312,9 +317,11 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                             log_frame_image(stream, frame)
 
                     tapped = TappedSequence(sequence, on_frame)
+                    signals = SignalRecorder()
                     try:
                         run = drive(runs[name], name, tapped, max_frames=options.max_frames, stride=options.stride,
-                                    sinks=[recorder, progress.sink(name)], should_stop=stop)
+                                    sinks=[recorder, progress.sink(name), signals], frame_sinks=[signals.frame],
+                                    should_stop=stop)
                     except Exception as error:  # an unexpected failure: keep what was recorded before it
                         if not blocks and not tapped.read:
                             raise
@@ -324,6 +331,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                     if failure is not None and not run.frames:
                         raise failure  # not one frame was read: there is nothing to keep
                     interrupted = interrupted or run.interrupted or failure is not None
+                    frame_signals = diagnose_run(run, signals, sequence.groundtruth)
+                    log_loss_causes(stream, name, run.tracking_lost, frame_signals)
                     evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run,
                                                                    recorder.frame_timestamps)
                     if evaluation is not None:

@@ -1,0 +1,47 @@
+"""`viewslam diff`: compare two recorded runs of one sequence."""
+
+from pathlib import Path
+
+import typer
+
+from ..atomic import StagedFiles, check_writable
+from ..errors import InputError
+from ..evaluation.report import write_report
+from .app import app
+
+
+@app.command("diff")
+def diff_command(
+    a: Path = typer.Argument(..., help="Report A (NAME.json of `viewslam record`, trajectories beside it)."),
+    b: Path = typer.Argument(..., help="Report B, of the same sequence; differences are B - A."),
+    out: Path | None = typer.Option(None, help="Also write a recording (.rrd) of both runs and the difference."),
+    json_path: Path | None = typer.Option(None, "--json", help="Also write the comparison as JSON to FILE."),
+) -> int:
+    """Compare two runs frame by frame: errors, frames only one tracked, losses, parameters, scores."""
+    if out is not None and out.suffix != ".rrd":
+        raise InputError.at(out, "the recording must have the .rrd extension")
+    for target in (out, json_path):
+        if target is not None:
+            check_writable(target)
+    from ..comparison import compare_reports, comparison_to_dict, print_comparison  # OpenCV loads only now
+
+    comparison = compare_reports(a, b)
+    print_comparison(comparison)
+    if json_path is not None:
+        _write_json(json_path, comparison_to_dict(comparison))
+    if out is not None:
+        from ..recording.diff_recording import write_diff_recording  # Rerun loads only for a recording
+
+        write_diff_recording(comparison, out)
+        print(f"wrote {out}")
+    return 0
+
+
+def _write_json(path: Path, data: dict) -> None:
+    try:
+        with StagedFiles() as staged:
+            write_report(staged.path(path), data)
+            staged.commit()
+    except OSError as error:
+        raise InputError.at(path, f"cannot write: {error.strerror or error}") from None
+    print(f"wrote {path}")

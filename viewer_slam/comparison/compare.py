@@ -1,0 +1,171 @@
+"""Two runs of one sequence, frame by frame: errors, frames only one tracked, losses, parameters, scores.
+
+Run B is compared against run A: every difference is B minus A. Both trajectories are
+evaluated again against the sequence's groundtruth (the same evaluation as the reports'),
+so the per-frame errors can be set side by side at each frame.
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dataset.tum import TumSequence, open_sequence
+from ..errors import InputError
+from ..evaluation import evaluate
+from ..geometry.association import associate
+from ..geometry.trajectory import Trajectory
+from .reports import RecordedRun, RecordReport, load_report
+
+STAMP_TOLERANCE_S = 1e-5
+"""Trajectory files keep micro-seconds: a pose is at a frame whose stamp is this close."""
+
+SUMMARY = (  # label, path into a run block
+    ("poses", ("frames_with_pose",)),
+    ("coverage", ("coverage", "ratio")),
+    ("ATE RMSE [m]", ("ate", "rmse")),
+    ("penalised ATE RMSE [m]", ("penalized_ate", "rmse")),
+    ("RPE trans RMSE [m]", ("rpe", "trans", "rmse")),
+    ("RPE rot RMSE [deg]", ("rpe", "rot", "rmse")),
+    ("loop closures", ("loop_closures", "accepted")),
+    ("keyframes", ("keyframes",)),
+    ("frames/s", ("timing", "fps")),
+)
+
+
+@dataclass
+class RunComparison:
+    """Run ``b`` against run ``a`` over the sequence's frames.
+
+    ``ate_a``/``ate_b`` hold one error per sequence frame (NaN where the run had no pose
+    or there is no groundtruth) under the run's ``alignment_a``/``alignment_b`` onto the
+    groundtruth; ``summary`` maps a score's label to ``(a, b)``.
+    """
+
+    a: RecordedRun
+    b: RecordedRun
+    frame_indices: np.ndarray
+    timestamps: np.ndarray
+    ate_a: np.ndarray
+    ate_b: np.ndarray
+    alignment_a: np.ndarray | None
+    alignment_b: np.ndarray | None
+    tracked_a: np.ndarray
+    tracked_b: np.ndarray
+    summary: dict[str, tuple[Any, Any]]
+    parameters: dict[str, tuple[Any, Any]]
+    losses_vanished: list[dict[str, Any]]
+    losses_appeared: list[dict[str, Any]]
+
+    @property
+    def ate_difference(self) -> np.ndarray:
+        """B's error minus A's at each frame both tracked (NaN elsewhere)."""
+        return self.ate_b - self.ate_a
+
+    @property
+    def frames_only_a(self) -> np.ndarray:
+        return self.frame_indices[self.tracked_a & ~self.tracked_b]
+
+    @property
+    def frames_only_b(self) -> np.ndarray:
+        return self.frame_indices[self.tracked_b & ~self.tracked_a]
+
+
+@dataclass
+class Comparison:
+    a: RecordReport
+    b: RecordReport
+    sequence: TumSequence
+    runs: list[RunComparison]
+
+
+def compare_reports(path_a: Path, path_b: Path) -> Comparison:
+    """Load both reports, check they are of one sequence, and compare their runs pairwise."""
+    a, b = load_report(path_a), load_report(path_b)
+    if a.sequence.get("name") != b.sequence.get("name") or a.sequence.get("frames") != b.sequence.get("frames"):
+        raise InputError(f"{a.path} and {b.path} are reports of different sequences "
+                         f"({a.sequence.get('name')}, {a.sequence.get('frames')} frames; "
+                         f"{b.sequence.get('name')}, {b.sequence.get('frames')} frames)")
+    sequence = _open(a, b)
+    return Comparison(a, b, sequence, [compare_runs(run_a, run_b, sequence) for run_a, run_b in run_pairs(a, b)])
+
+
+def run_pairs(a: RecordReport, b: RecordReport) -> list[tuple[RecordedRun, RecordedRun]]:
+    """Runs of the same name; two reports of one run each are paired whatever the names."""
+    common = [name for name in a.runs if name in b.runs]
+    if common:
+        return [(a.runs[name], b.runs[name]) for name in common]
+    if len(a.runs) == len(b.runs) == 1:
+        return [(next(iter(a.runs.values())), next(iter(b.runs.values())))]
+    raise InputError(f"{a.path} and {b.path} share no run to compare ({', '.join(a.runs)}; {', '.join(b.runs)})")
+
+
+def compare_runs(a: RecordedRun, b: RecordedRun, sequence: TumSequence) -> RunComparison:
+    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
+    tracked_a, tracked_b = _tracked(a.trajectory, stamps), _tracked(b.trajectory, stamps)
+    (ate_a, alignment_a), (ate_b, alignment_b) = _frame_errors(a.trajectory, sequence), \
+        _frame_errors(b.trajectory, sequence)
+    return RunComparison(
+        a=a, b=b, frame_indices=np.arange(len(stamps)), timestamps=stamps,
+        ate_a=ate_a, ate_b=ate_b, alignment_a=alignment_a, alignment_b=alignment_b,
+        tracked_a=tracked_a, tracked_b=tracked_b,
+        summary={label: (_lookup(a.block, keys), _lookup(b.block, keys)) for label, keys in SUMMARY},
+        parameters=_parameter_differences(a.block["parameters"], b.block["parameters"]),
+        losses_vanished=_unmatched_losses(a.block["tracking_lost"], b.block["tracking_lost"], tracked_b),
+        losses_appeared=_unmatched_losses(b.block["tracking_lost"], a.block["tracking_lost"], tracked_a),
+    )
+
+
+def _open(a: RecordReport, b: RecordReport) -> TumSequence:
+    """The sequence folder either report names (the first that still exists)."""
+    paths = [Path(report.sequence["path"]) for report in (a, b) if report.sequence.get("path")]
+    for path in paths:
+        if path.is_dir():
+            return open_sequence(path)
+    raise InputError.at(a.path, f"the sequence folder it names is gone ({paths[0] if paths else 'no path'}); "
+                                f"the groundtruth is needed to compare the errors")
+
+
+def _frames_at(pose_stamps: np.ndarray, frame_stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sequence frame, row of ``pose_stamps``) of every stamp that is a frame's."""
+    return associate(frame_stamps, pose_stamps, max_difference=STAMP_TOLERANCE_S)
+
+
+def _tracked(trajectory: Trajectory, stamps: np.ndarray) -> np.ndarray:
+    tracked = np.zeros(len(stamps), dtype=bool)
+    tracked[_frames_at(trajectory.timestamps, stamps)[0]] = True
+    return tracked
+
+
+def _frame_errors(trajectory: Trajectory, sequence: TumSequence) -> tuple[np.ndarray, np.ndarray | None]:
+    """The run's ATE at each frame (NaN: none) and the alignment it is measured under."""
+    errors = np.full(len(sequence), np.nan)
+    if sequence.groundtruth is None or len(trajectory) == 0:
+        return errors, None
+    evaluation = evaluate(sequence.groundtruth, trajectory, frame_period=sequence.frame_period)
+    if evaluation.ate is not None:
+        frames, rows = _frames_at(evaluation.ate.timestamps, np.asarray(sequence.timestamps, dtype=np.float64))
+        errors[frames] = evaluation.ate.errors[rows]
+    return errors, evaluation.alignment
+
+
+def _lookup(block: dict[str, Any], keys: tuple[str, ...]) -> Any:
+    value: Any = block
+    for key in keys:
+        if not isinstance(value, dict):
+            return None
+        value = value.get(key)
+    return value
+
+
+def _parameter_differences(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[Any, Any]]:
+    return {key: (a.get(key), b.get(key)) for key in [*a, *(k for k in b if k not in a)] if a.get(key) != b.get(key)}
+
+
+def _unmatched_losses(losses: list[dict[str, Any]], others: list[dict[str, Any]],
+                      other_tracked: np.ndarray) -> list[dict[str, Any]]:
+    """``losses`` at frames where the other run lost nothing, with whether it was tracking there."""
+    other_frames = {loss["frame"] for loss in others}
+    return [{**loss, "other_tracking": bool(loss["frame"] < len(other_tracked) and other_tracked[loss["frame"]])}
+            for loss in losses if loss["frame"] not in other_frames]

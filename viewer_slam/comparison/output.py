@@ -1,0 +1,94 @@
+"""A comparison as JSON and as the terminal table of `viewslam diff`."""
+
+import math
+from typing import Any
+
+import numpy as np
+from rich import box
+from rich.console import Console
+from rich.table import Table
+
+from ..terminal import print_table
+from .compare import Comparison, RunComparison
+
+
+def frame_ranges(frames: np.ndarray) -> str:
+    """``[3, 4, 5, 9]`` -> ``"3-5, 9"``: consecutive frames as one range."""
+    frames = np.asarray(frames, dtype=int)
+    if not len(frames):
+        return "none"
+    breaks = np.flatnonzero(np.diff(frames) != 1) + 1
+    return ", ".join(f"{run[0]}" if len(run) == 1 else f"{run[0]}-{run[-1]}" for run in np.split(frames, breaks))
+
+
+def difference(a: Any, b: Any) -> float | None:
+    numbers = all(isinstance(value, (int, float)) and not isinstance(value, bool) for value in (a, b))
+    return b - a if numbers else None
+
+
+def _finite_or_none(values: np.ndarray) -> list[float | None]:
+    return [float(value) if math.isfinite(value) else None for value in values]
+
+
+def run_comparison_to_dict(run: RunComparison) -> dict[str, Any]:
+    both = np.isfinite(run.ate_difference)
+    return {
+        "a": run.a.name, "b": run.b.name,
+        "summary": {label: {"a": a, "b": b, "difference": difference(a, b)} for label, (a, b) in run.summary.items()},
+        "parameters": {key: {"a": a, "b": b} for key, (a, b) in run.parameters.items()},
+        "frames_only_a": run.frames_only_a.tolist(),
+        "frames_only_b": run.frames_only_b.tolist(),
+        "losses_vanished": run.losses_vanished,
+        "losses_appeared": run.losses_appeared,
+        "ate_difference": {
+            "frames": int(both.sum()),
+            "mean": float(np.mean(run.ate_difference[both])) if both.any() else None,
+            "min": float(np.min(run.ate_difference[both])) if both.any() else None,
+            "max": float(np.max(run.ate_difference[both])) if both.any() else None,
+        },
+        "per_frame": {"frame": run.frame_indices.tolist(), "ate_a": _finite_or_none(run.ate_a),
+                      "ate_b": _finite_or_none(run.ate_b)},
+    }
+
+
+def comparison_to_dict(comparison: Comparison) -> dict[str, Any]:
+    return {"a": str(comparison.a.path), "b": str(comparison.b.path), "sequence": comparison.a.sequence["name"],
+            "runs": [run_comparison_to_dict(run) for run in comparison.runs]}
+
+
+def _cell(value: Any, sign: str = "") -> str:
+    """Integers as they are, other numbers to the millimetre (or thousandth), missing as a dash."""
+    if value is None:
+        return "—"
+    if isinstance(value, float):
+        return f"{value:{sign}.3f}"
+    return f"{value:{sign}d}" if isinstance(value, int) and not isinstance(value, bool) else str(value)
+
+
+def print_comparison(comparison: Comparison, console: Console | None = None) -> None:
+    """Per compared run: the scores side by side with B - A, then frames, losses and parameters."""
+    console = console or Console(markup=False, highlight=False, soft_wrap=True)  # "[m]" is no markup; no wrapping
+    console.print(f"A = {comparison.a.path}\nB = {comparison.b.path}\nsequence {comparison.a.sequence['name']}")
+    for run in comparison.runs:
+        table = Table(title=f"{run.a.name} (A) against {run.b.name} (B)", box=box.SIMPLE_HEAD, pad_edge=False)
+        for column in ("score", "A", "B", "B - A"):
+            table.add_column(column, justify="left" if column == "score" else "right", no_wrap=True)
+        for label, (a, b) in run.summary.items():
+            table.add_row(label, _cell(a), _cell(b), _cell(difference(a, b), sign="+"))
+        print_table(table, console)
+        both = np.isfinite(run.ate_difference)
+        if both.any():
+            console.print(f"ATE difference B - A over {both.sum()} frames both tracked: mean "
+                          f"{np.mean(run.ate_difference[both]):+.3f} m, from {np.min(run.ate_difference[both]):+.3f} "
+                          f"to {np.max(run.ate_difference[both]):+.3f} m")
+        console.print(f"frames tracked by B only: {len(run.frames_only_b)} ({frame_ranges(run.frames_only_b)})")
+        console.print(f"frames tracked by A only: {len(run.frames_only_a)} ({frame_ranges(run.frames_only_a)})")
+        for title, losses in (("losses in A only", run.losses_vanished), ("losses in B only", run.losses_appeared)):
+            console.print(f"{title}: {len(losses) or 'none'}")
+            for loss in losses:
+                console.print(f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
+                              + ("" if loss["other_tracking"] else " (the other run had no pose there)"))
+        if run.parameters:
+            console.print("parameters: " + ", ".join(f"{key} {a} -> {b}" for key, (a, b) in run.parameters.items()))
+        else:
+            console.print("parameters: the same")

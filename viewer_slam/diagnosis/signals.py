@@ -1,0 +1,157 @@
+"""Per-frame signals measured while a run goes: what the sensor saw and what the tracker found.
+
+The image signals are cheap on purpose (every ``IMAGE_STEP``-th pixel of each row and
+column), so the sink can ride along with any run. The tracker signals are the counts a
+pipeline reports in :class:`FrameTracked`; a pipeline that can tell how many matched points
+moved inconsistently with the camera reports that share as ``metrics[DYNAMIC_SHARE_METRIC]``.
+"""
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..dataset.frame import Frame
+from ..geometry.interpolation import interpolate_poses
+from ..geometry.trajectory import Trajectory
+from ..pipelines.events import Event, FrameTracked
+
+IMAGE_STEP = 4
+"""Image signals use every 4th pixel of every 4th row: 80x60 samples of a 320x240 frame."""
+CORNER_CONTRAST = 20
+"""FAST threshold (grey levels) of a distinctive corner: OpenCV's ORB default. A detector
+with a relative threshold (GFTT's quality level) finds corners in the sensor noise of a
+blank wall; an absolute contrast does not."""
+UNIFORM_TOLERANCE = 8
+"""Grey levels (of 255) within which a pixel counts as equal to the image's median grey."""
+DYNAMIC_SHARE_METRIC = "dynamic_share"
+"""The ``FrameTracked.metrics`` key for the share (0..1) of matched points whose residual
+under the frame's estimated camera motion exceeds the pipeline's inlier threshold."""
+
+
+@dataclass(frozen=True)
+class ImageSignals:
+    """What one RGB-D frame shows, on a downsampled grid.
+
+    ``corners`` counts FAST corners of ``CORNER_CONTRAST`` on the full image;
+    ``color_std`` is the standard deviation of the grey image (0..255); ``uniform_share`` the
+    share of pixels within ``UNIFORM_TOLERANCE`` of the median grey; ``valid_depth_share``
+    the share of pixels with a depth measurement.
+    """
+
+    corners: int
+    color_std: float
+    uniform_share: float
+    valid_depth_share: float
+
+
+_CORNERS = cv2.FastFeatureDetector_create(threshold=CORNER_CONTRAST, nonmaxSuppression=True)
+
+
+def measure_image(frame: Frame) -> ImageSignals:
+    full_grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
+    grey = full_grey[::IMAGE_STEP, ::IMAGE_STEP].astype(np.float32)
+    depth = frame.depth[::IMAGE_STEP, ::IMAGE_STEP]
+    return ImageSignals(
+        corners=len(_CORNERS.detect(full_grey)),
+        color_std=float(grey.std()),
+        uniform_share=float(np.mean(np.abs(grey - np.median(grey)) <= UNIFORM_TOLERANCE)),
+        valid_depth_share=float(np.mean(np.isfinite(depth) & (depth > 0))),
+    )
+
+
+@dataclass
+class FrameSignals:
+    """The signals of a run's processed frames, one row per frame in processing order.
+
+    Tracker columns are NaN for frames the pipeline reported nothing for, and for every
+    frame of a run that never reports a count (an estimate replayed from a trajectory
+    file leaves them all 0); ``tracked`` says which frames had an online pose.
+    """
+
+    frame_indices: np.ndarray
+    timestamps: np.ndarray
+    corners: np.ndarray
+    color_std: np.ndarray
+    uniform_share: np.ndarray
+    valid_depth_share: np.ndarray
+    keypoints: np.ndarray
+    matches: np.ndarray
+    inliers: np.ndarray
+    dynamic_share: np.ndarray
+    tracked: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.frame_indices)
+
+    def position(self, frame_index: int) -> int:
+        """Row of ``frame_index``, or of the first processed frame after it."""
+        return int(np.searchsorted(self.frame_indices, frame_index))
+
+
+class SignalRecorder:
+    """A run's signal sink: give it each frame (``frame``) and each event (call it)."""
+
+    def __init__(self):
+        self._images: dict[int, tuple[float, ImageSignals]] = {}
+        self._tracked: dict[int, FrameTracked] = {}
+
+    def frame(self, frame: Frame) -> None:
+        self._images[frame.index] = (frame.timestamp, measure_image(frame))
+
+    def __call__(self, event: Event) -> None:
+        if isinstance(event, FrameTracked):
+            self._tracked[event.frame_index] = event
+
+    def signals(self) -> FrameSignals:
+        indices = sorted(self._images)
+        images = [self._images[index][1] for index in indices]
+        tracked = [self._tracked.get(index) for index in indices]
+
+        def image(name: str) -> np.ndarray:
+            return np.array([getattr(signals, name) for signals in images], dtype=np.float64)
+
+        counted = any(event.features or event.matches or event.inliers for event in self._tracked.values())
+
+        def tracker(value) -> np.ndarray:
+            return np.array([np.nan if event is None or not counted else value(event) for event in tracked],
+                            dtype=np.float64)
+
+        return FrameSignals(
+            frame_indices=np.array(indices, dtype=np.int64),
+            timestamps=np.array([self._images[index][0] for index in indices], dtype=np.float64),
+            corners=image("corners"),
+            color_std=image("color_std"),
+            uniform_share=image("uniform_share"),
+            valid_depth_share=image("valid_depth_share"),
+            keypoints=tracker(lambda event: event.features),
+            matches=tracker(lambda event: event.matches),
+            inliers=tracker(lambda event: event.inliers),
+            dynamic_share=np.array([np.nan if event is None else event.metrics.get(DYNAMIC_SHARE_METRIC, np.nan)
+                                    for event in tracked], dtype=np.float64),
+            tracked=np.array([event is not None and event.pose is not None for event in tracked], dtype=bool),
+        )
+
+
+def groundtruth_motion(groundtruth: Trajectory | None, timestamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Groundtruth speed (m/s) and rotation rate (rad/s) into each frame from the one before.
+
+    NaN for the first frame and wherever the groundtruth does not cover both frames.
+    """
+    timestamps = np.asarray(timestamps, dtype=np.float64)
+    speed = np.full(len(timestamps), np.nan)
+    rotation_rate = np.full(len(timestamps), np.nan)
+    if groundtruth is None or len(timestamps) < 2:
+        return speed, rotation_rate
+    poses, covered = interpolate_poses(groundtruth, timestamps)
+    both = covered[1:] & covered[:-1]
+    elapsed = np.diff(timestamps)[both]
+    before, after = poses[:-1][both], poses[1:][both]
+    moved = np.linalg.norm(after[:, :3, 3] - before[:, :3, 3], axis=1)
+    turned = Rotation.from_matrix(np.swapaxes(before[:, :3, :3], 1, 2) @ after[:, :3, :3]).magnitude() \
+        if len(before) else np.zeros(0)
+    rows = np.flatnonzero(both) + 1
+    speed[rows] = moved / elapsed
+    rotation_rate[rows] = turned / elapsed
+    return speed, rotation_rate
