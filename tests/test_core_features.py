@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 
 from viewer_slam.errors import InputError
-from viewer_slam.frontend.features import DETECTORS, FeatureExtractor, _spread_over_grid, match_descriptors
+from viewer_slam.frontend.adjuster import AdjustedDetector, GridDetector, cell_ranges
+from viewer_slam.frontend.features import DETECTORS, FeatureExtractor, match_descriptors
 from viewer_slam.geometry.camera import Camera
 
 CAMERA = Camera(fx=267.7, fy=269.6, cx=159.8, cy=119.6, width=320, height=240)
@@ -43,16 +44,31 @@ def test_points_are_nan_without_depth_and_backprojected_with_it():
     np.testing.assert_allclose(CAMERA.project(features.points[right]), features.keypoints[right], atol=1e-4)
 
 
-def test_grid_spreads_keypoints_over_cells():
-    # 100 strong corners crowd the top-left cell; 9 weak ones sit one per cell.
-    crowded = np.column_stack([np.linspace(1, 50, 100), np.linspace(1, 50, 100)])
-    spread = np.array([[x, y] for y in (40, 120, 200) for x in (50, 160, 270)], float)
-    points = np.vstack([crowded, spread])
-    responses = np.concatenate([np.full(100, 10.0), np.full(9, 1.0)])
-    chosen = _spread_over_grid(points, responses, (240, 320), grid=3, limit=18)
-    assert set(range(101, 109)) <= set(chosen.tolist())  # every other cell represented
-    assert len(chosen) == 18
-    assert _spread_over_grid(points, responses, (240, 320), grid=1, limit=18).max() < 100
+def test_grid_cells_overlap_by_the_orb_border():
+    assert cell_ranges(240, 3) == [(0, 111), (49, 191), (129, 240)]  # 80-pixel cells widened by 31
+
+
+def test_a_cell_with_too_few_keypoints_lowers_its_threshold_by_0_7_per_try():
+    blank = np.zeros((100, 100), np.uint8)
+    detector = AdjustedDetector("ORB", 67, 100, iterations=5)
+    assert len(detector.detect(blank)) == 0
+    assert detector.threshold == pytest.approx(20 * 0.7 ** 5)  # five tries from v2's start of 20
+    detector.detect(blank)
+    detector.detect(blank)  # 20 * 0.7^7 < 2: held at the floor of 2, where adjusting stops
+    assert detector.threshold == 2
+
+
+def test_a_cell_with_too_many_keypoints_raises_its_threshold_by_1_3_for_the_next_frame():
+    noise = np.random.default_rng(0).integers(0, 255, (200, 200), dtype=np.uint8)
+    detector = AdjustedDetector("ORB", 5, 10, iterations=5)
+    assert len(detector.detect(noise)) > 10
+    assert detector.threshold == pytest.approx(26.0)
+
+
+def test_grid_shares_the_keypoint_budget_between_cells():
+    grid = GridDetector("ORB", 600, 3, iterations=5)
+    assert grid.per_cell == 100  # 1.5 * 600 / 9
+    assert {(d.low, d.high) for d in grid.detectors} == {(67, 100)}
 
 
 def test_blank_image_gives_no_features():

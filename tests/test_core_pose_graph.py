@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 
 from viewer_slam.backend.pose_graph import Edge, PoseGraph, information_from_sigmas
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
@@ -56,3 +57,25 @@ def test_graph_without_constraints_is_left_alone():
     graph = PoseGraph()
     graph.add_node(0, np.eye(4))
     assert graph.optimize() == (0.0, 0.0)
+
+
+def test_edge_chi2_is_the_squared_mahalanobis_error_of_the_residual():
+    graph = PoseGraph()
+    graph.add_node(0, np.eye(4))
+    graph.add_node(1, make_pose(exp_so3([0, 0, 0.1]), [0, 0, 0]))
+    graph.add_node(2, make_pose(np.eye(3), [0.1, 0, 0]))
+    information = np.diag([100.0] * 3 + [1000.0] * 3)
+    # measured no motion: 0.1 rad about z -> 100 * 0.1^2 = 1; 0.1 m along x -> 1000 * 0.1^2 = 10
+    assert graph.edge_chi2(Edge(0, 1, np.eye(4), information)) == pytest.approx(1.0)
+    assert graph.edge_chi2(Edge(0, 2, np.eye(4), information)) == pytest.approx(10.0)
+
+
+def test_edges_between_the_same_nodes_are_told_apart():
+    graph = PoseGraph()
+    graph.add_node(0, np.eye(4))
+    graph.add_node(1, np.eye(4))
+    first, second = Edge(0, 1, np.eye(4), np.eye(6)), Edge(0, 1, np.eye(4), np.eye(6))
+    graph.add_edge(first)
+    graph.add_edge(second)
+    graph.remove_edge(second)
+    assert graph.edges == [first] and graph.edges[0] is first

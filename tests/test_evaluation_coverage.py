@@ -2,13 +2,13 @@
 
 import numpy as np
 import pytest
-from fixtures_eval import perturbed, random_walk
+from fixtures_eval import TRAJECTORIES, perturbed, random_walk
 
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.coverage import coverage, lost_gap_threshold
+from viewer_slam.evaluation.coverage import FILE_SPAN_RULE, coverage, file_span, lost_gap_threshold
 from viewer_slam.evaluation.rpe import pairs_by_seconds
 from viewer_slam.geometry.interpolation import interpolate_poses
-from viewer_slam.geometry.trajectory import Trajectory
+from viewer_slam.geometry.trajectory import Trajectory, read_tum
 
 GROUNDTRUTH = random_walk(1001, seed=3, rate_hz=100.0)  # 10 s at 100 Hz
 
@@ -64,8 +64,9 @@ def test_coverage_counts_gaps_longer_than_the_threshold_only():
 def test_an_empty_estimate_has_zero_coverage_and_null_error_blocks():
     evaluation = evaluate(GROUNDTRUTH, Trajectory.empty())
     blocks = evaluation.to_dict()
-    assert blocks["coverage"] == {"ratio": 0.0, "lost_intervals": [[GROUNDTRUTH.timestamps[0],
-                                                                     GROUNDTRUTH.timestamps[-1]]]}
+    start, end = GROUNDTRUTH.timestamps[0], GROUNDTRUTH.timestamps[-1]
+    assert blocks["coverage"] == {"ratio": 0.0, "lost_intervals": [[start, end]],
+                                  "span": {"start": start, "end": end, "rule": "groundtruth"}}
     assert blocks["ate"] is None and blocks["penalized_ate"] is None
     assert blocks["rpe"]["trans"] is None and blocks["rpe"]["rot"] is None
 
@@ -111,3 +112,45 @@ def test_sparse_poses_are_lost_time_at_the_sequence_frame_rate():
     assert at_frame_rate.coverage.ratio == 0.0
     assert at_frame_rate.coverage.lost_intervals == [(span[0], span[1])]
     assert at_frame_rate.penalized_ate.stats()["n"] > 30
+
+
+README_GROUNDTRUTH = TRAJECTORIES / "freiburg1_xyz-groundtruth.txt"
+README_ESTIMATE = TRAJECTORIES / "freiburg1_xyz-rgbdslam.txt"
+
+
+def test_motion_capture_before_the_camera_is_no_loss():
+    """The README example: the groundtruth starts 3.5 s before the camera; the method never lost tracking."""
+    groundtruth, estimate = read_tum(README_GROUNDTRUTH), read_tum(README_ESTIMATE)
+    assert estimate.timestamps[0] - groundtruth.timestamps[0] > 3.4
+    evaluation = evaluate(groundtruth, estimate)
+    assert evaluation.coverage.ratio >= 0.99
+    assert evaluation.coverage.lost_intervals == []
+    assert evaluation.coverage.span == (estimate.timestamps[0], groundtruth.timestamps[-1], FILE_SPAN_RULE)
+    np.testing.assert_array_equal(evaluation.penalized_ate.errors, evaluation.ate.errors)
+
+
+def test_the_same_estimate_cut_at_its_middle_covers_half():
+    groundtruth, estimate = read_tum(README_GROUNDTRUTH), read_tum(README_ESTIMATE)
+    middle = (estimate.timestamps[0] + estimate.timestamps[-1]) / 2
+    evaluation = evaluate(groundtruth, estimate.subset(estimate.timestamps <= middle))
+    assert 0.45 <= evaluation.coverage.ratio <= 0.55
+    assert len(evaluation.coverage.lost_intervals) == 1
+    assert evaluation.coverage.lost_intervals[0][1] == groundtruth.timestamps[-1]  # the quit is not hidden
+
+
+def test_the_file_span_starts_at_the_later_first_stamp_and_ends_with_the_groundtruth():
+    stamps = np.arange(10.0, 20.0, 0.1)
+    assert file_span(stamps, np.arange(12.0, 15.0, 0.1)) == (12.0, stamps[-1], FILE_SPAN_RULE)
+    assert file_span(stamps, np.arange(5.0, 25.0, 0.1)) == (10.0, stamps[-1], FILE_SPAN_RULE)
+    assert file_span(stamps, np.arange(30.0, 31.0, 0.1))[:2] == (stamps[-1], stamps[-1])
+    assert file_span(stamps, np.zeros(0)) == (10.0, stamps[-1], "groundtruth")
+
+
+def test_a_late_start_inside_a_given_span_is_a_loss():
+    start = GROUNDTRUTH.timestamps[0]
+    late = estimate_at(start + np.arange(2.0, 10.0, 0.03))
+    assert evaluate(GROUNDTRUTH, late).coverage.ratio == pytest.approx(1.0, abs=0.01)
+    given = evaluate(GROUNDTRUTH, late, span=(start, GROUNDTRUTH.timestamps[-1]))
+    assert given.coverage.ratio == pytest.approx(0.8, abs=0.01)
+    assert given.coverage.lost_intervals == [(start, late.timestamps[0])]
+    assert given.coverage.span.rule == "given"

@@ -63,3 +63,20 @@ def test_ate_and_rpe_equal_evo(case):
     np.testing.assert_allclose(evaluation.ate.errors, expected["ate"], rtol=1e-9, atol=0)
     np.testing.assert_allclose(evaluation.rpe_trans.errors, expected["trans"], rtol=1e-9, atol=0)
     np.testing.assert_allclose(evaluation.rpe_rot.errors, expected["rot"], rtol=1e-9, atol=0)
+
+
+@pytest.mark.parametrize("case", CASES)
+@pytest.mark.parametrize("align", ["origin", "none", "sim3"])
+def test_ate_under_the_other_alignments_equals_evo(case, align):
+    groundtruth, estimate = CASES[case]()
+    reference = PoseTrajectory3D(poses_se3=list(groundtruth.poses), timestamps=groundtruth.timestamps)
+    estimated = PoseTrajectory3D(poses_se3=list(estimate.poses), timestamps=estimate.timestamps)
+    if align == "origin":
+        estimated.align_origin(reference)
+    elif align == "sim3":
+        estimated.align(reference, correct_scale=True)
+    ape = metrics.APE(metrics.PoseRelation.translation_part)
+    ape.process_data((reference, estimated))
+    evaluation = evaluate(groundtruth, estimate, align=align)
+    # atol: under origin alignment the first pose's error is zero up to rounding (~1e-16 m).
+    np.testing.assert_allclose(evaluation.ate.errors, ape.error, rtol=1e-9, atol=1e-12)

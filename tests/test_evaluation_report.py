@@ -10,10 +10,12 @@ from fixtures_eval import TUM_RPY, perturbed
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.evaluation.report import build_report, pipeline_report, write_report
+from viewer_slam.evaluation.run import evaluate_run
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 
-PIPELINE_KEYS = {"frames_with_pose", "ate", "rpe", "coverage", "penalized_ate", "odometry_ate", "loop_closures", "edges",
+PIPELINE_KEYS = {"frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",
+                 "odometry_ate", "loop_closures", "edges",
                  "keyframes", "tracking_lost", "timing", "parameters"}
 STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 
@@ -42,21 +44,26 @@ def test_pipeline_block_has_exactly_the_documented_keys(sequence):
     block = pipeline_report(run, evaluation, odometry)
     assert set(block) == PIPELINE_KEYS
     assert block["frames_with_pose"] == 60
-    assert set(block["ate"]) == set(block["penalized_ate"]) == set(block["odometry_ate"]) == STATS_KEYS
+    assert block["alignment"] == "rigid"
+    assert set(block["ate"]) == set(block["ate_segments"]) == set(block["penalized_ate"]) == STATS_KEYS
+    assert set(block["odometry_ate"]) == STATS_KEYS
     assert set(block["rpe"]) == {"trans", "rot", "delta", "delta_unit"}
     assert set(block["rpe"]["trans"]) == set(block["rpe"]["rot"]) == STATS_KEYS
     assert block["odometry_ate"] == odometry.ate.stats()
     assert block["loop_closures"] == {"accepted": 2, "rejected": 5}
     assert block["keyframes"] == 9
     assert block["timing"] == {"total_s": 2.9, "fps": 87 / 2.9, "per_stage_ms": {"features": 10.0, "ransac": 2.0}}
-    # The estimate stops at frame 59 of 87: the rest of the groundtruth time is lost.
-    assert block["coverage"]["ratio"] < 0.8 and len(block["coverage"]["lost_intervals"]) == 2
+    # The estimate stops at frame 59 of 87: the rest of the groundtruth time is lost; the
+    # groundtruth recorded before the first frame is not.
+    assert block["coverage"]["ratio"] < 0.8
+    assert block["coverage"]["lost_intervals"] == [[sequence.timestamps[59], sequence.groundtruth.timestamps[-1]]]
 
 
 def test_without_groundtruth_the_metric_blocks_are_null(sequence):
     block = pipeline_report(finished_run(sequence), None, None)
     assert set(block) == PIPELINE_KEYS
-    assert [block[key] for key in ("ate", "rpe", "coverage", "penalized_ate", "odometry_ate")] == [None] * 5
+    metric_keys = ("alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate", "odometry_ate")
+    assert [block[key] for key in metric_keys] == [None] * len(metric_keys)
 
 
 def test_report_envelope_and_strict_json(sequence, tmp_path):
@@ -81,3 +88,14 @@ def test_report_envelope_and_strict_json(sequence, tmp_path):
     assert parsed["pipelines"]["rgbdslam"]["tracking_lost"][0]["timestamp"] == float(sequence.timestamps[60])
     write_report(tmp_path / "again.json", report)
     assert (tmp_path / "again.json").read_text() == text
+
+
+def test_a_run_is_covered_over_the_frames_it_processed(sequence):
+    run = finished_run(sequence)
+    evaluation, odometry = evaluate_run(sequence.groundtruth, run, sequence.timestamps[:70])
+    assert evaluation.coverage.span == (sequence.timestamps[0], sequence.timestamps[69], "processed frames")
+    assert evaluation.coverage.lost_intervals == [(sequence.timestamps[59], sequence.timestamps[69])]
+    block = pipeline_report(run, evaluation, odometry)
+    assert block["coverage"]["span"] == {"start": sequence.timestamps[0], "end": sequence.timestamps[69],
+                                         "rule": "processed frames"}
+    assert block["ate_segments"] == evaluation.segment_ate.stats() and block["alignment"] == "rigid"

@@ -1,18 +1,17 @@
 """`viewslam record` end to end: both real pipelines on a short synthetic kidnap scenario.
 
-The recording is read back with Rerun's own reader, verified with `rerun rrd verify`,
-rendered by the real viewer under Xvfb, and a second run is interrupted with SIGINT.
+The recording is read back with Rerun's own reader and verified with `rerun rrd verify`,
+and a second run is interrupted with SIGINT (test_viewer_recordings renders recordings in
+the real viewer).
 """
 
 import json
-import shutil
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 from rerun.chunk import RrdReader
@@ -30,8 +29,10 @@ FRAMES = 90
 
 
 @pytest.fixture(scope="module")
-def scenario() -> Path:
-    return cached_scenario("360_kidnap", frames=FRAMES, resolution=(320, 240))
+def scenario(tmp_path_factory) -> Path:
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path_factory.mktemp("cache")))
+        return cached_scenario("360_kidnap", frames=FRAMES, resolution=(320, 240))
 
 
 @pytest.fixture(scope="module")
@@ -92,26 +93,12 @@ def test_edges_are_counted_by_kind_and_only_loops_are_loop_closures(recording):
     for name, block in report["pipelines"].items():
         assert set(block["edges"]) == {"sequential", "local", "loop"}
         assert block["edges"]["loop"] == block["loop_closures"]["accepted"]
-        assert block["edges"]["sequential"] > 0
+        assert block["edges"]["sequential"] >= min(block["keyframes"] - 1, 1)  # keyframes are linked
         # A 3-second clip cannot leave the recent window (5 s), so no edge of it closes a loop.
         assert block["loop_closures"]["accepted"] == 0
         texts = [text for _, values in logged(recording, f"/{layout.text_log(name)}", "TextLog:text")
                  for text in values]
         assert not any("loop closure" in text and "accepted" in text for text in texts)
-
-
-@pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
-def test_the_viewer_renders_the_recording(recording, tmp_path):
-    shot = tmp_path / "shot.png"
-    subprocess.run(["xvfb-run", "-a", BIN / "rerun", "--screenshot-to", shot, "--window-size", "1600x900",
-                    recording], capture_output=True, timeout=180, check=True)
-    image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
-    assert image.shape[0] >= 900 and image.shape[1] >= 1600
-    assert image.std() > 20
-    assert len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 500
-    for name in PIPELINES:  # each pipeline's colour is drawn (trajectory, plot lines, legend)
-        distance = np.abs(image.astype(int) - layout.pipeline_color(name)).sum(axis=2)
-        assert np.count_nonzero(distance < 40) > 200, name
 
 
 def test_sigint_stops_cleanly_with_a_valid_partial_recording(scenario, tmp_path):

@@ -37,7 +37,6 @@ from viewer_slam.recording.console import print_summary
 from viewer_slam.recording.images import depth_png
 from viewer_slam.recording.session import RecordOptions, record
 from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
-from viewer_slam.recording.viewer import viewer_binary
 from viewer_slam.recording.voxel_map import VoxelMap
 
 RERUN = Path(sys.executable).with_name("rerun")
@@ -121,6 +120,14 @@ class ScriptedPipeline(Pipeline):
                                         kind=EdgeKind.LOOP, score=0.9, inliers=40))
                 events.append(GraphEdge(frame.index, 6, 2, accepted=False, reason="too few inliers",
                                         kind=EdgeKind.LOOP, score=0.2, inliers=4))
+                events.append(GraphEdge(frame.index, 6, 1, accepted=True, reason="geometric check passed",
+                                        kind=EdgeKind.LOOP, score=0.8, inliers=30))
+            if keyframe_id > 0:  # the odometry edge, and one to a recent keyframe
+                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 1, accepted=True, reason="odometry",
+                                        kind=EdgeKind.SEQUENTIAL, inliers=15, detection="predecessor"))
+            if keyframe_id > 1:
+                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 2, accepted=True,
+                                        reason="matched", kind=EdgeKind.LOCAL, inliers=12, detection="neighbour"))
         status = TrackingStatus.RELOCALISED if frame.index == LOST[-1] + 1 else TrackingStatus.OK
         return events + [FrameTracked(frame.index, frame.timestamp, pose, status, features=40, matches=20,
                                       inliers=15, timings_ms={"features": 2.0, "ransac": 1.0})]
@@ -200,11 +207,13 @@ def test_the_recording_has_every_entity_of_the_layout(recorded):
                      f"/world/{name}/odometry", f"/world/{name}/keyframes", f"/world/{name}/keyframes/latest",
                      f"/world/{name}/keyframes/latest/depth", f"/world/{name}/loop_closures",
                      f"/world/{name}/loop_closures/rejected", f"/world/{name}/map",
+                     f"/world/{name}/edges/sequential", f"/world/{name}/edges/local",
                      f"/{name}/matches", f"/log/{name}"]
         expected += [f"/metrics/{name}/{series}" for series in (
             "ate", "rpe_trans", "rpe_rot", "coverage", "inliers", "features", "tracking_state", "graph_error",
             "time/features", "time/ransac")]
     assert sorted(set(expected) - set(rows)) == []
+    assert [path for path, chunks in rows.items() if any(n == 0 for _, n in chunks)] == []  # the viewer panics on them
     frames_logged = sum(n for static, n in rows["/camera/image"] if not static)
     assert frames_logged == FRAMES  # once per frame, shared by both pipelines
     assert subprocess.run([RERUN, "rrd", "verify", recorded.recording], capture_output=True).returncode == 0
@@ -242,10 +251,24 @@ def test_coverage_tracking_state_and_log_show_the_loss(recorded):
     states = column(recorded.recording, f"/metrics/{name}/tracking_state", "StateChange:state")
     assert states == {0: ["ok"], LOST[0]: ["lost"], LOST[-1] + 1: ["relocalised"], LOST[-1] + 2: ["ok"]}
     log = column(recorded.recording, f"/log/{name}", "TextLog:text")
-    assert "tracking lost (sensor covered)" in log[LOST[0]][0]
-    assert "recovered" in log[LOST[-1] + 1][0]
-    loop_texts = [text for frame in sorted(log) for text in log[frame] if "loop closure" in text]
-    assert len(loop_texts) == 2 and "accepted" in loop_texts[0] and "rejected" in loop_texts[1]
+    levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
+    loss = recorded.report["pipelines"][name]["tracking_lost"][0]
+    assert log[LOST[0]] == [f"{loss['text']}; the pipeline: sensor covered"] and levels[LOST[0]] == ["WARN"]
+    assert loss["text"].startswith(f"{name} lost at ") and loss["cause"] in loss["text"]
+    assert log[LOST[-1] + 1] == [f"{name}: tracking recovered (relocalised on keyframe 0)"]
+    assert levels[LOST[-1] + 1] == ["WARN"]
+
+
+def test_the_log_has_one_line_per_verdict_for_a_frame_s_loop_closures_and_no_other_edges(recorded):
+    name, loop_frame = "rgbdslam", 35  # keyframe 6: every 5th frame is one, but frame 15 (lost)
+    log = column(recorded.recording, f"/log/{name}", "TextLog:text")
+    levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
+    assert sorted(log) == [LOST[0], LOST[-1] + 1, loop_frame]  # nothing for the sequential and local edges
+    assert levels[loop_frame] == ["INFO", "DEBUG"]
+    accepted, rejected = log[loop_frame]
+    assert accepted.startswith(f"{name}: 2 loop closures accepted: KF6 -> KF0 ")
+    assert "KF6 -> KF1 (appearance, geometric check passed, score 0.8, 30 inliers)" in accepted
+    assert rejected == f"{name}: loop closure rejected: KF6 -> KF2 (appearance, too few inliers, score 0.2, 4 inliers)"
 
 
 def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(recorded):
@@ -255,10 +278,20 @@ def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(reco
 
     accepted = last_row("/world/rgbdslam/loop_closures", "LineStrips3D:strips")
     rejected = last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:strips")
-    assert len(accepted) == len(rejected) == 1
+    assert len(accepted) == 2 and len(rejected) == 1
     assert np.allclose(accepted[0][0], rejected[0][0])  # both start at keyframe 6
     assert (last_row("/world/rgbdslam/loop_closures", "LineStrips3D:colors")
             != last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:colors"))
+
+
+def test_other_edges_are_drawn_by_kind_under_their_own_entities(recorded):
+    keyframes = column(recorded.recording, "/world/rgbdslam/keyframes", "Points3D:positions")
+    positions = np.array(keyframes[max(keyframes)])
+    for kind, step in (("sequential", 1), ("local", 2)):
+        strips = column(recorded.recording, f"/world/rgbdslam/edges/{kind}", "LineStrips3D:strips")
+        last = np.array(strips[max(strips)])
+        assert len(last) == len(positions) - step
+        assert np.allclose(last[:, 0], positions[step:]) and np.allclose(last[:, 1], positions[:-step])
 
 
 def test_matches_are_cleared_while_lost(recorded):
@@ -278,7 +311,10 @@ def test_report_and_trajectories_are_written_beside_the_recording(recorded, tum_
     for name in ("rgbdslam", "rtabmap"):
         trajectory = read_tum(recorded.recording.with_name(f"circle.{name}.txt"))
         assert len(trajectory) == FRAMES - len(LOST)
-        assert report["pipelines"][name]["loop_closures"] == {"accepted": 1, "rejected": 1}
+        assert report["pipelines"][name]["loop_closures"] == {"accepted": 2, "rejected": 1}
+        keyframes = (FRAMES - 1) // 5 + 1 - 1  # every 5th frame but frame 15, lost
+        assert report["pipelines"][name]["edges"] == {"sequential": keyframes - 1, "local": keyframes - 2,
+                                                      "loop": 2}
 
 
 def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tum_folder, tmp_path):
@@ -329,22 +365,6 @@ def test_a_folder_that_is_not_a_sequence_is_bad_input(scripted_pipelines, tmp_pa
     assert main(["record", str(tmp_path), "--out", str(tmp_path / "x.rrd"), "--quiet"]) == 2
     assert "not a TUM RGB-D sequence" in capsys.readouterr().err
     assert not (tmp_path / "x.rrd").exists()
-
-
-def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
-    assert main(["view", str(tmp_path / "none.rrd")]) == 2
-    assert "no such recording" in capsys.readouterr().err
-
-
-def test_view_opens_the_recording_in_the_bundled_viewer(tmp_path, monkeypatch):
-    recording = tmp_path / "x.rrd"
-    recording.write_bytes(b"")
-    commands = []
-    monkeypatch.setattr(subprocess, "call", lambda command: commands.append(command) or 0)
-    assert main(["view", str(recording)]) == 0
-    assert commands == [[str(viewer_binary()), str(recording)]]
-    version = subprocess.run([viewer_binary(), "--version"], capture_output=True, text=True)
-    assert version.returncode == 0 and "0.41" in version.stdout
 
 
 def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():

@@ -43,10 +43,23 @@ def textured_loop():
     return run(textured_loop_path())
 
 
+def kidnap_run(name, params=None):
+    path = cached_scenario(name, frames=FRAMES, resolution=RESOLUTION)
+    return (*run(path, params=params), json.loads((path / "scenario.json").read_text()))
+
+
 @pytest.fixture(scope="module")
 def kidnap():
-    path = cached_scenario("360_kidnap", frames=FRAMES, resolution=RESOLUTION)
-    return (*run(path), json.loads((path / "scenario.json").read_text()))
+    return kidnap_run("360_kidnap")
+
+
+def frame_mask(sequence, result, intervals):
+    """(has a pose, inside one of ``intervals``) per frame."""
+    stamps = sequence.timestamps[:result.frames]
+    inside = np.zeros(len(stamps), bool)
+    for start, end in intervals:
+        inside |= (stamps >= start - 1e-6) & (stamps <= end + 1e-6)
+    return np.isin(np.arange(len(stamps)), result.frame_indices), inside, stamps
 
 
 @pytest.mark.slow
@@ -75,7 +88,7 @@ def test_events_follow_the_pipeline_contract(textured_loop):
     assert {"features", "matching", "ransac"} <= set(tracked[-1].timings_ms)
     assert isinstance(events[-1], TrajectoryFinal)
     keyframes = [e for e in events if isinstance(e, KeyframeAdded)]
-    assert len(keyframes) == result.keyframes < FRAMES  # frames that barely moved are not nodes
+    assert len(keyframes) == result.keyframes <= FRAMES
     assert all(e.image.shape[1] <= 160 and e.depth.shape == (240, 320) for e in keyframes)
     for matches in (e for e in events if isinstance(e, FeatureMatches)):
         assert len(matches.points_current) == len(matches.points_reference) == len(matches.inlier_mask)
@@ -95,23 +108,35 @@ def test_events_follow_the_pipeline_contract(textured_loop):
 
 
 @pytest.mark.slow
-def test_kidnapped_camera_keeps_producing_poses(kidnap):
+def test_kidnapped_camera_relocalises_against_the_first_map_when_its_view_returns(kidnap):
     sequence, result, events, scenario = kidnap
-    stamps = sequence.timestamps[:result.frames]
-    covered = np.zeros(len(stamps), bool)
-    for start, end in scenario["covered_intervals"]:
-        covered |= (stamps >= start - 1e-6) & (stamps <= end + 1e-6)
-    has_pose = np.isin(np.arange(len(stamps)), result.frame_indices)
+    has_pose, covered, stamps = frame_mask(sequence, result, scenario["covered_intervals"])
     assert not has_pose[covered].any()
     for _, end in scenario["covered_intervals"]:
         assert has_pose[stamps > end].any()
-    assert has_pose[~covered].mean() >= 0.9
     losses = [e for e in events if isinstance(e, TrackingLost)]
     recoveries = [e for e in events if isinstance(e, TrackingRecovered)]
-    assert len(losses) >= len(scenario["covered_intervals"])
-    assert len(recoveries) == len(losses)
+    assert len(losses) >= len(scenario["covered_intervals"]) and len(recoveries) == len(losses)
+    nodes_by_frame = {e.frame_index: e.keyframe_id for e in events if isinstance(e, KeyframeAdded)}
     for loss, recovery in zip(losses, recoveries):
         assert loss.frame_index < recovery.frame_index
+        # the relocalising frame is joined to a node from before the loss by a candidate match
+        before = max(n for f, n in nodes_by_frame.items() if f < loss.frame_index)
+        joins = [e for e in events if isinstance(e, GraphEdge) and e.accepted and e.frame_index == recovery.frame_index]
+        assert any(e.from_keyframe <= before for e in joins)
+    tracked = [e for e in events if isinstance(e, FrameTracked)]
+    assert all(e.status is not TrackingStatus.INITIALISING for e in tracked[1:])  # one graph, no new segments
+
+
+@pytest.mark.slow
+def test_without_a_revisit_no_pose_follows_the_first_covering_and_keep_all_nodes_keeps_them_all():
+    sequence, result, _, scenario = kidnap_run("360_kidnap_norevisit")
+    has_pose, _, stamps = frame_mask(sequence, result, scenario["covered_intervals"])
+    first_cover = scenario["covered_intervals"][0][0]
+    assert has_pose[stamps < first_cover].all() and not has_pose[stamps >= first_cover].any()
+    sequence, result, events, _ = kidnap_run("360_kidnap_norevisit", RgbdSlamParams(keep_all_nodes=True))
+    assert len(result.frame_indices) == result.frames
+    assert any(isinstance(e, FrameTracked) and e.status is TrackingStatus.LOST and e.pose is not None for e in events)
 
 
 @pytest.mark.slow
@@ -139,7 +164,7 @@ def test_real_tum_excerpt_is_tracked_throughout():
     sequence, result, _ = run(TUM_EXCERPT)
     assert len(result.trajectory.timestamps) == len(sequence)
     ate = evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"]
-    assert ate < 0.06  # Endres et al. report 0.029 m on the whole fr1/rpy
+    assert ate < 0.03  # 0.021 m measured (docs/pipelines/rgbdslam.md), with a margin
 
 
 def test_surf_is_refused_on_the_command_line(capsys):

@@ -11,14 +11,19 @@ from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import apply_overrides, params_to_dict
 from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
-from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, SAMPLED, graph_neighbourhood, loop_candidates,
-                                                       predecessors)
+from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, PREDECESSOR, SAMPLED, edge_targets,
+                                                       graph_neighbourhood, neighbour_weights, weighted_sample)
+from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
+from viewer_slam.pipelines.rgbdslam.motion import edge_information
+from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
 from viewer_slam.pipelines.rgbdslam.emm import observability
 from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures
 from viewer_slam.pipelines.rgbdslam.node import MAP_STEP, Node
 from viewer_slam.pipelines.rgbdslam.segments import Segments
 
 CAMERA = Camera(262.5, 262.5, 159.5, 119.5, 320, 240)
+EMPTY = Features(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros(0, np.float32),
+                 np.zeros((0, 3)), True)
 
 
 def chain_graph(count):
@@ -32,21 +37,21 @@ def chain_graph(count):
 def test_registered_under_its_name_with_v2_defaults():
     assert pipeline_class("rgbdslam") is RgbdSlam
     defaults = params_to_dict(RgbdSlamParams())
+    # parameter_server.cpp's defaults
     assert defaults["feature_detector_type"] == "ORB"
-    assert (defaults["max_keypoints"], defaults["ransac_iterations"], defaults["min_matches"]) == (600, 200, 20)
+    assert (defaults["max_keypoints"], defaults["max_matches"], defaults["ransac_iterations"],
+            defaults["min_matches"]) == (600, 300, 200, 20)
     assert (defaults["predecessor_candidates"], defaults["neighbor_candidates"],
             defaults["min_sampled_candidates"], defaults["geodesic_depth"]) == (4, 4, 4, 3)
-    assert defaults["observability_threshold"] == 0.0
+    assert (defaults["min_translation_meter"], defaults["min_rotation_degree"]) == (0.0, 0.0)
+    assert (defaults["nn_distance_ratio"], defaults["sigma_depth"], defaults["adjuster_max_iterations"]) == (0.95, 0.01, 5)
+    assert defaults["keep_all_nodes"] is False and defaults["observability_threshold"] <= 0
+    assert all(defaults[k] == 0 for k in defaults if k.startswith("viewslam_"))  # ours: off
 
 
 def test_surf_is_refused_with_the_reason():
     with pytest.raises(InputError, match="SURF is patented"):
         apply_overrides(RgbdSlamParams(), {"feature_detector_type": "SURF"}, "--param")
-
-
-def test_predecessors_are_the_newest_nodes_first():
-    assert predecessors(list(range(10)), 4) == [9, 8, 7, 6]
-    assert predecessors([0, 1], 4) == [1, 0]
 
 
 def test_graph_neighbourhood_is_bounded_by_the_geodesic_depth():
@@ -56,24 +61,62 @@ def test_graph_neighbourhood_is_bounded_by_the_geodesic_depth():
     assert graph_neighbourhood(adjacency, 9, 2) == [0, 1, 7, 8]
 
 
-def test_loop_candidates_skip_predecessors_and_are_seeded():
+def test_neighbours_are_weighted_by_their_id_distance_and_skip_the_sequential_ones():
+    # predecessor 20 with 3 sequential targets: 17..19 are sequential, the rest weigh |20 - id|
+    assert neighbour_weights([5, 10, 17, 18, 19, 21], 20, 3) == {5: 15, 10: 10, 21: 1}
+    rng = np.random.default_rng(0)
+    draws = [weighted_sample({5: 15, 10: 10, 21: 1}, 1, rng)[0] for _ in range(20000)]
+    frequencies = np.array([draws.count(n) for n in (5, 10, 21)]) / len(draws)
+    np.testing.assert_allclose(frequencies, np.array([15, 10, 1]) / 26, atol=0.01)
+    assert sorted(weighted_sample({5: 15, 10: 10, 21: 1}, 5, rng)) == [5, 10, 21]  # without replacement
+
+
+def test_a_small_graph_is_compared_whole():
+    targets = edge_targets(list(range(8)), chain_graph(8), [0], 7, True, 3, 4, 4, 3, np.random.default_rng(0))
+    assert sorted(targets) == [(n, PREDECESSOR) for n in range(8)]
+
+
+def test_candidates_are_predecessors_weighted_neighbours_and_sampled_keyframes():
     adjacency = chain_graph(30)
-    adjacency[29].add(5)
+    adjacency[29] |= {5, 12}
     adjacency[5].add(29)
-    exclude = set(predecessors(list(range(30)), 4))
+    adjacency[12].add(29)
+    keyframes = [0, 8, 16, 24]
 
     def draw(seed):
-        return loop_candidates(list(range(30)), adjacency, 29, exclude, 4, 4, 3, np.random.default_rng(seed))
+        return edge_targets(list(range(30)), adjacency, keyframes, 29, True, 3, 4, 4, 3, np.random.default_rng(seed))
 
-    candidates = draw(0)
-    neighbours = [n for n, kind in candidates if kind == NEIGHBOUR]
-    sampled = [n for n, kind in candidates if kind == SAMPLED]
-    assert set(neighbours) <= {3, 4, 5, 6, 7}  # within 3 edges of node 29 through the loop edge
-    assert len(neighbours) == 4 and len(sampled) == 4
-    assert not (set(neighbours) | set(sampled)) & exclude
-    assert not set(neighbours) & set(sampled)
-    assert draw(0) == candidates
-    assert any(draw(seed) != candidates for seed in range(1, 5))
+    targets = draw(0)
+    kinds = {kind: [n for n, k in targets if k == kind] for kind in (PREDECESSOR, NEIGHBOUR, SAMPLED)}
+    assert kinds[PREDECESSOR] == [29, 28, 27, 26]
+    # within 3 edges of 29 but not sequential: 4..7 and 11..14 through the two loop edges
+    assert set(kinds[NEIGHBOUR]) <= {3, 4, 5, 6, 7, 10, 11, 12, 13, 14} and len(kinds[NEIGHBOUR]) == 4
+    assert set(kinds[SAMPLED]) <= set(keyframes) and not set(kinds[SAMPLED]) & set(kinds[NEIGHBOUR])
+    assert draw(0) == targets and any(draw(seed) != targets for seed in range(1, 5))
+
+
+def test_edge_information_is_inliers_over_squared_rms_error():
+    # v2: I * inliers / rmse^2 on (translation, quaternion vector); the quaternion part is half the angle
+    np.testing.assert_allclose(edge_information(50, 0.5), np.diag([50.0] * 3 + [200.0] * 3))
+    np.testing.assert_allclose(no_motion_information(0.05), np.diag([5.0] * 3 + [20.0] * 3))  # I / dt
+
+
+def test_edges_with_large_errors_are_pruned_as_v2_does():
+    graph = NodeGraph()
+    graph.segments.add(0)
+    for node_id in range(3):
+        node = Node.from_frame(node_id, node_id, float(node_id), MeasuredFeatures(EMPTY), np.zeros((8, 8, 3), np.uint8),
+                               np.zeros((8, 8), np.float32), 0)
+        graph.add(node, make_pose(np.eye(3), [0.1 * node_id, 0, 0]), np.eye(4))
+    information = np.diag([1e6] * 3 + [1000.0] * 3)
+    step = make_pose(np.eye(3), [0.1, 0, 0])
+    graph.connect(0, 1, step, information)                                  # exact: chi2 0
+    graph.connect(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), information)     # 0.1 m off: chi2 10 > 5
+    graph.connect(0, 2, make_pose(np.eye(3), [0.25, 0, 0]), information)    # 0.05 m off: chi2 2.5
+    graph.connect(0, 2, make_pose(np.eye(3), [0.3, 0, 0]), information)     # 0.1 m off, not consecutive
+    assert graph.prune_edges_with_error_above(5.0) == 2
+    kept = {(e.from_id, e.to_id, round(float(e.relative[0, 3]), 3)) for e in graph.poses.edges}
+    assert kept == {(0, 1, 0.1), (0, 2, 0.25), (1, 2, 0.0)}  # the consecutive one became no motion
 
 
 def test_joining_segments_moves_the_newer_one_onto_the_older():
@@ -105,9 +148,7 @@ def wall_node(node_id, distance):
     """A node facing a flat wall ``distance`` metres away."""
     depth = np.full((CAMERA.height, CAMERA.width), distance, np.float32)
     rgb = np.zeros((CAMERA.height, CAMERA.width, 3), np.uint8)
-    empty = Features(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros(0, np.float32),
-                     np.zeros((0, 3)), True)
-    return Node.from_frame(node_id, node_id, 0.0, MeasuredFeatures(empty, np.zeros((0, 3))), rgb, depth, 0)
+    return Node.from_frame(node_id, node_id, 0.0, MeasuredFeatures(EMPTY), rgb, depth, 0)
 
 
 def test_environment_model_accepts_the_true_motion_and_rejects_a_contradiction():
@@ -124,7 +165,7 @@ def measured(points):
     count = len(points)
     features = Features(np.zeros((count, 2), np.float32), np.zeros((count, 32), np.uint8), np.ones(count, np.float32),
                         points, True)
-    return MeasuredFeatures.from_features(features, RgbdSlamParams(), Camera(525, 525, 320, 240, 640, 480))
+    return MeasuredFeatures.from_features(features)
 
 
 def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_when_asked():
@@ -140,5 +181,5 @@ def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_
     assert motion is not None and motion.inlier_count == 25
     assert np.allclose(motion.transform, invert(frame_from_node), atol=1e-6)
     refused, reason = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0),
-                                      min_inlier_ratio=0.3)
+                                      min_inlier_ratio=0.3)  # viewslam_min_inlier_ratio, ours
     assert refused is None and reason == "too few of the matches are inliers (25 of 100, < 0.3)"

@@ -14,9 +14,10 @@ import numpy as np
 from ..geometry.se3 import invert, rotation_angle
 
 
-@dataclass
+@dataclass(eq=False)
 class Edge:
-    """``relative = T_from^-1 T_to`` measured with ``information`` (6x6, rotation first)."""
+    """``relative = T_from^-1 T_to`` measured with ``information`` (6x6, rotation first).
+    Edges are compared by identity: two measurements between the same nodes are distinct."""
 
     from_id: int
     to_id: int
@@ -76,18 +77,31 @@ class PoseGraph:
         graph, values = self._build()
         return graph.error(values)
 
-    def optimize(self, max_iterations: int = 100) -> tuple[float, float]:
-        """Optimise all nodes in place; returns the graph error before and after."""
+    def optimize(self, max_iterations: int = 100, relative_tolerance: float | None = None) -> tuple[float, float]:
+        """Optimise all nodes in place; returns the graph error before and after.
+
+        With ``relative_tolerance`` the optimiser stops once an iteration lowers the error by
+        less than that fraction (RGB-D SLAM v2's ``optimizer_iterations`` below 1).
+        """
         graph, values = self._build()
         before = graph.error(values)
         if not self.edges and not self.priors:
             return before, before
         parameters = gtsam.LevenbergMarquardtParams()
         parameters.setMaxIterations(max_iterations)
+        if relative_tolerance is not None:
+            parameters.setRelativeErrorTol(relative_tolerance)
         result = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters).optimize()
         for node_id in self.poses:
             self.poses[node_id] = result.atPose3(node_id).matrix()
         return before, graph.error(result)
+
+    def edge_chi2(self, edge: Edge) -> float:
+        """Squared Mahalanobis distance ``r^T information r`` of the edge's residual
+        ``r = Log(relative^-1 T_from^-1 T_to)`` at the current poses, robust kernel ignored."""
+        predicted = gtsam.Pose3(invert(self.poses[edge.from_id]) @ self.poses[edge.to_id])
+        residual = gtsam.Pose3(edge.relative).localCoordinates(predicted)
+        return float(residual @ edge.information @ residual)
 
     def edge_residual(self, edge: Edge) -> tuple[float, float]:
         """Translation (m) and rotation (rad) by which the current poses disagree with an edge."""

@@ -14,6 +14,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the headless backend)
 import numpy as np  # noqa: E402
 
+from .. import palette  # noqa: E402
+
 CHARTS = {
     "ate_rmse": "ATE RMSE [m]",
     "rpe_trans_rmse": "RPE translational RMSE [m]",
@@ -43,7 +45,7 @@ def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: 
             offsets = centres + (k - (len(pipelines) - 1) / 2) * width
             values = [by_pair.get((sequence, pipeline), {}).get(metric) for sequence in sequences]
             heights = [np.nan if value is None else value for value in values]
-            axes.bar(offsets, heights, width, label=pipeline)
+            axes.bar(offsets, heights, width, label=pipeline, color=palette.run_colour(pipeline, k).hex)
             for x, sequence, value in zip(offsets, sequences, values):
                 row = by_pair.get((sequence, pipeline))
                 if row is not None and value is None:

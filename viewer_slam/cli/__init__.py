@@ -47,7 +47,7 @@ def _run(argv: list[str] | None) -> int:
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer
 
-        from . import benchmark, datasets, diff, evaluate, pipelines, record, synth  # noqa: F401  (register commands)
+        from . import benchmark, datasets, diff, evaluate, pipelines, record, synth, view  # noqa: F401  (register commands)
         from .app import app
 
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)

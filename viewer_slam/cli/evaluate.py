@@ -1,23 +1,48 @@
-"""`viewslam evaluate`: score a TUM trajectory file against groundtruth."""
+"""`viewslam evaluate`: score trajectory files against groundtruth, one table row per estimate."""
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
 
+import numpy as np
 import typer
 from rich import box
-from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from ..atomic import StagedFiles, check_writable
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
+from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
-from ..evaluation.statistics import STATISTICS, stats_or_none
+from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
+from ..geometry.trajectory_formats import read_trajectory
+from ..terminal import print_table
 from .app import app
+
+SEQUENCE_RULE = "sequence frames"
+FORMAT_NAMES = {"tum": "TUM", "kitti": "KITTI", "euroc": "EuRoC"}
+SPAN_OPTION_RULE = "--span"
+
+GLOBAL_ALIGNMENT_TEXT = {
+    "rigid": "rigid alignment (Horn) over all pairs",
+    "sim3": "similarity alignment (Umeyama, with scale) over all pairs",
+    "origin": "first poses laid onto each other (origin alignment)",
+    "none": "no alignment",
+    "segments": "each tracked segment aligned rigidly on its own",
+}
+SEGMENT_ALIGNMENT_TEXT = {
+    "rigid": "each tracked segment aligned rigidly on its own",
+    "sim3": "each tracked segment aligned by a similarity on its own",
+    "origin": "each tracked segment's first pose laid onto the groundtruth",
+    "none": "no alignment",
+    "segments": "each tracked segment aligned rigidly on its own",
+}
 
 
 class DeltaUnit(str, Enum):
@@ -25,69 +50,160 @@ class DeltaUnit(str, Enum):
     seconds = "seconds"
 
 
-def _positive(value: float) -> float:
-    if value <= 0:
-        raise typer.BadParameter(f"must be positive, got {value}")
+class Format(str, Enum):
+    tum = "tum"
+    kitti = "kitti"
+    euroc = "euroc"
+
+
+class Alignment(str, Enum):
+    rigid = "rigid"
+    sim3 = "sim3"
+    origin = "origin"
+    segments = "segments"
+    none = "none"
+
+
+@dataclass
+class Clock:
+    """What a sequence tells about time: the coverage span, the frame period and the frame stamps
+    (a KITTI file's times). None: unknown."""
+
+    span: Span | None = None
+    frame_period: float | None = None
+    frame_stamps: np.ndarray | None = None
+
+
+def _finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise typer.BadParameter(f"must be a finite number, got {value}")
     return value
+
+
+def _positive(value: float) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise typer.BadParameter(f"must be a finite positive number, got {value}")
+    return value
+
+
+def parse_span(text: str | None) -> Span | None:
+    """``START,END`` in groundtruth seconds, START before END."""
+    if text is None:
+        return None
+    try:
+        start, end = (float(field) for field in text.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"expected START,END in seconds, got {text!r}") from None
+    if not (math.isfinite(start) and math.isfinite(end) and start < end):
+        raise typer.BadParameter(f"expected two finite stamps with START < END, got {text!r}")
+    return Span(start, end, SPAN_OPTION_RULE)
 
 
 @app.command("evaluate")
 def evaluate_command(
     groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format) or a TUM sequence folder."),
-    estimate: Path = typer.Argument(..., help="Estimated trajectory (TUM format)."),
+    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC); one table row "
+                                                     "each."),
     json_path: Path | None = typer.Option(None, "--json", help="Write the metric blocks as JSON."),
-    plot: Path | None = typer.Option(None, "--plot", help="Write a PNG: aligned top view and ATE over time."),
+    plot: Path | None = typer.Option(None, "--plot", help="Write a picture (.png, .pdf, .svg, ...): aligned top "
+                                                          "view and errors over time."),
     max_difference: float = typer.Option(0.02, callback=_positive,
                                          help="Largest time difference of an associated pair, in seconds."),
-    offset: float = typer.Option(0.0, help="Seconds added to the estimate's stamps before association."),
-    scale: bool = typer.Option(False, "--scale", help="Fit a similarity (monocular estimates)."),
+    offset: float = typer.Option(0.0, callback=_finite,
+                                 help="Seconds added to the estimates' stamps before association."),
+    align: Alignment = typer.Option(Alignment.rigid, help="Alignment of ATE and penalised ATE: rigid (Horn), sim3 "
+                                                          "(with scale), origin (first poses), segments (each "
+                                                          "tracked segment on its own) or none."),
+    scale: bool = typer.Option(False, "--scale", help="The same as --align sim3 (monocular estimates)."),
     delta: float = typer.Option(1.0, callback=_positive, help="RPE distance between poses."),
     delta_unit: DeltaUnit = typer.Option(DeltaUnit.seconds, help="Unit of --delta."),
     all_deltas: bool = typer.Option(False, "--all-deltas", help="RPE averaged over all distances (sampled)."),
+    span: str | None = typer.Option(None, "--span", metavar="START,END", callback=parse_span,
+                                    help="Coverage span in groundtruth seconds (default: a sequence's frames, "
+                                         "else from the estimate's first pose to the groundtruth's last)."),
+    sequence: Path | None = typer.Option(None, "--sequence", metavar="FOLDER",
+                                         help="TUM sequence folder whose frames set the coverage span, the "
+                                              "frame period and a KITTI file's times."),
+    format: Format | None = typer.Option(None, "--format", help="Format of the estimates (default: detected)."),
 ) -> None:
-    """ATE, RPE, coverage and penalised ATE of ESTIMATE against GROUNDTRUTH."""
+    """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
         raise typer.BadParameter(f"a delta in frames must be a whole number, got {delta}", param_hint="--delta")
-    reference, span, frame_period = _groundtruth_and_clock(groundtruth)
-    estimated = read_tum(estimate)
-    evaluation = evaluate(reference, estimated, max_difference=max_difference, offset=offset, scale=scale,
-                          delta=delta, delta_unit=delta_unit.value, all_deltas=all_deltas, span=span,
-                          frame_period=frame_period)
-    if evaluation.ate is None:
-        raise InputError.at(estimate, _why_no_pairs(reference, estimated, offset, max_difference))
-    Console().print(_table(evaluation))
-    if json_path is not None:
-        with _writing(json_path):
-            write_report(json_path, evaluation.to_dict())
+    if scale and align not in (Alignment.rigid, Alignment.sim3):
+        raise InputError(f"--scale means --align sim3 and cannot be combined with --align {align.value}")
     if plot is not None:
-        from ..evaluation.plot import plot_evaluation  # matplotlib only when a plot is wanted
+        from ..evaluation.plot import check_plot_path  # matplotlib only when a plot is wanted
 
-        with _writing(plot):
-            plot_evaluation(plot, reference, estimated, evaluation)
+        check_plot_path(plot)
+    for output in (json_path, plot):
+        if output is not None:
+            check_writable(output)
+    reference, clock = _groundtruth_and_clock(groundtruth)
+    if sequence is not None:
+        clock = _sequence_clock(sequence)
+    labels = [str(path) for path in estimates]
+    repeated = next((path for path, label in zip(estimates, labels) if labels.count(label) > 1), None)
+    if repeated is not None:
+        raise InputError.at(repeated, "given twice as an estimate")
+    estimated, formats = zip(*(read_trajectory(path, format and format.value, clock.frame_stamps)
+                               for path in estimates))
+    evaluations = []
+    for path, trajectory in zip(estimates, estimated):
+        evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
+                              align="sim3" if scale else align.value, delta=delta, delta_unit=delta_unit.value,
+                              all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period)
+        if evaluation.ate is None:
+            raise InputError.at(path, _why_no_pairs(reference, trajectory, offset, max_difference))
+        evaluations.append(evaluation)
+
+    _print_results(groundtruth, labels, formats, evaluations)
+    if json_path is not None:
+        blocks = {label: evaluation.to_dict() for label, evaluation in zip(labels, evaluations)}
+        report = blocks[labels[0]] if len(labels) == 1 else {"groundtruth": str(groundtruth), "estimates": blocks}
+        with _writing(json_path) as staged:
+            write_report(staged, report)
+    if plot is not None:
+        from ..evaluation.plot import Scored, plot_evaluation
+
+        with _writing(plot) as staged:
+            plot_evaluation(staged, reference, [Scored(Path(label).name, trajectory, evaluation) for label, trajectory,
+                                                evaluation in zip(labels, estimated, evaluations)],
+                            format=plot.suffix.lstrip(".").lower())
 
 
 @contextmanager
-def _writing(path: Path) -> Iterator[None]:
-    """Turn a failure to write ``path`` into a one-line input error."""
+def _writing(target: Path) -> Iterator[Path]:
+    """A temporary path beside ``target``, renamed onto it when written; a failure to write is a
+    one-line input error (and leaves ``target`` as it was). Says on stderr what was written."""
     try:
-        yield
+        with StagedFiles() as staged:
+            yield staged.path(target)
+            staged.commit()
     except OSError as error:
-        raise InputError.at(path, f"cannot write: {error.strerror}") from None
+        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+    typer.echo(f"wrote {target}", err=True)
 
 
-def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, tuple[float, float] | None, float | None]:
-    """A trajectory file, or a sequence folder's groundtruth with its frames' time span and period.
-
-    With a folder, coverage is measured over the time the camera recorded, not over the
-    groundtruth recorded before the first and after the last image, in units of its frame
-    period.
-    """
+def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, Clock]:
+    """A trajectory file (no clock), or a sequence folder's groundtruth and its frames' clock."""
     if not path.is_dir():
-        return read_tum(path), None, None
+        return read_tum(path), Clock()
     sequence = open_sequence(path)
     if sequence.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
-    return sequence.groundtruth, (float(sequence.timestamps[0]), float(sequence.timestamps[-1])), sequence.frame_period
+    return sequence.groundtruth, _clock_of(sequence)
+
+
+def _sequence_clock(path: Path) -> Clock:
+    if not path.is_dir():
+        raise InputError(f"--sequence {path}: not a folder")
+    return _clock_of(open_sequence(path))
+
+
+def _clock_of(sequence) -> Clock:
+    """Coverage over the time the camera recorded, in units of its frame period."""
+    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
+    return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period, stamps)
 
 
 def _why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float, max_difference: float) -> str:
@@ -99,19 +215,47 @@ def _why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float, 
     return f"no pose within {max_difference} s of a groundtruth pose"
 
 
-def _table(evaluation: Evaluation) -> Table:
-    coverage = evaluation.coverage
-    rpe_pairs = "all Δ (sampled)" if evaluation.delta is None else f"Δ = {evaluation.delta:g} {evaluation.delta_unit}"
-    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, title=f"{len(evaluation.pairs[0])} associated pairs, coverage "
-                  f"{coverage.ratio:.1%} ({len(coverage.lost_intervals)} lost intervals), RPE {rpe_pairs}")
-    table.add_column("metric", no_wrap=True)
-    for name in STATISTICS:
-        table.add_column(name, justify="right")
-    rows = [("ATE [m]", evaluation.ate), ("RPE trans [m]", evaluation.rpe_trans),
-            ("RPE rot [deg]", evaluation.rpe_rot), ("penalised ATE [m]", evaluation.penalized_ate)]
-    for label, series in rows:
+def plural(count: int, noun: str) -> str:
+    return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
+
+
+def _print_results(groundtruth: Path, labels: list[str], formats: list[str], evaluations: list[Evaluation]) -> None:
+    """The legend of the columns (which alignment each uses), the table, and for each estimate the
+    format it was read as and its coverage span."""
+    first = evaluations[0]
+    if first.delta is None:
+        rpe_pairs = "all Δ (sampled)"
+    elif first.delta_unit == "seconds":
+        rpe_pairs = f"Δ = {first.delta:g} s"
+    else:
+        rpe_pairs = f"Δ = {plural(first.delta, 'frame')}"
+    lines = [f"RMSE against {groundtruth}",
+             f"  ATE, penal. ATE [m]: {GLOBAL_ALIGNMENT_TEXT[first.alignment_name]}",
+             f"  ATE seg. [m]: {SEGMENT_ALIGNMENT_TEXT[first.alignment_name]}",
+             f"  RPE trans [m], rot [deg]: alignment-free, {rpe_pairs}"]
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, show_edge=False)
+    for column in ("estimate", "pairs", "coverage", "ATE", "ATE seg.", "RPE trans", "RPE rot", "penal. ATE"):
+        table.add_column(column, justify="left" if column == "estimate" else "right", no_wrap=True)
+    for label, evaluation in zip(labels, evaluations):
+        table.add_row(escape(label), *_row(evaluation))
+    typer.echo("\n".join(lines))
+    print_table(table)
+    typer.echo("\n".join(f"{label}: read as {FORMAT_NAMES[name]}; {_coverage_text(evaluation)}"
+                          for label, name, evaluation in zip(labels, formats, evaluations)))
+
+
+def _row(evaluation: Evaluation) -> list[str]:
+    def rmse(series) -> str:
         stats = stats_or_none(series)
-        cells = ["-"] * len(STATISTICS) if stats is None else [
-            str(stats[name]) if name == "n" else f"{stats[name]:.4f}" for name in STATISTICS]
-        table.add_row(escape(label), *cells)
-    return table
+        return "—" if stats is None else f"{stats['rmse']:.4f}"
+
+    return [str(len(evaluation.pairs[0])), f"{evaluation.coverage.ratio:.1%}", rmse(evaluation.ate),
+            rmse(evaluation.segment_ate), rmse(evaluation.rpe_trans), rmse(evaluation.rpe_rot),
+            rmse(evaluation.penalized_ate)]
+
+
+def _coverage_text(evaluation: Evaluation) -> str:
+    span = evaluation.coverage.span
+    lost = len(evaluation.coverage.lost_intervals)
+    return (f"coverage over {span.start:.6f}..{span.end:.6f} ({span.end - span.start:.3f} s, {span.rule}), "
+            f"{plural(lost, 'lost interval')}")

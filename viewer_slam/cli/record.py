@@ -1,14 +1,15 @@
-"""`viewslam record` and `viewslam view`."""
+"""`viewslam record`."""
 
-import subprocess
 from pathlib import Path
 
 import typer
 
-from ..errors import InputError
-from ..recording.viewer import viewer_binary
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
+
+ESTIMATE_HELP = ("Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
+                 "(TUM, KITTI poses on the sequence's frame stamps, or EuRoC CSV); repeatable. With estimates, "
+                 "no built-in pipeline runs unless --pipeline names some.")
 
 EXIT_INTERRUPTED = 130
 
@@ -16,10 +17,15 @@ EXIT_INTERRUPTED = 130
 @app.command("record")
 def record_command(
     sequence: str | None = typer.Argument(
-        None, help="TUM folder, synthetic scenario or TUM sequence name; none: the built-in demo."),
-    pipeline: list[str] = typer.Option(["both"], help=PIPELINE_HELP),
+        None, help="TUM folder, ROS bag (FILE.bag or a ROS 2 bag folder), synthetic scenario or TUM sequence "
+             "name; none: the built-in demo."),
+    pipeline: list[str] = typer.Option([], help=PIPELINE_HELP + " Default: both, or none beside --estimate.",
+                                       show_default=False),
+    estimate: list[str] = typer.Option([], metavar="NAME=FILE", help=ESTIMATE_HELP),
+    format: str | None = typer.Option(None, help="Format of every --estimate file: tum, kitti or euroc "
+                                                 "(default: detected; stderr says which was used)."),
     out: Path | None = typer.Option(None, help="Recording to write (default recordings/<sequence>.rrd); "
-                                              "NAME.json and NAME.<pipeline>.txt go beside it."),
+                                              "NAME.json and NAME.<run>.txt go beside it."),
     max_frames: int | None = typer.Option(None, min=1, help=MAX_FRAMES_HELP),
     stride: int = typer.Option(1, min=1, help="Use every K-th frame."),
     param: list[str] = typer.Option([], help="Pipeline parameter under its original name, KEY=VALUE."),
@@ -27,22 +33,25 @@ def record_command(
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of every random choice."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar and no summary."),
     spawn: bool = typer.Option(False, "--spawn", help="Also stream live into a Rerun viewer."),
+    rgb_topic: str | None = typer.Option(None, help="ROS bag: the colour image topic (default: found by type)."),
+    depth_topic: str | None = typer.Option(None, help="ROS bag: the depth image topic (default: found by type)."),
+    camera_info_topic: str | None = typer.Option(None, help="ROS bag: the camera info topic (default: the one "
+                                                           "beside the colour topic)."),
+    groundtruth: Path | None = typer.Option(None, help="ROS bag: groundtruth trajectory file (TUM, EuRoC) "
+                                                      "instead of the bag's /tf."),
+    groundtruth_topic: str | None = typer.Option(None, help="ROS bag: groundtruth pose topic instead of /tf."),
 ) -> int:
-    """Run SLAM pipelines over SEQUENCE into a Rerun recording, with a report and trajectories."""
+    """Run SLAM pipelines over SEQUENCE (a TUM folder, scenario, TUM name or ROS bag) into a Rerun
+    recording, with a report and trajectories; --estimate adds other systems' trajectories as runs."""
     from ..recording.console import print_summary
     from ..recording.session import RecordOptions, record
 
-    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline), out=out, max_frames=max_frames,
-                                  stride=stride, params=param, config=config, seed=seed, quiet=quiet,
-                                  spawn=spawn))
+    bag = {"rgb_topic": rgb_topic, "depth_topic": depth_topic, "camera_info_topic": camera_info_topic,
+           "groundtruth": groundtruth, "groundtruth_topic": groundtruth_topic}
+    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline) or None, out=out,
+                                  max_frames=max_frames, stride=stride, params=param, config=config, seed=seed,
+                                  quiet=quiet, spawn=spawn, estimates=estimate, format=format, bag=bag))
     if not quiet:
         print_summary(result.report, result.written)
     return EXIT_INTERRUPTED if result.interrupted else 0
 
-
-@app.command("view")
-def view_command(recording: Path = typer.Argument(..., help="A .rrd file written by `viewslam record`.")) -> int:
-    """Open RECORDING in the Rerun viewer that ships with rerun-sdk."""
-    if not recording.is_file():
-        raise InputError.at(recording, "no such recording" if not recording.exists() else "not a file")
-    return subprocess.call([str(viewer_binary()), str(recording)])

@@ -7,7 +7,8 @@ def absolute_errors(reference_positions: np.ndarray, estimate_positions: np.ndar
                     alignment: np.ndarray) -> np.ndarray:
     """``||trans(Q_i^-1 S P_i)||`` for every associated pair, computed as ``||S p_i - q_i||``.
 
-    ``alignment`` is S (estimate frame → reference frame), rigid or a similarity.
+    ``alignment`` is S (estimate frame → reference frame), rigid or a similarity: one 4x4
+    for every pair, or ``(N, 4, 4)``, one per pair (each tracked segment aligned on its own).
     """
-    aligned = estimate_positions @ alignment[:3, :3].T + alignment[:3, 3]
+    aligned = np.einsum("...ij,...j->...i", alignment[..., :3, :3], estimate_positions) + alignment[..., :3, 3]
     return np.linalg.norm(aligned - reference_positions, axis=1)

@@ -104,12 +104,18 @@ class EstimateReplay(Pipeline):
         return next(end - start for start, end in self._lost_intervals if start <= stamp <= end)
 
 
+def estimate_replay(sequence: Sequence, path: Path, format: str | None = None, *,
+                    max_frames: int | None = None, stride: int = 1) -> EstimateReplay:
+    """The replay of the estimate in ``path`` over the frames :func:`drive` feeds from ``sequence``;
+    reading it checks the file (an :class:`InputError` naming it) and settles its format."""
+    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
+    processed = stamps[range(0, len(stamps), stride)][:max_frames]
+    return EstimateReplay(EstimateParams(str(path), format or ""), stamps, processed)
+
+
 def replay_estimate(sequence: Sequence, name: str, path: Path, format: str | None = None, *,
                     max_frames: int | None = None, stride: int = 1, sinks: tuple[Sink, ...] = (),
                     frame_sinks: tuple[Callable[[Frame], None], ...] = ()) -> PipelineRun:
     """The run ``name`` of the estimate in ``path`` over ``sequence``'s frames (as :func:`drive` feeds them)."""
-    stamps = np.asarray(sequence.timestamps, dtype=np.float64)
-    processed = stamps[range(0, len(stamps), stride)][:max_frames]
-    replay = EstimateReplay(EstimateParams(str(path), format or ""), stamps, processed)
+    replay = estimate_replay(sequence, path, format, max_frames=max_frames, stride=stride)
     return drive(replay, name, sequence, max_frames=max_frames, stride=stride, sinks=sinks, frame_sinks=frame_sinks)
-

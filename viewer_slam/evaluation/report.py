@@ -26,7 +26,7 @@ def pipeline_report(run: PipelineRun, evaluation: Evaluation | None,
                     odometry_evaluation: Evaluation | None) -> dict[str, Any]:
     """One pipeline's block; metric blocks are null without groundtruth (or without poses)."""
     metrics = evaluation.to_dict() if evaluation is not None else {
-        "ate": None, "rpe": None, "coverage": None, "penalized_ate": None}
+        "alignment": None, "ate": None, "ate_segments": None, "rpe": None, "coverage": None, "penalized_ate": None}
     return {
         "frames_with_pose": len(run.trajectory),
         **metrics,

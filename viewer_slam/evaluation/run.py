@@ -6,7 +6,10 @@ import numpy as np
 
 from ..geometry.trajectory import Trajectory
 from ..pipelines.run import PipelineRun
+from .coverage import Span
 from .evaluation import Evaluation, evaluate
+
+PROCESSED_FRAMES_RULE = "processed frames"
 
 
 def evaluate_run(groundtruth: Trajectory | None, run: PipelineRun,
@@ -20,7 +23,7 @@ def evaluate_run(groundtruth: Trajectory | None, run: PipelineRun,
     if groundtruth is None or len(frame_timestamps) == 0:
         return None, None
     stamps = np.asarray(frame_timestamps, dtype=np.float64)
-    span = (float(stamps[0]), float(stamps[-1]))
+    span = Span(float(stamps[0]), float(stamps[-1]), PROCESSED_FRAMES_RULE)
     period = float(np.median(np.diff(stamps))) if len(stamps) > 1 else None
     scores = evaluate(groundtruth, run.trajectory, span=span, frame_period=period)
     odometry = evaluate(groundtruth, run.odometry, span=span, frame_period=period) if run.odometry is not None else None

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..geometry.camera import Camera
+from .adjuster import ADJUSTABLE, ORB_THRESHOLD, SIFT_THRESHOLD, GridDetector
 
 BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
 DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
@@ -63,53 +64,19 @@ def _make_detector(kind: str, max_features: int):
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
 
 
-@dataclass(frozen=True)
-class AdjustableThreshold:
-    """A detector threshold that RGB-D SLAM v2's detector adjuster may move within bounds."""
-
-    start: float
-    floor: float
-    ceiling: float
-    setter: str
-    integer: bool = False
-
-
-# v2's DetectorAdjuster starts ORB's FAST threshold at 20 and SIFT's contrast at 0.04.
-ORB_THRESHOLD = AdjustableThreshold(20, 1, 80, "setFastThreshold", integer=True)
-SIFT_THRESHOLD = AdjustableThreshold(0.04, 0.0001, 0.16, "setContrastThreshold")
-ADJUSTABLE = {"ORB": ORB_THRESHOLD, "SIFT": SIFT_THRESHOLD}
-
-
-def _spread_over_grid(points: np.ndarray, responses: np.ndarray, shape: tuple[int, int],
-                      grid: int, limit: int) -> np.ndarray:
-    """Indices of at most ``limit`` keypoints, strongest first, at most limit/grid² per cell
-    while other cells have room, so the features cover the whole image."""
-    order = np.argsort(-responses, kind="stable")
-    if grid <= 1:
-        return order[:limit]
-    height, width = shape
-    cell = (np.minimum((points[order, 1] * grid / height).astype(int), grid - 1) * grid
-            + np.minimum((points[order, 0] * grid / width).astype(int), grid - 1))
-    # Rank of each keypoint within its cell, in decreasing response order.
-    cell_order = np.argsort(cell, kind="stable")
-    sorted_cells = cell[cell_order]
-    starts = np.searchsorted(sorted_cells, sorted_cells, side="left")
-    rank = np.empty(len(order), dtype=int)
-    rank[cell_order] = np.arange(len(order)) - starts
-    quota = max(1, limit // (grid * grid))
-    chosen = order[np.argsort(rank >= quota, kind="stable")]  # in-quota first, then the rest by strength
-    return chosen[:limit]
+def _strongest(responses: np.ndarray, limit: int) -> np.ndarray:
+    """Indices of the ``limit`` strongest keypoints, strongest first."""
+    return np.argsort(-responses, kind="stable")[:limit]
 
 
 class FeatureExtractor:
     """Detect, describe and back-project keypoints of one RGB-D frame.
 
-    With ``adjuster_iterations`` > 0 the detector threshold adapts as RGB-D SLAM v2's
-    "video" dynamic adjuster does: when a frame yields fewer than ``max_features``
-    keypoints the threshold is lowered (halved) and detection repeated, at most that many
-    times, and when it yields more than 1.5 times as many the threshold is raised for the
-    next frame. The threshold carries over from frame to frame, so faint texture (a plain
-    wooden plane) still gives keypoints while rich texture is not flooded with them.
+    With ``adjuster_iterations`` > 0 (ORB, SIFT) detection is RGB-D SLAM v2's adjusted grid
+    detector (:mod:`.adjuster`): ``grid`` x ``grid`` cells with thresholds of their own; then,
+    as v2's ``Node`` constructor, keypoints without depth are dropped and the ``max_features``
+    strongest of the rest described. Otherwise one detector gives the ``max_features``
+    strongest keypoints.
     """
 
     def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
@@ -117,41 +84,28 @@ class FeatureExtractor:
         self.kind = kind
         self.max_features = max_features
         self.camera = camera
-        self.grid = grid
         self.min_depth = min_depth
         self.max_depth = max_depth
         self.detector, self.describer = _make_detector(kind, max_features)
         self.binary = kind in BINARY_DESCRIPTORS
-        self.adjustable = ADJUSTABLE.get(kind) if adjuster_iterations > 0 else None
-        self.adjuster_iterations = adjuster_iterations
-        self.threshold = self.adjustable.start if self.adjustable else None
+        self.adjusted = (GridDetector(kind, max_features, grid, adjuster_iterations)
+                         if adjuster_iterations > 0 and kind in ADJUSTABLE else None)
 
-    def _set_threshold(self, value: float) -> None:
-        value = float(np.clip(value, self.adjustable.floor, self.adjustable.ceiling))
-        self.threshold = int(round(value)) if self.adjustable.integer else value
-        getattr(self.detector, self.adjustable.setter)(self.threshold)
-
-    def _detect(self, gray: np.ndarray) -> list:
-        keypoints = self.detector.detect(gray, None)
-        if self.adjustable is None:
-            return keypoints
-        for _ in range(self.adjuster_iterations):
-            if len(keypoints) >= self.max_features or self.threshold <= self.adjustable.floor:
-                break
-            self._set_threshold(self.threshold / 2)
+    def _detect(self, gray: np.ndarray, depth: np.ndarray) -> list:
+        if self.adjusted is not None:
+            keypoints = self.adjusted.detect(gray)
+            if keypoints:
+                with_depth = ~np.isnan(self.backproject(np.array([k.pt for k in keypoints], np.float32), depth)[:, 0])
+                keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
+        else:
             keypoints = self.detector.detect(gray, None)
-        if len(keypoints) > 1.5 * self.max_features:
-            self._set_threshold(self.threshold * 1.5)
-        return keypoints
+        if not keypoints:
+            return keypoints
+        return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
 
     def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-        keypoints = self._detect(gray)
-        if keypoints:
-            xy = np.array([k.pt for k in keypoints], dtype=np.float32)
-            strength = np.array([k.response for k in keypoints], dtype=np.float32)
-            keep = _spread_over_grid(xy, strength, gray.shape, self.grid, self.max_features)
-            keypoints = [keypoints[i] for i in keep]
+        keypoints = self._detect(gray, depth)
         describer = self.describer or self.detector
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ((), None)
         if descriptors is None or not len(keypoints):
@@ -187,8 +141,15 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     Returns index arrays into ``query`` and ``train``; a query whose two nearest neighbours
     are too alike is dropped, as is a second query claiming an already matched train item.
     """
+    query_index, train_index, _ = match_with_ratios(query, train, binary, ratio)
+    return query_index, train_index
+
+
+def match_with_ratios(query: np.ndarray, train: np.ndarray, binary: bool,
+                      ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`match_descriptors` with each match's nearest / second-nearest distance ratio."""
     if len(query) == 0 or len(train) < 2:
-        return np.zeros(0, int), np.zeros(0, int)
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
     # batchDistance gives the two nearest neighbours as arrays (knnMatch's exact results,
     # without a Python object per match) and releases the GIL while it searches.
     distance, nearest = cv2.batchDistance(query, train, -1, normType=cv2.NORM_HAMMING if binary else cv2.NORM_L2, K=2)
@@ -197,4 +158,4 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     best_first = np.argsort(d, kind="stable")
     _, unique = np.unique(t[best_first], return_index=True)
     keep = np.sort(best_first[unique])
-    return q[keep], t[keep]
+    return q[keep], t[keep], distance[q[keep], 0] / distance[q[keep], 1]

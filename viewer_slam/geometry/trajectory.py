@@ -39,9 +39,12 @@ class Trajectory:
 
 
 def read_text(path: Path) -> str:
-    """The text of a trajectory file; a missing or unreadable file is an :class:`InputError`."""
+    """The text of a trajectory file; a missing or unreadable file is an :class:`InputError`.
+
+    A UTF-8 byte-order mark (some Windows editors write one) is dropped.
+    """
     try:
-        return Path(path).read_text()
+        return Path(path).read_text(encoding="utf-8-sig")
     except FileNotFoundError:
         raise InputError.at(path, "no such file") from None
     except (OSError, UnicodeDecodeError) as error:

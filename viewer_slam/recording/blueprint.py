@@ -3,7 +3,10 @@
 import numpy as np
 import rerun.blueprint as rrb
 
+from .. import palette
+from ..pipelines.edges import EdgeKind
 from . import layout
+from .sizes import extent
 
 
 def _series(pipelines: list[str], series: str) -> list[str]:
@@ -11,11 +14,11 @@ def _series(pipelines: list[str], series: str) -> list[str]:
 
 
 def overview_eye(positions: np.ndarray) -> rrb.EyeControls3D:
-    """A three-quarter view from above that frames the camera path and the room around it."""
+    """A three-quarter view from above that frames the camera path and the room around it
+    (the room reaches beyond a short path: the distance has a floor)."""
     centre = positions.mean(axis=0)
-    extent = float(np.ptp(positions, axis=0).max())
     direction = np.array([-0.35, -0.5, 1.0])
-    distance = 1.1 * extent + 1.0
+    distance = 1.6 * extent(positions) + 0.5
     return rrb.EyeControls3D(kind="Orbital", position=centre + distance * direction / np.linalg.norm(direction),
                              look_target=centre, eye_up=[0.0, 0.0, 1.0])
 
@@ -26,21 +29,24 @@ def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | 
 
     With groundtruth, the 3D view opens looking at its camera path."""
     eye = overview_eye(groundtruth_positions) if groundtruth_positions is not None else None
-    # Keyframe depth clouds and the many rejected loop closures would bury the map and the
-    # trajectories; one click in the view shows them.
+    # Keyframe depth clouds, the many rejected loop closures and the local edges (short chords
+    # among recent keyframes) would bury the map and the trajectories; one click shows them.
     hidden = {f"/{path}": rrb.EntityBehavior(visible=False) for name in pipelines
-              for path in (f"{layout.latest_keyframe(name)}/depth", layout.rejected_loop_closures(name))}
-    legend = ", ".join(f"{name} {layout.COLOR_NAMES[layout.pipeline_color(name, i)]}"
-                       for i, name in enumerate(pipelines))
-    scene = rrb.Spatial3DView(origin="world", name=f"groundtruth grey, {legend}; accepted loop closures green",
+              for path in (f"{layout.latest_keyframe(name)}/depth", layout.rejected_loop_closures(name),
+                           layout.edges(name, EdgeKind.LOCAL.value))}
+    legend = ", ".join(f"{name} {palette.run_colour(name, i).name}" for i, name in enumerate(pipelines))
+    scene = rrb.Spatial3DView(origin="world", name=f"groundtruth {palette.GROUNDTRUTH.name}, {legend}; "
+                                                   f"loop closures {palette.ACCEPTED.name}",
                               eye_controls=eye, overrides=hidden)
     matches = rrb.Horizontal(*[
         rrb.Spatial2DView(origin=layout.matches(name), contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
                           name=f"{name} matches")
         for name in pipelines])
-    ate = rrb.TimeSeriesView(name="ATE per frame [m]", contents=_series(pipelines, "ate"),
+    ate = rrb.TimeSeriesView(name="ATE per frame, one alignment for the run [m]", contents=_series(pipelines, "ate"),
                              plot_legend=rrb.Corner2D.LeftTop)
     details = rrb.Tabs(
+        rrb.TimeSeriesView(name="ATE per frame, each tracked segment aligned on its own [m]",
+                           contents=_series(pipelines, "ate_segments")),
         rrb.TimeSeriesView(name="RPE translation [m], Δ=1 s", contents=_series(pipelines, "rpe_trans")),
         rrb.TimeSeriesView(name="RPE rotation [deg], Δ=1 s", contents=_series(pipelines, "rpe_rot")),
         rrb.TimeSeriesView(name="coverage so far", contents=_series(pipelines, "coverage")),

@@ -6,12 +6,15 @@ from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 
+from .. import palette
 from ..pipelines.events import Event, FrameTracked
 from ..pipelines.run import Sink
 from ..terminal import print_table
 
-_STATE_STYLES = {"ok": "green", "relocalised": "yellow", "lost": "bold red", "initialising": "dim"}
+_STATE_STYLES = {status: f"bold {colour.hex}" if status == "lost" else colour.hex
+                 for status, colour in palette.STATUS.items()}
 
 
 class RecordProgress:
@@ -23,7 +26,7 @@ class RecordProgress:
     def __init__(self, total_frames: int, quiet: bool = False):
         self.total_frames = total_frames
         self._progress = Progress(
-            TextColumn("[bold]{task.description:<9}"), BarColumn(), MofNCompleteColumn(),
+            TextColumn("[bold {task.fields[colour]}]{task.description:<9}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("{task.fields[fps]:5.1f} frames/s"), TextColumn("{task.fields[state]}"),
             TimeElapsedColumn(), console=Console(stderr=True), disable=quiet)
 
@@ -36,7 +39,8 @@ class RecordProgress:
 
     def sink(self, pipeline: str) -> Sink:
         """A sink that advances ``pipeline``'s bar on every tracked frame."""
-        task = self._progress.add_task(pipeline, total=self.total_frames, fps=0.0, state="")
+        colour = palette.run_colour(pipeline, len(self._progress.tasks)).hex
+        task = self._progress.add_task(pipeline, total=self.total_frames, fps=0.0, state="", colour=colour)
         start = time.perf_counter()
         frames = 0
 
@@ -65,11 +69,11 @@ def print_summary(report: dict, written: list, console: Console | None = None) -
     for column in ("pipeline", "poses", "coverage", "ATE", "penal.\nATE", "RPE\ntrans", "RPE\nrot", "loops",
                    "fps"):
         table.add_column(column, justify="left" if column == "pipeline" else "right", no_wrap=True)
-    for name, block in report["pipelines"].items():
+    for position, (name, block) in enumerate(report["pipelines"].items()):
         rpe = block["rpe"] or {}
         coverage = block["coverage"]
         table.add_row(
-            name, str(block["frames_with_pose"]),
+            Text(name, style=palette.run_colour(name, position).hex), str(block["frames_with_pose"]),
             "—" if coverage is None else f"{coverage['ratio']:.0%}",
             _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot"), 2),
             f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",

@@ -10,20 +10,13 @@ import numpy as np
 import rerun as rr
 
 from ..diagnosis import Cause, FrameSignals
+from .. import palette
 from . import layout
 from .timelines import send_frame_columns
 
 TRACKING = "tracking"
-CAUSE_COLORS = {
-    TRACKING: (40, 220, 90),
-    Cause.SENSOR_BLOCKED.value: (120, 120, 120),
-    Cause.NO_DEPTH.value: (90, 60, 200),
-    Cause.FAST_MOTION.value: (255, 140, 0),
-    Cause.DYNAMIC_SCENE.value: (200, 80, 220),
-    Cause.TOO_FEW_FEATURES.value: (235, 50, 50),
-    Cause.TOO_FEW_INLIERS.value: (230, 200, 40),
-    Cause.UNKNOWN.value: (170, 170, 170),
-}
+CAUSE_COLORS = {TRACKING: palette.STATUS["ok"].rgb,
+                **{cause.value: palette.CAUSES[cause.value].rgb for cause in Cause}}
 
 
 def cause_path(name: str) -> str:
@@ -31,7 +24,10 @@ def cause_path(name: str) -> str:
 
 
 def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], signals: FrameSignals) -> None:
-    """Log each diagnosed loss of run ``name`` (entries with ``cause`` and ``text``) at its frame."""
+    """Log each diagnosed loss of run ``name`` (entries with ``cause`` and ``text``) at its frame.
+
+    This is the loss's one log line: the diagnosed cause, then the reason the pipeline gave.
+    """
     diagnosed = [loss for loss in losses if "cause" in loss]
     if not diagnosed:
         return
@@ -41,7 +37,7 @@ def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], s
     frames = np.array([loss["frame"] for loss in diagnosed], dtype=np.int64)
     stamps = np.array([loss["timestamp"] for loss in diagnosed], dtype=np.float64)
     send_frame_columns(stream, layout.text_log(name), frames, stamps,
-                       rr.TextLog.columns(text=[loss["text"] for loss in diagnosed],
+                       rr.TextLog.columns(text=[f"{loss['text']}; the pipeline: {loss['reason']}" for loss in diagnosed],
                                           level=[rr.TextLogLevel.WARN] * len(diagnosed)))
     changes = [(frame, stamp, loss["cause"]) for frame, stamp, loss in zip(frames, stamps, diagnosed)]
     changes += _recoveries(frames, signals)

@@ -10,29 +10,36 @@ pipeline's map frame and are logged under ``world/<pipeline>``, whose transform 
 import numpy as np
 import rerun as rr
 
+from .. import palette
 from ..dataset.frame import Frame
 from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory
 from ..pipelines.edges import EdgeKind
 from ..pipelines.events import (Event, FeatureMatches, FrameTracked, GraphEdge, GraphOptimized, KeyframeAdded,
-                                MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+                                MapUpdated, TrackingRecovered, TrackingStatus, TrajectoryFinal)
 from . import layout
 from .budget import SnapshotBudget
 from .images import depth_png, jpeg
+from .sizes import SceneSizes, extent, scene_sizes
 from .voxel_map import VoxelMap
 
-FRUSTUM_DEPTH_M = 0.15
 KEYFRAME_DEPTH_STEP = 4  # keyframe depth images are kept at a quarter of the resolution
 MAX_MATCHES_DRAWN = 150
 # Bytes per frame that each growing snapshot may spend on being re-logged (see SnapshotBudget).
 MAP_BYTES_PER_FRAME = 3072
 KEYFRAMES_BYTES_PER_FRAME = 512
 LOOP_CLOSURES_BYTES_PER_FRAME = 512
+EDGES_BYTES_PER_FRAME = 512
 DEPTH_BYTES_PER_FRAME = 1536
+# A map snapshot is due once the frames have paid for this share of it, and is thinned to what
+# they paid: the map grows visibly while scrubbing, for the bytes of rarer whole snapshots.
+MAP_MIN_SHARE = 0.25
 # Approximate bytes per element of each snapshot: positions, colours, radii, labels.
 MAP_POINT_BYTES = 16
 KEYFRAME_BYTES = 24
-LOOP_CLOSURE_BYTES = 36
+EDGE_BYTES = 36
+# Re-log the frustum when the scene (seen so far, without groundtruth) has grown by this factor.
+FRUSTUM_RESIZE_FACTOR = 1.25
 
 
 def set_frame_time(stream: rr.RecordingStream, index: int, timestamp: float) -> None:
@@ -48,15 +55,16 @@ def log_frame_image(stream: rr.RecordingStream, frame: Frame) -> None:
 def log_world(stream: rr.RecordingStream, groundtruth: Trajectory | None) -> None:
     """``world`` is the groundtruth frame, z up as TUM's motion capture (and the synthetic scenes)."""
     stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
-    if groundtruth is None:
+    if groundtruth is None or len(groundtruth.positions) < 2:
         return
-    stream.log(layout.GROUNDTRUTH, rr.LineStrips3D([groundtruth.positions], colors=[layout.GROUNDTRUTH_COLOR],
+    stream.log(layout.GROUNDTRUTH, rr.LineStrips3D([groundtruth.positions], colors=[palette.GROUNDTRUTH.rgb],
                                                    radii=rr.Radius.ui_points(2.0)), static=True)
 
 
-def pinhole(camera: Camera, color) -> rr.Pinhole:
+def pinhole(camera: Camera, color, depth: float) -> rr.Pinhole:
+    """A frustum ``depth`` metres deep (see :mod:`.sizes`)."""
     return rr.Pinhole(image_from_camera=camera.K, resolution=[camera.width, camera.height],
-                      camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=FRUSTUM_DEPTH_M, color=color,
+                      camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=depth, color=color,
                       line_width=rr.Radius.ui_points(1.5))
 
 
@@ -71,64 +79,98 @@ def evenly_spaced(count: int, limit: int) -> np.ndarray:
     return np.round(np.linspace(0, count - 1, limit)).astype(int)
 
 
-class PipelineRecorder:
-    """Turns one pipeline's events into Rerun data (see DESIGN.md, "Rerun recording")."""
+def loop_closure_line(edges: list[GraphEdge], verdict: str) -> str:
+    """One log line for all the loop-closure hypotheses of one frame that share a verdict."""
+    details = "; ".join(f"KF{edge.from_keyframe} -> KF{edge.to_keyframe} ({edge.detection}, {edge.reason}, "
+                        f"score {edge.score:.3g}, {edge.inliers} inliers)" for edge in edges)
+    noun = "loop closure" if len(edges) == 1 else f"{len(edges)} loop closures"
+    return f"{noun} {verdict}: {details}"
 
-    def __init__(self, stream: rr.RecordingStream, name: str, camera: Camera, color: tuple[int, int, int]):
+
+class PipelineRecorder:
+    """Turns one pipeline's events into Rerun data (see DESIGN.md, "Rerun recording").
+
+    Sizes come from ``scene_extent`` (the groundtruth's, see :mod:`.sizes`), else from the
+    poses seen so far. Every batch of instances goes through :meth:`_log_instances`, which
+    sends a Clear rather than an empty batch; the recorder never sends columns.
+    """
+
+    def __init__(self, stream: rr.RecordingStream, name: str, camera: Camera, colour: palette.Colour,
+                 scene_extent: float | None = None):
         self.stream = stream
         self.name = name
         self.camera = camera
-        self.color = color
+        self.colour = colour
         self.frame_indices: list[int] = []
         self.frame_timestamps: list[float] = []
         self.status: str | None = None
+        self._scene_extent = scene_extent
+        self._seen = np.zeros((0, 3))  # corners of the bounding box of the poses seen
+        self._frustum_depth: float | None = None
         self._frame: Frame | None = None
         self._matched_frame: int | None = None
         self._keyframes: dict[int, np.ndarray] = {}
         self._loops: list[GraphEdge] = []
+        self._edges: dict[EdgeKind, list[GraphEdge]] = {EdgeKind.SEQUENTIAL: [], EdgeKind.LOCAL: []}
+        self._unlogged_loops: list[GraphEdge] = []
         self._map = VoxelMap()
-        self._map_budget = SnapshotBudget(MAP_BYTES_PER_FRAME)
+        self._map_budget = SnapshotBudget(MAP_BYTES_PER_FRAME, min_share=MAP_MIN_SHARE)
         self._keyframes_budget = SnapshotBudget(KEYFRAMES_BYTES_PER_FRAME)
         self._loops_budget = SnapshotBudget(LOOP_CLOSURES_BYTES_PER_FRAME)
+        self._edges_budget = SnapshotBudget(EDGES_BYTES_PER_FRAME)
         self._depth_budget = SnapshotBudget(DEPTH_BYTES_PER_FRAME)
         self._handlers = {
             FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
             FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
             GraphOptimized: self._graph_optimized, MapUpdated: self._map_updated,
-            TrackingLost: self._tracking_lost, TrackingRecovered: self._tracking_recovered,
+            TrackingRecovered: self._tracking_recovered,
             TrajectoryFinal: self._trajectory_final,
         }
         self._log_styles()
 
     def begin_frame(self, frame: Frame) -> None:
         """Called as ``frame`` is read: the events that follow belong to it."""
+        self._log_loop_closure_lines()  # of the frame before, at its time
         self._frame = frame
         set_frame_time(self.stream, frame.index, frame.timestamp)
 
     def __call__(self, event: Event) -> None:
-        self._handlers[type(event)](event)
+        """Record ``event``. A TrackingLost is not logged here: its one log line comes once the
+        run has ended, with the cause the diagnosis measured (recording/loss_causes.py)."""
+        handler = self._handlers.get(type(event))
+        if handler is not None:
+            handler(event)
+
+    @property
+    def sizes(self) -> SceneSizes:
+        return scene_sizes(self._scene_extent if self._scene_extent is not None else extent(self._seen))
 
     def _log(self, path: str, *archetypes, static: bool = False) -> None:
         for archetype in archetypes:
             self.stream.log(path, archetype, static=static)
+
+    def _log_instances(self, path: str, instances, make, static: bool = False) -> None:
+        """``make(instances)`` at ``path``, or a Clear of ``path`` when there are none: an empty
+        batch would say nothing the Clear does not, and no chunk of the recording is empty."""
+        self._log(path, make(instances) if len(instances) else rr.Clear(recursive=False), static=static)
 
     def _text(self, message: str, level: str) -> None:
         """A log line; the pipeline leads the text since log views truncate the entity path."""
         self._log(layout.text_log(self.name), rr.TextLog(f"{self.name}: {message}", level=level))
 
     def _log_styles(self) -> None:
-        name, color = self.name, self.color
-        for series in ("ate", "rpe_trans", "rpe_rot", "coverage", "graph_error"):
-            self._log(layout.metric(name, series), rr.SeriesLines(colors=[color], names=[name], widths=[2.0]),
+        name, rgb = self.name, self.colour.rgb
+        for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "graph_error"):
+            self._log(layout.metric(name, series), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
                       static=True)
         for series, width in (("features", 1.0), ("matches", 1.0), ("inliers", 2.0)):
             self._log(layout.metric(name, series),
-                      rr.SeriesLines(colors=[color], names=[f"{name} {series}"], widths=[width]), static=True)
+                      rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]), static=True)
         self._log(layout.metric(name, "tracking_state"),
-                  rr.StateConfiguration(values=list(layout.STATUS_COLORS), labels=list(layout.STATUS_COLORS),
-                                        colors=list(layout.STATUS_COLORS.values())), static=True)
-        self._log(layout.matches(name), rr.LineStrips2D.from_fields(colors=[layout.INLIER_COLOR]), static=True)
-        self._log(f"{layout.matches(name)}/outliers", rr.LineStrips2D.from_fields(colors=[layout.OUTLIER_COLOR]),
+                  rr.StateConfiguration(values=list(palette.STATUS), labels=list(palette.STATUS),
+                                        colors=[colour.rgb for colour in palette.STATUS.values()]), static=True)
+        self._log(layout.matches(name), rr.LineStrips2D.from_fields(colors=[palette.INLIER.rgb]), static=True)
+        self._log(f"{layout.matches(name)}/outliers", rr.LineStrips2D.from_fields(colors=[palette.OUTLIER.rgb]),
                   static=True)
 
     # --- per frame ----------------------------------------------------------------------
@@ -136,12 +178,10 @@ class PipelineRecorder:
     def _frame_tracked(self, event: FrameTracked) -> None:
         self.frame_indices.append(event.frame_index)
         self.frame_timestamps.append(event.timestamp)
-        status = event.status.value
-        if status != self.status:
-            self.status = status
-            self._log(layout.metric(self.name, "tracking_state"), rr.StateChange(state=[status]))
-            frustum = layout.LOST_COLOR if event.status is TrackingStatus.LOST else self.color
-            self._log(layout.camera(self.name), pinhole(self.camera, frustum))
+        if event.pose is not None:
+            seen = np.concatenate([self._seen, event.pose[None, :3, 3]])
+            self._seen = np.stack([seen.min(axis=0), seen.max(axis=0)])
+        self._log_state_and_frustum(event.status)
         if event.pose is not None:
             self._log(layout.camera(self.name), transform(event.pose))
         if self._matched_frame != event.frame_index:
@@ -153,6 +193,20 @@ class PipelineRecorder:
             self._log(layout.metric(self.name, f"time/{stage}"), rr.Scalars(float(ms)))
         self._log_due_snapshots(event.frame_index)
 
+    def _log_state_and_frustum(self, status: TrackingStatus) -> None:
+        """The state when it changes; the frustum then (red while lost) and when the scene has grown."""
+        depth = self.sizes.frustum_depth
+        resized = self._frustum_depth is not None and not (
+            1 / FRUSTUM_RESIZE_FACTOR < depth / self._frustum_depth < FRUSTUM_RESIZE_FACTOR)
+        changed = status.value != self.status
+        if changed:
+            self.status = status.value
+            self._log(layout.metric(self.name, "tracking_state"), rr.StateChange(state=[status.value]))
+        if changed or resized:
+            self._frustum_depth = depth
+            colour = palette.LOST.rgb if status is TrackingStatus.LOST else self.colour.rgb
+            self._log(layout.camera(self.name), pinhole(self.camera, colour, depth))
+
     def _feature_matches(self, event: FeatureMatches) -> None:
         """Lines from each keypoint to its match, inliers and outliers apart, thinned evenly."""
         self._matched_frame = event.frame_index
@@ -160,16 +214,13 @@ class PipelineRecorder:
         segments = np.stack([event.points_current, event.points_reference], axis=1).astype(np.float32)
         for path, subset in ((layout.matches(self.name), segments[inliers]),
                              (f"{layout.matches(self.name)}/outliers", segments[~inliers])):
-            drawn = subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)]
-            self._log(path, rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)))
-
-    def _tracking_lost(self, event: TrackingLost) -> None:
-        self._text(f"tracking lost ({event.reason})", rr.TextLogLevel.WARN)
+            self._log_instances(path, subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)],
+                                lambda drawn: rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)))
 
     def _tracking_recovered(self, event: TrackingRecovered) -> None:
-        self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.INFO)
+        self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.WARN)
 
-    # --- graph: keyframes, loop closures, optimisation ----------------------------------
+    # --- graph: keyframes, edges, optimisation ------------------------------------------
 
     def _keyframe_added(self, event: KeyframeAdded) -> None:
         self._keyframes[event.keyframe_id] = event.pose[:3, 3].copy()
@@ -184,26 +235,37 @@ class PipelineRecorder:
         self._depth_budget.dirty = True
         if self._depth_budget.due(event.frame_index, len(png)):
             self._log(layout.latest_keyframe(self.name), transform(event.pose),
-                      pinhole(self.camera.scaled(small.shape[1], small.shape[0]), self.color))
+                      pinhole(self.camera.scaled(small.shape[1], small.shape[0]), self.colour.rgb,
+                              self.sizes.frustum_depth))
             self._log(f"{layout.latest_keyframe(self.name)}/depth",
                       rr.EncodedDepthImage(png, media_type="image/png", meter=1000.0, colormap="turbo"))
             self._depth_budget.logged(event.frame_index)
 
     def _graph_edge(self, event: GraphEdge) -> None:
-        if event.kind != EdgeKind.LOOP:
-            return
-        self._loops.append(event)
-        self._loops_budget.dirty = True
-        verdict = "accepted" if event.accepted else "rejected"
-        self._text(f"{event.detection} loop closure KF{event.from_keyframe} -> KF{event.to_keyframe} {verdict} "
-                   f"({event.reason}; score {event.score:.3g}, {event.inliers} inliers)",
-                   rr.TextLogLevel.INFO if event.accepted else rr.TextLogLevel.DEBUG)
+        """Loop closures (accepted or not) are drawn and logged; other accepted edges only drawn."""
+        if event.kind == EdgeKind.LOOP:
+            self._loops.append(event)
+            self._loops_budget.dirty = True
+            self._unlogged_loops.append(event)
+        elif event.accepted:
+            self._edges[event.kind].append(event)
+            self._edges_budget.dirty = True
+
+    def _log_loop_closure_lines(self) -> None:
+        """At most one line per verdict for the loop closures of the current frame."""
+        for accepted, verdict, level in ((True, "accepted", rr.TextLogLevel.INFO),
+                                         (False, "rejected", rr.TextLogLevel.DEBUG)):
+            edges = [edge for edge in self._unlogged_loops if edge.accepted == accepted]
+            if edges:
+                self._text(loop_closure_line(edges, verdict), level)
+        self._unlogged_loops = []
 
     def _graph_optimized(self, event: GraphOptimized) -> None:
         for keyframe_id, pose in zip(np.asarray(event.keyframe_ids).tolist(), event.poses):
             self._keyframes[keyframe_id] = pose[:3, 3].copy()
         self._keyframes_budget.dirty = True
         self._loops_budget.dirty |= bool(self._loops)  # their ends move with the keyframes
+        self._edges_budget.dirty |= any(self._edges.values())
         self._log(layout.metric(self.name, "graph_error"), rr.Scalars(float(event.error_after)))
 
     def _map_updated(self, event: MapUpdated) -> None:
@@ -213,52 +275,69 @@ class PipelineRecorder:
     # --- growing snapshots --------------------------------------------------------------
 
     def _log_due_snapshots(self, frame_index: int, final: bool = False) -> None:
-        """Re-log the keyframes, loop closures and map when their budget allows (always at the end)."""
+        """Re-log keyframes, edges and map when their budget allows (always at the end)."""
         snapshots = ((self._keyframes_budget, len(self._keyframes) * KEYFRAME_BYTES, self._log_keyframes),
-                     (self._loops_budget, len(self._loops) * LOOP_CLOSURE_BYTES, self._log_loop_closures),
-                     (self._map_budget, self._map.size_estimate * MAP_POINT_BYTES, self._log_map))
+                     (self._loops_budget, len(self._loops) * EDGE_BYTES, self._log_loop_closures),
+                     (self._edges_budget, sum(map(len, self._edges.values())) * EDGE_BYTES, self._log_edges))
         for budget, size, log in snapshots:
             if budget.dirty and (final or budget.due(frame_index, size)):
                 log()
                 budget.logged(frame_index)
+        size = self._map.size_estimate * MAP_POINT_BYTES
+        if self._map_budget.dirty and (final or self._map_budget.due(frame_index, size)):
+            self._log_map(1.0 if final else self._map_budget.share(frame_index, size))
+            self._map_budget.logged(frame_index)
 
     def _log_keyframes(self) -> None:
         ids = sorted(self._keyframes)
-        self._log(layout.keyframes(self.name),
-                  rr.Points3D([self._keyframes[i] for i in ids], colors=[self.color],
-                              radii=rr.Radius.ui_points(2.5), labels=[f"KF{i}" for i in ids], show_labels=False))
+        radius = self.sizes.keyframe_radius
+        self._log_instances(layout.keyframes(self.name), ids, lambda ids: rr.Points3D(
+            [self._keyframes[i] for i in ids], colors=[self.colour.rgb], radii=radius,
+            labels=[f"KF{i}" for i in ids], show_labels=False))
+
+    def _segments(self, edges: list[GraphEdge]) -> list[list[np.ndarray]]:
+        return [[self._keyframes[edge.from_keyframe], self._keyframes[edge.to_keyframe]] for edge in edges
+                if edge.from_keyframe in self._keyframes and edge.to_keyframe in self._keyframes]
+
+    def _log_lines(self, path: str, edges: list[GraphEdge], colour, radius: float) -> None:
+        self._log_instances(path, self._segments(edges), lambda segments: rr.LineStrips3D(
+            segments, colors=[colour], radii=rr.Radius.ui_points(radius)))
 
     def _log_loop_closures(self) -> None:
         """Accepted closures as thick green segments; rejected ones, often many, apart in thin red."""
-        for accepted, path, color, radius in (
-                (True, layout.loop_closures(self.name), layout.ACCEPTED_COLOR, 2.0),
-                (False, layout.rejected_loop_closures(self.name), layout.REJECTED_COLOR, 0.5)):
-            segments = [[self._keyframes[loop.from_keyframe], self._keyframes[loop.to_keyframe]]
-                        for loop in self._loops if loop.accepted == accepted
-                        and loop.from_keyframe in self._keyframes and loop.to_keyframe in self._keyframes]
-            if segments:
-                self._log(path, rr.LineStrips3D(segments, colors=[color], radii=rr.Radius.ui_points(radius)))
+        self._log_lines(layout.loop_closures(self.name), [loop for loop in self._loops if loop.accepted],
+                        palette.ACCEPTED.rgb, 2.0)
+        self._log_lines(layout.rejected_loop_closures(self.name), [loop for loop in self._loops if not loop.accepted],
+                        palette.REJECTED.rgb, 0.5)
 
-    def _log_map(self) -> None:
-        self._log(layout.map_cloud(self.name),
-                  rr.Points3D(self._map.points.astype(np.float32), colors=self._map.colors,
-                              radii=rr.Radius.ui_points(1.5)))
+    def _log_edges(self) -> None:
+        """Sequential and local edges: thin and faded, beneath the trajectories and loop closures."""
+        for kind, edges in self._edges.items():
+            self._log_lines(layout.edges(self.name, kind.value), edges, palette.faded(self.colour), 0.5)
+
+    def _log_map(self, share: float) -> None:
+        """The map, evenly thinned to ``share`` of its points (see MAP_MIN_SHARE)."""
+        points, colors = self._map.points, self._map.colors
+        kept = evenly_spaced(len(points), round(share * len(points)))
+        radius = self.sizes.map_point_radius
+        self._log_instances(layout.map_cloud(self.name), kept, lambda kept: rr.Points3D(
+            points[kept].astype(np.float32), colors=colors[kept], radii=radius))
 
     # --- end of run ---------------------------------------------------------------------
 
     def _trajectory_final(self, event: TrajectoryFinal) -> None:
-        """Final snapshots, then the final trajectory and raw odometry as static strips."""
+        """Final snapshots and log lines, then the final trajectory and raw odometry as static strips."""
+        self._log_loop_closure_lines()
         self._log_due_snapshots(self.frame_indices[-1] if self.frame_indices else 0, final=True)
-        segments = self._tracked_segments(event.frame_indices)
+        segments = [segment for segment in self._tracked_segments(event.frame_indices) if len(segment) > 1]
         poses = np.asarray(event.poses).reshape(-1, 4, 4)
-        self._log(layout.trajectory(self.name), rr.LineStrips3D(
-            [poses[segment, :3, 3] for segment in segments], colors=[self.color],
-            radii=rr.Radius.ui_points(3.0)), static=True)
+        self._log_instances(layout.trajectory(self.name), segments, lambda segments: rr.LineStrips3D(
+            [poses[segment, :3, 3] for segment in segments], colors=[self.colour.rgb],
+            radii=rr.Radius.ui_points(2.0)), static=True)
         if event.odometry_poses is not None and len(event.odometry_poses):
             odometry = np.asarray(event.odometry_poses).reshape(-1, 4, 4)
-            faded = tuple(int(0.45 * c + 0.55 * 90) for c in self.color)
-            self._log(layout.odometry(self.name), rr.LineStrips3D(
-                [odometry[segment, :3, 3] for segment in segments], colors=[faded],
+            self._log_instances(layout.odometry(self.name), segments, lambda segments: rr.LineStrips3D(
+                [odometry[segment, :3, 3] for segment in segments], colors=[palette.faded(self.colour)],
                 radii=rr.Radius.ui_points(1.0)), static=True)
 
     def _tracked_segments(self, posed_frames: np.ndarray) -> list[np.ndarray]:

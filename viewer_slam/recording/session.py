@@ -1,5 +1,10 @@
 """`viewslam record`: run pipelines over a sequence into one Rerun recording, reports beside it.
 
+A run is a pipeline (built-in or plugin) or an estimate (``--estimate NAME=FILE``, another
+system's trajectory file replayed over the frames); every run gets the same recording
+layout, report block and trajectory file. Estimates alone record no built-in pipeline
+unless ``--pipeline`` asks for some.
+
 Everything the user can get wrong (pipeline, parameters, output path, sequence) is checked
 before the first frame is read. Pipelines run one after the other into the same
 recording, sharing the ``frame`` and ``time`` timelines. Ctrl-C stops after the current
@@ -12,7 +17,9 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
+import re
 import shutil
+import sys
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -23,25 +30,28 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import palette
 from ..atomic import StagedFiles, check_writable, exclusive
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
+from ..evaluation.imported import EstimateReplay, estimate_replay, parse_estimate
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
-from ..pipelines.base import pipeline_class
+from ..geometry.trajectory_formats import FORMATS
+from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.selection import BOTH, select_pipelines
-from ..pipelines.run import PipelineRun, run_pipeline
-from . import layout
+from ..pipelines.run import drive
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
 from .loss_causes import log_loss_causes
 from .recorder import PipelineRecorder, log_frame_image, log_world
+from .sizes import extent
 from .timelines import log_evaluation
 from .viewer import viewer_binary
 
@@ -55,12 +65,25 @@ BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
 FULL_DISK_BYTES = 1 << 20
 
 
+# An estimate's name becomes entity paths and a file name.
+RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+# open_bag's keywords and the flags that set them.
+BAG_FLAGS = {"rgb_topic": "--rgb-topic", "depth_topic": "--depth-topic", "camera_info_topic": "--camera-info-topic",
+             "groundtruth": "--groundtruth", "groundtruth_topic": "--groundtruth-topic"}
+BagOptions = dict[str, Any]
+
+
 @dataclass
 class RecordOptions:
-    """The `viewslam record` command line, as data. ``sequence=None`` is the built-in demo."""
+    """The `viewslam record` command line, as data. ``sequence=None`` is the built-in demo.
+
+    ``pipeline=None`` runs both built-in pipelines, or none when there are ``estimates``
+    (``NAME=FILE`` each, read in ``format`` or a detected one). The bag options apply to a
+    ROS bag only (see :func:`~viewer_slam.dataset.rosbag.open_bag`).
+    """
 
     sequence: str | None = None
-    pipeline: str = BOTH
+    pipeline: str | None = None
     out: Path | None = None
     max_frames: int | None = None
     stride: int = 1
@@ -69,6 +92,9 @@ class RecordOptions:
     seed: int = 0
     quiet: bool = False
     spawn: bool = False
+    estimates: list[str] = field(default_factory=list)
+    format: str | None = None
+    bag: BagOptions = field(default_factory=dict)
 
 
 @dataclass
@@ -85,12 +111,14 @@ class RecordResult:
 
 
 def output_path(sequence: str | None, out: Path | None) -> Path:
-    """``--out``, else ``recordings/<sequence name>.rrd`` (``recordings/demo.rrd`` for the demo)."""
+    """``--out``, else ``recordings/<sequence name>.rrd`` (``recordings/demo.rrd`` for the demo;
+    a ROS 1 bag's name without ``.bag``)."""
     if out is not None:
         return Path(out)
     if sequence is None:
         return DEMO_OUT
-    return Path("recordings") / f"{Path(sequence.rstrip('/')).name}.rrd"
+    path = Path(sequence.rstrip("/"))
+    return Path("recordings") / f"{path.stem if path.suffix == '.bag' else path.name}.rrd"
 
 
 def check_outputs(out: Path, pipelines: list[str]) -> None:
@@ -104,12 +132,40 @@ def check_outputs(out: Path, pipelines: list[str]) -> None:
         check_writable(path)
 
 
-def open_input(sequence: str | None) -> TumSequence:
+def open_input(sequence: str | None, bag: BagOptions | None = None) -> TumSequence:
+    """The sequence to record; ``bag`` options (set ones only) for a ROS bag, an error for anything else."""
+    from ..dataset.rosbag import is_bag
+
     if sequence is None:
         from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
 
-        return open_sequence(cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION))
-    return open_sequence(resolve_sequence(sequence))
+        path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION)
+    else:
+        path = resolve_sequence(sequence)
+    bag = {key: value for key, value in (bag or {}).items() if value is not None}
+    if bag and not is_bag(path):
+        raise InputError(f"{BAG_FLAGS[next(iter(bag))]}: only for a ROS bag, and {sequence or 'the demo'} is not one")
+    return open_sequence(path, **bag)
+
+
+def select_runs(choice: str | None, estimates: list[str],
+                format: str | None = None) -> tuple[list[str], list[tuple[str, Path]]]:
+    """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
+    estimates (``--estimate NAME=FILE``, in ``format``); every name must be unique among them."""
+    pipelines = select_pipelines(choice) if choice else [] if estimates else select_pipelines(BOTH)
+    if format is not None and format not in FORMATS:
+        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
+    named = [parse_estimate(text) for text in estimates]
+    taken = set(pipelines)
+    for name, file in named:
+        if not RUN_NAME.fullmatch(name):
+            raise InputError(f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
+                             f"(it names entities and files)")
+        if name in taken:
+            kind = "a pipeline" if name in pipelines else "another estimate"
+            raise InputError(f"--estimate {name}={file}: the name {name!r} is already {kind}'s; choose another")
+        taken.add(name)
+    return pipelines, named
 
 
 def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]]:
@@ -205,31 +261,43 @@ def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
 
 
 def record(options: RecordOptions) -> RecordResult:
-    """Check the options, then record every selected pipeline (see the module docstring)."""
-    pipelines = select_pipelines(options.pipeline)
+    """Check the options, then record every selected run (see the module docstring)."""
+    pipelines, estimates = select_runs(options.pipeline, options.estimates, options.format)
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)
-    check_outputs(out, pipelines)
+    check_outputs(out, [*pipelines, *(name for name, _ in estimates)])
     with exclusive([out]):
-        return record_sequence(open_input(options.sequence), params, out, options)
+        sequence = open_input(options.sequence, options.bag)
+        runs: dict[str, Pipeline] = {name: make_pipeline(name, sequence.camera, params[name], options.seed)
+                                     for name in pipelines}
+        replays = {name: estimate_replay(sequence, file, options.format, max_frames=options.max_frames,
+                                         stride=options.stride) for name, file in estimates}
+        if not options.quiet:
+            how = "given" if options.format else "detected"
+            for name, replay in replays.items():
+                print(f"estimate {name}: {replay.params.file} read as {replay.params.format} ({how})",
+                      file=sys.stderr)
+        runs.update(replays)
+        return record_sequence(sequence, runs, out, options)
 
 
-def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, options: RecordOptions) -> RecordResult:
-    """Record the pipelines of ``params`` (name -> parameters), in order, over ``sequence``.
+def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, options: RecordOptions) -> RecordResult:
+    """Record the ``runs`` (name -> pipeline or estimate replay), in order, over ``sequence``.
 
     Uses ``options`` for the frame selection, seed, progress and viewer; ``out`` is trusted.
     Every file is written under a temporary name and renamed into place at the end (also
     after a stop request or a failure mid-run), so a run that fails before its first frame
     leaves the previous outputs as they were.
     """
-    pipelines = list(params)
+    pipelines = list(runs)
     report_path, trajectory_paths = report_paths(out, pipelines)
     blocks: dict[str, dict] = {}
     interrupted = False
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
+    scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
     with StagedFiles() as staged, StopRequest().installed() as stop:
         recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
@@ -240,7 +308,8 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                 for position, name in enumerate(pipelines):
                     if stop.requested:
                         break
-                    recorder = PipelineRecorder(stream, name, sequence.camera, layout.pipeline_color(name, position))
+                    recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
+                                                scene_extent)
 
                     def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
                         recorder.begin_frame(frame)
@@ -250,10 +319,9 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                     tapped = TappedSequence(sequence, on_frame)
                     signals = SignalRecorder()
                     try:
-                        run = run_pipeline(tapped, name, params[name], seed=options.seed,
-                                           max_frames=options.max_frames, stride=options.stride,
-                                           sinks=[recorder, progress.sink(name), signals],
-                                           frame_sinks=[signals.frame], should_stop=stop)
+                        run = drive(runs[name], name, tapped, max_frames=options.max_frames, stride=options.stride,
+                                    sinks=[recorder, progress.sink(name), signals], frame_sinks=[signals.frame],
+                                    should_stop=stop)
                     except Exception as error:  # an unexpected failure: keep what was recorded before it
                         if not blocks and not tapped.read:
                             raise
@@ -270,7 +338,7 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
                     if evaluation is not None:
                         log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                        np.array(recorder.frame_timestamps))
-                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
+                    blocks[name] = {**source(runs[name]), **pipeline_report(run, evaluation, odometry_evaluation)}
                     _write(trajectory_paths[name], lambda path: write_tum(path, run.trajectory), staged)
                     if failure is not None:
                         break
@@ -296,6 +364,12 @@ def record_sequence(sequence: Sequence, params: dict[str, Any], out: Path, optio
     if failure is not None:
         raise failure
     return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
+
+
+def source(run: Pipeline) -> dict[str, str]:
+    """Where a run's poses came from, first in its report block: a pipeline or an estimate (whose
+    ``parameters`` are its file and the format it was read in)."""
+    return {"source": "estimate" if isinstance(run, EstimateReplay) else "pipeline"}
 
 
 def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:

@@ -59,7 +59,8 @@ def _send_series(stream: rr.RecordingStream, path: str, frame_indices: np.ndarra
 
 def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation, frame_indices: np.ndarray,
                    frame_timestamps: np.ndarray) -> None:
-    """Align the pipeline's map frame to groundtruth and log ATE, RPE and coverage per frame.
+    """Align the pipeline's map frame to groundtruth and log ATE (global and segment-aligned), RPE
+    and coverage per frame.
 
     ``frame_indices``/``frame_timestamps`` are the frames the pipeline processed, in order.
     """
@@ -67,8 +68,8 @@ def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation
     frame_timestamps = np.asarray(frame_timestamps, dtype=np.float64)
     if evaluation.alignment is not None:
         stream.log(layout.world(name), transform(evaluation.alignment), static=True)
-    for series, errors in (("ate", evaluation.ate), ("rpe_trans", evaluation.rpe_trans),
-                           ("rpe_rot", evaluation.rpe_rot)):
+    for series, errors in (("ate", evaluation.ate), ("ate_segments", evaluation.segment_ate),
+                           ("rpe_trans", evaluation.rpe_trans), ("rpe_rot", evaluation.rpe_rot)):
         if errors is None:
             continue
         position = frames_at(errors.timestamps, frame_timestamps)

@@ -1,31 +1,28 @@
-"""Frame-to-node motion: descriptor matching, then 3D-3D RANSAC under the sensor noise model."""
+"""Node-to-node motion as v2's ``Node::matchNodePair``: ratio-test matches, the best
+``max_matches`` of them, 3D-3D RANSAC under the Kinect noise model, and the edge's information."""
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from ...frontend.features import Features, match_descriptors
-from ...frontend.ransac import point_variances, ransac_rigid
-from ...geometry.camera import Camera
+from ...frontend.features import Features, match_with_ratios
+from ...frontend.ransac import ransac_rigid
 from .params import RgbdSlamParams
 
-# Floor on the residual used for edge information: exact synthetic data would otherwise
-# give edges so certain that the optimiser could not move them at all.
-MIN_RESIDUAL_M = 0.002
+# Floor on the RMS Mahalanobis distance in the edge information: exact synthetic data would
+# otherwise give edges so certain that the optimiser could not move them at all.
+MIN_RMS_MAHALANOBIS = 0.1
 
 
 @dataclass
 class MeasuredFeatures:
-    """Keypoints that have a 3D point, with the per-axis variances of those points."""
+    """Keypoints that have a 3D point."""
 
     features: Features
-    variances: np.ndarray
 
     @classmethod
-    def from_features(cls, features: Features, params: RgbdSlamParams, camera: Camera) -> "MeasuredFeatures":
-        usable = features.subset(features.has_depth)
-        focal = 0.5 * (camera.fx + camera.fy)
-        return cls(usable, point_variances(usable.points, params.keypoint_pixel_sigma, focal))
+    def from_features(cls, features: Features) -> "MeasuredFeatures":
+        return cls(features.subset(features.has_depth))
 
     def __len__(self) -> int:
         return len(self.features)
@@ -43,7 +40,7 @@ class Motion:
     frame_index: np.ndarray
     node_index: np.ndarray
     inliers: np.ndarray
-    rms_error: float
+    rms_mahalanobis: float
     information: np.ndarray
 
     @property
@@ -51,35 +48,40 @@ class Motion:
         return int(self.inliers.sum())
 
 
-def edge_information(points: np.ndarray, rms_error: float) -> np.ndarray:
-    """Information of a transform fitted to ``points`` (its inliers) with RMS residual
-    ``rms_error``: translation known to residual/sqrt(n), rotation to that over the points' spread."""
-    count = len(points)
-    variance = max(rms_error, MIN_RESIDUAL_M) ** 2
-    spread = np.mean(np.sum((points - points.mean(axis=0)) ** 2, axis=1))
-    return np.diag([count * spread / variance] * 3 + [count / variance] * 3)
+def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
+    """v2's information ``I * inliers / rmse²`` on g2o's error (translation, quaternion
+    vector part ≈ half the rotation angle), in GTSAM's tangent order: rotation then translation."""
+    weight = inliers / max(rms_mahalanobis, MIN_RMS_MAHALANOBIS) ** 2
+    return np.diag([weight / 4] * 3 + [weight] * 3)
 
 
-def match(frame: MeasuredFeatures, node: MeasuredFeatures, ratio: float) -> tuple[np.ndarray, np.ndarray]:
-    return match_descriptors(frame.features.descriptors, node.features.descriptors, frame.features.binary, ratio)
+def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams) -> tuple[np.ndarray, np.ndarray]:
+    """Ratio-test matches, best (lowest ratio) first, at most ``max_matches`` (``keepStrongestMatches``)."""
+    frame_index, node_index, ratios = match_with_ratios(frame.features.descriptors, node.features.descriptors,
+                                                        frame.features.binary, params.nn_distance_ratio)
+    order = np.argsort(ratios, kind="stable")[:params.max_matches]
+    return frame_index[order], node_index[order]
 
 
 def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tuple[np.ndarray, np.ndarray],
                     params: RgbdSlamParams, rng: np.random.Generator,
                     min_inlier_ratio: float = 0.0) -> tuple[Motion | None, str]:
-    """The node-from-frame transform if at least ``min_matches`` inliers, and that share of
-    the matches, support it, else None; with the reason for a rejection ('' on success)."""
+    """The node-from-frame transform, or None with the reason ('' on success).
+
+    As v2: more than ``min_matches`` matches, then at least ``min_matches`` inliers (three
+    quarters of the matches when that is less). ``min_inlier_ratio`` > 0 (ours, off by
+    default) also asks for that share of the matches as inliers.
+    """
     frame_index, node_index = matches
-    if len(frame_index) < params.min_matches:
-        return None, f"too few matches ({len(frame_index)} < {params.min_matches})"
+    if len(frame_index) <= params.min_matches:
+        return None, f"too few matches ({len(frame_index)} <= {params.min_matches})"
     result = ransac_rigid(frame.features.points[frame_index], node.features.points[node_index],
-                          frame.variances[frame_index], node.variances[node_index],
                           iterations=params.ransac_iterations, max_mahalanobis=params.max_dist_for_inliers,
-                          rng=rng)
-    inliers = 0 if result is None else result.inlier_count
-    if inliers < params.min_matches:
-        return None, f"too few inliers ({inliers} < {params.min_matches})"
+                          min_inliers=params.min_matches, sigma_depth=params.sigma_depth, rng=rng)
+    if result is None:
+        return None, "RANSAC found no transformation with enough inliers"
+    inliers = result.inlier_count
     if inliers < min_inlier_ratio * len(frame_index):
         return None, f"too few of the matches are inliers ({inliers} of {len(frame_index)}, < {min_inlier_ratio:g})"
-    information = edge_information(node.features.points[node_index[result.inliers]], result.rms_error)
-    return Motion(result.transform, frame_index, node_index, result.inliers, result.rms_error, information), ""
+    return Motion(result.transform, frame_index, node_index, result.inliers, result.rms_mahalanobis,
+                  edge_information(inliers, result.rms_mahalanobis)), ""

@@ -16,7 +16,8 @@ MAP_STEP = 8
 class Node:
     """A graph node. ``measured`` are its keypoints that have a 3D point; ``depth``/``colors``
     are the frame's depth and colour subsampled by ``MAP_STEP``; ``segment`` names the
-    connected piece of graph the node was created in (a kidnap starts a new one)."""
+    connected piece of graph the node was created in; ``measured_pose`` is False for a node
+    kept under the no-motion assumption (v2's ``valid_tf_estimate_``), which the map leaves out."""
 
     node_id: int
     frame_index: int
@@ -25,12 +26,13 @@ class Node:
     depth: np.ndarray
     colors: np.ndarray
     segment: int
+    measured_pose: bool = True
 
     @classmethod
     def from_frame(cls, node_id: int, frame_index: int, timestamp: float, measured: MeasuredFeatures,
-                   rgb: np.ndarray, depth: np.ndarray, segment: int) -> "Node":
+                   rgb: np.ndarray, depth: np.ndarray, segment: int, measured_pose: bool = True) -> "Node":
         return cls(node_id, frame_index, timestamp, measured, np.ascontiguousarray(depth[::MAP_STEP, ::MAP_STEP]),
-                   np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]), segment)
+                   np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]), segment, measured_pose)
 
     def cloud(self, camera: Camera, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Camera-frame points and their colours from the kept depth, every ``step``-th sample."""

@@ -1,10 +1,16 @@
-"""RGB-D SLAM (Endres et al., ICRA 2012 / T-RO 2014) on OpenCV features and a GTSAM pose graph.
+"""RGB-D SLAM (Endres et al., ICRA 2012 / T-RO 2014) as RGB-D SLAM v2 runs it, on OpenCV
+features and a GTSAM pose graph.
 
-Each frame is matched with the most recent nodes; RANSAC turns the matches into rigid
-transformations. A frame that moved far enough from its node becomes a new node: it is
-also compared with graph neighbours and randomly sampled nodes (loop closures), gets an
-edge per successful comparison, and the graph is optimised. Other frames keep their pose
-relative to their node, so loop closures move them along with it.
+Each frame is compared with candidate nodes (``candidates.py``): its predecessors, graph
+neighbours of the newest node and keyframes sampled from the whole graph. RANSAC turns the
+matches into rigid transformations (``motion.py``). A frame that matches at least one
+candidate becomes a node with an edge per match (v2's ``GraphManager::nodeComparisons``);
+a frame that matches none is dropped and the next frame is compared again, with newly
+sampled keyframes, until one matches (how v2 relocalises). With ``keep_all_nodes`` it is
+kept instead, tied to the newest node by a no-motion edge, and v2 does the same for a
+frame within 0.1 s of the newest node that did not match it. The graph is optimised
+after every ``optimizer_skip_step`` nodes; at the end, edges whose error stays above
+v2's pruning threshold are dropped and the graph optimised again.
 
 The comparisons of one frame are independent, so they run on two threads (OpenCV's
 matcher and most of numpy release the GIL); each draws its RANSAC samples from a
@@ -16,32 +22,35 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...backend.pose_graph import Edge, PoseGraph, information_from_sigmas
+from ...backend.pose_graph import information_from_sigmas
 from ...dataset.frame import Frame
 from ...frontend.features import FeatureExtractor, Features
 from ...geometry.camera import Camera
 from ...geometry.se3 import rotation_angle, transform_points
 from ..base import Pipeline
-from ..edges import EdgeClassifier, EdgeKind
-from ..stopwatch import Stopwatch
-from ..thumbnails import thumbnail
+from ..edges import EdgeKind
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded, MapUpdated,
                       TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
-from .candidates import PREDECESSOR, loop_candidates, predecessors
+from ..stopwatch import Stopwatch
+from ..thumbnails import thumbnail
+from .candidates import PREDECESSOR, edge_targets
 from .emm import observability
+from .graph import NodeGraph
 from .motion import MeasuredFeatures, Motion, estimate_motion, match
 from .node import Node
 from .params import RgbdSlamParams
-from .segments import Segments
 
-# The first node fixes the map frame. A new segment's anchor only holds its segment near the
-# last known pose until an edge joins it to the map, when the anchor prior is dropped.
+# The first node fixes the map frame. A new segment's anchor (viewslam_new_segment_after_lost_frames)
+# only holds its segment near the last known pose until an edge joins it to the map.
 ORIGIN_INFORMATION = information_from_sigmas(1e-6, 1e-6)
 ANCHOR_INFORMATION = information_from_sigmas(1.0, 1.0)
 FINAL_OPTIMIZER_ITERATIONS = 100
-MAX_MAP_POINTS = 200_000
-# On a graph of N nodes the online optimisation runs at most every N * this many nodes.
-ONLINE_OPTIMISATION_SPACING = 0.05
+# v2's no-motion edge: only for a frame this close in time to the newest node, unless
+# keep_all_nodes; information I / dt (nodeComparisons).
+NO_MOTION_MAX_GAP_S = 0.1
+# v2's batch run prunes edges whose squared Mahalanobis error exceeds this after the final
+# optimisation and optimises again (pruneEdgesWithErrorAbove(5)).
+PRUNE_CHI2 = 5.0
 COMPARISON_THREADS = 2
 # Stands for the lost chain's frame in the seed of a comparison (node ids are >= 0).
 LOST_CHAIN = -1
@@ -70,8 +79,15 @@ class TrackedFrame:
 
 
 def best_attempt(attempts: list[Attempt]) -> Attempt | None:
-    """The successful attempt with most inliers (the earlier, i.e. more recent node, on ties)."""
+    """The successful attempt with most inliers (the earlier one on ties)."""
     return max((a for a in attempts if a.motion is not None), key=lambda a: a.motion.inlier_count, default=None)
+
+
+def no_motion_information(gap_s: float) -> np.ndarray:
+    """v2's no-motion edge information ``I / dt`` on g2o's error (translation, quaternion
+    vector part ≈ half the angle), in GTSAM's order: rotation then translation."""
+    weight = 1.0 / max(gap_s, 1e-3)
+    return np.diag([weight / 4] * 3 + [weight] * 3)
 
 
 class RgbdSlam(Pipeline):
@@ -82,17 +98,10 @@ class RgbdSlam(Pipeline):
         super().__init__(camera, params, seed)
         p = self.params
         self.extractor = FeatureExtractor(p.feature_detector_type, p.max_keypoints, camera, p.detector_grid_resolution,
-                                          min_depth=p.minimum_depth, max_depth=p.maximum_depth,
+                                          min_depth=p.minimum_depth, max_depth=p.maximum_depth or np.inf,
                                           adjuster_iterations=p.adjuster_max_iterations)
         self.rng = np.random.default_rng(seed)
-        self.graph = PoseGraph()
-        self.nodes: dict[int, Node] = {}
-        self.node_order: list[int] = []
-        self.adjacency: dict[int, set[int]] = {}
-        self.node_segment: dict[int, int] = {}
-        self.node_odometry: dict[int, np.ndarray] = {}
-        self.segments = Segments()
-        self.edges = EdgeClassifier()
+        self.graph = NodeGraph()
         self.tracked: list[TrackedFrame] = []
         self.lost = False
         self.lost_chain: MeasuredFeatures | None = None
@@ -105,36 +114,48 @@ class RgbdSlam(Pipeline):
     def process(self, frame: Frame) -> list[Event]:
         watch = Stopwatch()
         events: list[Event] = []
+        p = self.params
         with watch("features"):
             features = self.extractor.extract(frame.rgb, frame.depth)
-            measured = MeasuredFeatures.from_features(features, self.params, self.camera)
-        if len(measured) < self.params.min_matches:
-            reason = f"only {len(measured)} keypoints with depth (< {self.params.min_matches})"
+            measured = MeasuredFeatures.from_features(features)
+        if len(measured) < p.min_matches and not (p.keep_all_nodes and len(self.graph)):
+            reason = f"only {len(measured)} keypoints with depth (< {p.min_matches})"
             return self._lose(frame, features, [], events, watch, reason)
-        if not self.nodes:
+        if not len(self.graph):
             self._start_segment(frame, measured, np.eye(4), np.eye(4), ORIGIN_INFORMATION, events)
             return self._report(frame, features, None, [], events, watch, TrackingStatus.INITIALISING)
 
-        # Only nodes get edges, so a frame that stays near the newest node needs no other
-        # comparison; the other predecessors are compared when it may become a node.
-        newest, *older = predecessors(self.node_order, self.params.predecessor_candidates)
-        attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch)
-        if attempts[0].motion is None or self._moved_enough(attempts[0].motion.transform):
-            attempts += self._compare(frame, measured, [(n, PREDECESSOR) for n in older], watch)
+        newest = self.graph.newest.node_id
+        attempts: list[Attempt] = []
+        if p.min_translation_meter > 0 or p.min_rotation_degree > 0:
+            # v2 first compares with the newest node; a frame that stayed near it is no node.
+            attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch)
+            if attempts[0].motion is not None and not self._moved_enough(attempts[0].motion.transform):
+                status = self._recover(frame, attempts[0], events)
+                self._attach(frame, newest, attempts[0].motion.transform, self.graph.odometry[newest])
+                return self._report(frame, features, attempts[0], attempts, events, watch, status)
+            attempts = [a for a in attempts if a.motion is not None]
+        targets = edge_targets(self.graph.order, self.graph.adjacency, self.graph.keyframes, newest,
+                               include_predecessor=not attempts, sequential=p.predecessor_candidates - 1,
+                               neighbours=p.neighbor_candidates, sampled=p.min_sampled_candidates,
+                               geodesic_depth=p.geodesic_depth, rng=self.rng)
+        attempts += self._compare(frame, measured, targets, watch)
+        if p.observability_threshold > 0:
+            with watch("emm"):
+                self._check_environment(frame, measured, attempts)
         best = best_attempt(attempts)
-        if best is not None and not self._moved_enough(best.motion.transform):
-            status = self._recover(frame, best, events)
-            self._attach(frame, best.node_id, best.motion.transform, self.node_odometry[best.node_id])
-            return self._report(frame, features, best, attempts, events, watch, status)
-
-        others = loop_candidates(self.node_order, self.adjacency, self.node_order[-1], {a.node_id for a in attempts},
-                                 self.params.neighbor_candidates, self.params.min_sampled_candidates,
-                                 self.params.geodesic_depth, self.rng)
-        attempts += self._compare(frame, measured, others, watch)
-        new_node = self._add_node(frame, measured, attempts, events, watch)
-        if new_node is None:
-            return self._lost_or_new_segment(frame, features, measured, attempts, events, watch)
-        best = best_attempt(attempts)
+        predecessor_matched = any(a.node_id == newest and a.motion is not None for a in attempts)
+        gap_s = frame.timestamp - self.graph.newest.timestamp
+        no_motion = (best is None and p.keep_all_nodes) or (not predecessor_matched and gap_s < NO_MOTION_MAX_GAP_S)
+        if best is None and not no_motion:
+            return self._unmatched(frame, features, measured, attempts, events, watch)
+        self._add_node(frame, measured, attempts, no_motion, gap_s, events, watch)
+        if best is None:
+            if not self.lost:
+                self.lost = True
+                events.append(TrackingLost(frame.index, frame.timestamp, self._no_match_reason(attempts)
+                                           + "; kept under the no-motion assumption"))
+            return self._report(frame, features, None, attempts, events, watch, TrackingStatus.LOST)
         status = self._recover(frame, best, events)
         return self._report(frame, features, best, attempts, events, watch, status)
 
@@ -142,18 +163,14 @@ class RgbdSlam(Pipeline):
                  watch: Stopwatch) -> list[Attempt]:
         """Register the frame with each candidate node, in parallel; stage times are summed.
 
-        A loop closure, and a lost camera's match against the map, must also have
-        min_inlier_ratio of its matches as inliers: repeated texture (one font on every
-        poster) lets a wrong transformation gather min_matches inliers among many matches,
-        and nothing else checks these edges. Tracking against predecessors (and the lost
-        frames' chain) keeps only min_matches, so that faint texture, where most matches
-        are wrong, can still be followed.
+        With viewslam_min_inlier_ratio (ours, off by default) a loop closure, and a lost
+        camera's match against the map, must also have that share of its matches as inliers.
         """
         def register(candidate: tuple[int, str]) -> tuple[int, Motion | None, str, Stopwatch]:
             node_id, kind = candidate
-            ratio = self.params.min_inlier_ratio if kind != PREDECESSOR or self.lost else 0.0
+            ratio = self.params.viewslam_min_inlier_ratio if kind != PREDECESSOR or self.lost else 0.0
             own = Stopwatch()
-            return *self._register(frame, measured, node_id, self.nodes[node_id].measured, own, ratio), own
+            return *self._register(frame, measured, node_id, self.graph.nodes[node_id].measured, own, ratio), own
 
         attempts = []
         for (node_id, kind), (matches, motion, reason, own) in zip(candidates, self.comparisons.map(register, candidates)):
@@ -166,13 +183,14 @@ class RgbdSlam(Pipeline):
                   watch: Stopwatch, min_inlier_ratio: float = 0.0) -> tuple[int, Motion | None, str]:
         """Match two keypoint sets and estimate their motion: (matches, motion or None, reason)."""
         with watch("matching"):
-            matches = match(measured, reference, self.params.nn_distance_ratio)
+            matches = match(measured, reference, self.params)
         with watch("ransac"):
             rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
             motion, reason = estimate_motion(measured, reference, matches, self.params, rng, min_inlier_ratio)
         return len(matches[0]), motion, reason
 
     def _moved_enough(self, node_from_frame: np.ndarray) -> bool:
+        """v2's ``isBigTrafo``: at least min_translation_meter or min_rotation_degree."""
         return bool(np.linalg.norm(node_from_frame[:3, 3]) >= self.params.min_translation_meter
                     or np.degrees(rotation_angle(node_from_frame[:3, :3])) >= self.params.min_rotation_degree)
 
@@ -195,111 +213,116 @@ class RgbdSlam(Pipeline):
         inliers = 0
         if best is not None:
             motion = best.motion
-            reference = self.nodes[best.node_id]
+            reference = self.graph.nodes[best.node_id]
             current_keypoints = features.keypoints[features.has_depth][motion.frame_index]
             events.append(FeatureMatches(frame.index, f"node {best.node_id}", reference.frame_index, current_keypoints,
                                          reference.measured.features.keypoints[motion.node_index],
                                          motion.inliers.copy()))
             inliers = motion.inlier_count
-        events.append(FrameTracked(frame.index, frame.timestamp, self.graph.poses[tracked.node_id] @ tracked.relative,
-                                   status, features=len(features), matches=max((a.matches for a in attempts), default=0),
-                                   inliers=inliers, keyframe_id=tracked.node_id, timings_ms=watch.ms))
+        pose = self.graph.poses.poses[tracked.node_id] @ tracked.relative
+        events.append(FrameTracked(frame.index, frame.timestamp, pose, status, features=len(features),
+                                   matches=max((a.matches for a in attempts), default=0), inliers=inliers,
+                                   keyframe_id=tracked.node_id, timings_ms=watch.ms))
         return events
 
-    # ------------------------------------------------------------------ loss and kidnap
+    # ------------------------------------------------------------------ no match
+    @staticmethod
+    def _no_match_reason(attempts: list[Attempt]) -> str:
+        closest = max(attempts, key=lambda a: a.matches, default=None)
+        return "no candidate node matched" + (f" (node {closest.node_id}: {closest.reason})" if closest else "")
+
     def _lose(self, frame: Frame, features: Features, attempts: list[Attempt], events: list[Event],
               watch: Stopwatch, reason: str) -> list[Event]:
-        if self.nodes and not self.lost:
+        if len(self.graph) and not self.lost:
             self.lost = True
             events.append(TrackingLost(frame.index, frame.timestamp, reason))
-        status = TrackingStatus.LOST if self.nodes else TrackingStatus.INITIALISING
+        status = TrackingStatus.LOST if len(self.graph) else TrackingStatus.INITIALISING
         events.append(FrameTracked(frame.index, frame.timestamp, None, status, features=len(features),
                                    matches=max((a.matches for a in attempts), default=0), timings_ms=watch.ms))
         return events
 
-    def _lost_or_new_segment(self, frame: Frame, features: Features, measured: MeasuredFeatures,
-                             attempts: list[Attempt], events: list[Event], watch: Stopwatch) -> list[Event]:
-        """No node matched. If the last few lost frames match each other, the camera is
-        tracking a place the map does not hold: start a new segment there."""
-        chained = (self.lost_chain is not None
+    def _unmatched(self, frame: Frame, features: Features, measured: MeasuredFeatures, attempts: list[Attempt],
+                   events: list[Event], watch: Stopwatch) -> list[Event]:
+        """No node matched: v2 drops the frame. With viewslam_new_segment_after_lost_frames
+        (ours), lost frames that match each other start a new segment at the last pose."""
+        after = self.params.viewslam_new_segment_after_lost_frames
+        chained = (after > 0 and self.lost_chain is not None
                    and self._register(frame, measured, LOST_CHAIN, self.lost_chain, watch)[1] is not None)
-        self.lost_chain = measured
+        self.lost_chain = measured if after > 0 else None
         self.lost_chain_length = self.lost_chain_length + 1 if chained else 1
-        if self.lost_chain_length < self.params.segment_after_lost_frames or not self.tracked:
-            closest = max(attempts, key=lambda a: a.matches, default=None)
-            reason = "no candidate node matched" + (f" (node {closest.node_id}: {closest.reason})" if closest else "")
-            return self._lose(frame, features, attempts, events, watch, reason)
+        if after == 0 or self.lost_chain_length < after or not self.tracked:
+            return self._lose(frame, features, attempts, events, watch, self._no_match_reason(attempts))
         last = self.tracked[-1]
-        anchor = self._start_segment(frame, measured, self.graph.poses[last.node_id] @ last.relative, last.odometry,
-                                     ANCHOR_INFORMATION, events)
+        anchor = self._start_segment(frame, measured, self.graph.poses.poses[last.node_id] @ last.relative,
+                                     last.odometry, ANCHOR_INFORMATION, events)
         self.lost = False
         self.lost_chain, self.lost_chain_length = None, 0
         events.append(TrackingRecovered(frame.index, frame.timestamp,
-                                        f"{self.params.segment_after_lost_frames} frames track each other but not the map: "
+                                        f"{after} frames track each other but not the map: "
                                         f"new graph segment from node {anchor} at the last known pose"))
         return self._report(frame, features, None, attempts, events, watch, TrackingStatus.INITIALISING)
 
     # ------------------------------------------------------------------ graph
-    def _new_node(self, frame: Frame, measured: MeasuredFeatures) -> Node:
+    def _new_node(self, frame: Frame, measured: MeasuredFeatures, measured_pose: bool = True) -> Node:
         """A node for ``frame``, in a segment of its own until edges place it."""
-        node_id = len(self.node_order)
-        return Node.from_frame(node_id, frame.index, frame.timestamp, measured, frame.rgb, frame.depth, node_id)
+        node_id = len(self.graph)
+        return Node.from_frame(node_id, frame.index, frame.timestamp, measured, frame.rgb, frame.depth, node_id,
+                               measured_pose)
 
     def _insert(self, node: Node, pose: np.ndarray, odometry: np.ndarray, frame: Frame,
                 events: list[Event]) -> None:
         """Put ``node`` in the graph at ``pose``; the frame becomes its first tracked frame."""
-        self.nodes[node.node_id] = node
-        self.node_order.append(node.node_id)
-        self.adjacency[node.node_id] = set()
-        self.node_segment[node.node_id] = node.segment
-        self.node_odometry[node.node_id] = odometry
-        self.edges.add_node(node.node_id, frame.timestamp)
-        self.graph.add_node(node.node_id, pose)
+        self.graph.add(node, pose, odometry)
         self._attach(frame, node.node_id, np.eye(4), odometry)
         events.append(KeyframeAdded(node.node_id, frame.index, frame.timestamp, pose.copy(),
                                     node.measured.features.keypoints.copy(), thumbnail(frame.rgb), frame.depth.copy()))
-        points, colors = node.cloud(self.camera)
-        events.append(MapUpdated(frame.index, transform_points(pose, points), colors))
+        if node.measured_pose:
+            points, colors = node.cloud(self.camera)
+            events.append(MapUpdated(frame.index, transform_points(pose, points), colors))
 
     def _start_segment(self, frame: Frame, measured: MeasuredFeatures, pose: np.ndarray, odometry: np.ndarray,
                        information: np.ndarray, events: list[Event]) -> int:
         node = self._new_node(frame, measured)
-        self.segments.add(node.node_id)
+        self.graph.segments.add(node.node_id)
         self._insert(node, pose, odometry, frame, events)
-        self.graph.add_prior(node.node_id, pose, information)
+        self.graph.keyframes.append(node.node_id)
+        self.graph.poses.add_prior(node.node_id, pose, information)
         return node.node_id
 
-    def _add_node(self, frame: Frame, measured: MeasuredFeatures, attempts: list[Attempt], events: list[Event],
-                  watch: Stopwatch) -> int | None:
-        """Make the frame a node with an edge per successful attempt; None if none succeeded."""
-        if best_attempt(attempts) is None:
-            return None
-        node = self._new_node(frame, measured)
-        if self.params.observability_threshold > 0:
-            with watch("emm"):
-                self._check_environment(node, attempts)
+    def _add_node(self, frame: Frame, measured: MeasuredFeatures, attempts: list[Attempt], no_motion: bool,
+                  gap_s: float, events: list[Event], watch: Stopwatch) -> None:
+        """Make the frame a node with an edge per successful attempt, and with v2's no-motion
+        edge to the newest node when asked; then keyframes and optimisation as v2."""
+        graph = self.graph
         best = best_attempt(attempts)
+        newest = graph.newest
+        node = self._new_node(frame, measured, measured_pose=best is not None)
         if best is None:
-            return None
-        node.segment = self.node_segment[best.node_id]
-        sequential = best_attempt([a for a in attempts if a.kind == PREDECESSOR]) or best
-        odometry = self.node_odometry[sequential.node_id] @ sequential.motion.transform
-        self._insert(node, self.graph.poses[best.node_id] @ best.motion.transform, odometry, frame, events)
+            node.segment = graph.segment[newest.node_id]
+            pose, odometry = graph.poses.poses[newest.node_id], graph.odometry[newest.node_id]
+        else:
+            node.segment = graph.segment[best.node_id]
+            sequential = best_attempt([a for a in attempts if a.kind == PREDECESSOR]) or best
+            odometry = graph.odometry[sequential.node_id] @ sequential.motion.transform
+            # v2's no-motion edge also sets the new vertex's estimate to the newest node's pose.
+            pose = graph.poses.poses[newest.node_id] if no_motion else graph.poses.poses[best.node_id] @ best.motion.transform
+        self._insert(node, pose, odometry, frame, events)
 
         loop_closed = self.loop_closed_since_optimisation
         for attempt in attempts:
             if attempt.motion is not None:
-                self.graph.add_edge(Edge(attempt.node_id, node.node_id, attempt.motion.transform,
-                                         attempt.motion.information, robust=attempt.kind != PREDECESSOR))
-                self.adjacency[attempt.node_id].add(node.node_id)
-                self.adjacency[node.node_id].add(attempt.node_id)
-                loop_closed |= self.segments.join(self.graph, self.node_segment, attempt.node_id, node.node_id,
-                                                  attempt.motion.transform)
-            if attempt.kind != PREDECESSOR:
-                loop_closed |= attempt.motion is not None
+                loop_closed |= graph.connect(attempt.node_id, node.node_id, attempt.motion.transform,
+                                             attempt.motion.information)
+                loop_closed |= attempt.kind != PREDECESSOR
             event = self._edge_event(frame, node.node_id, attempt)
             if event.accepted or event.kind == EdgeKind.LOOP:
                 events.append(event)
+        if no_motion:
+            graph.connect(newest.node_id, node.node_id, np.eye(4), no_motion_information(gap_s))
+        if not any(a.motion is not None and a.node_id in graph.keyframes for a in attempts):
+            # v2: a node matching no keyframe makes its predecessor one, so keyframes stay connected.
+            if node.node_id - 1 not in graph.keyframes:
+                graph.keyframes.append(node.node_id - 1)
 
         self.nodes_since_optimisation += 1
         self.loop_closed_since_optimisation = loop_closed
@@ -308,21 +331,21 @@ class RgbdSlam(Pipeline):
                 events.append(self._optimise(frame.index, self.params.optimizer_iterations))
             if loop_closed:
                 with watch("map"):
-                    events.append(self._rebuilt_map(frame.index))
-        return node.node_id
+                    events.append(graph.map(frame.index, self.camera))
 
     def _optimisation_interval(self) -> int:
-        """Nodes between online optimisations: optimizer_skip_step, or more on a large graph
-        so that the batch optimisations' total cost stays bounded on long runs."""
-        return max(self.params.optimizer_skip_step, int(len(self.nodes) * ONLINE_OPTIMISATION_SPACING))
+        """Nodes between online optimisations: optimizer_skip_step, or with
+        viewslam_optimization_spacing (ours) more on a large graph."""
+        return max(self.params.optimizer_skip_step, int(len(self.graph) * self.params.viewslam_optimization_spacing))
 
-    def _check_environment(self, node: Node, attempts: list[Attempt]) -> None:
+    def _check_environment(self, frame: Frame, measured: MeasuredFeatures, attempts: list[Attempt]) -> None:
         """Reject the successful attempts whose transformation the depth images contradict."""
         threshold = self.params.observability_threshold
+        candidate = self._new_node(frame, measured)
         for attempt in attempts:
             if attempt.motion is None:
                 continue
-            share = observability(self.nodes[attempt.node_id], node, attempt.motion.transform, self.camera,
+            share = observability(self.graph.nodes[attempt.node_id], candidate, attempt.motion.transform, self.camera,
                                   self.params.emm_depth_tolerance)
             if share < threshold:
                 attempt.motion = None
@@ -330,7 +353,7 @@ class RgbdSlam(Pipeline):
 
     def _edge_event(self, frame: Frame, node_id: int, attempt: Attempt) -> GraphEdge:
         motion = attempt.motion
-        kind = self.edges.kind(attempt.node_id, node_id)
+        kind = self.graph.kinds.kind(attempt.node_id, node_id)
         if motion is None:
             return GraphEdge(frame.index, attempt.node_id, node_id, False, attempt.reason, kind,
                              detection=attempt.kind)
@@ -338,34 +361,30 @@ class RgbdSlam(Pipeline):
                          f"{motion.inlier_count} inliers of {attempt.matches} matches", kind, motion.transform.copy(),
                          score=float(motion.inlier_count), inliers=motion.inlier_count, detection=attempt.kind)
 
-    def _optimise(self, frame_index: int, iterations: int) -> GraphOptimized:
-        before, after = self.graph.optimize(iterations)
+    def _optimise(self, frame_index: int, iterations: float) -> GraphOptimized:
+        """v2's optimizer_iterations: that many iterations when >= 1, else until the error
+        improves by less than that fraction."""
+        if iterations >= 1:
+            before, after = self.graph.poses.optimize(int(iterations))
+        else:
+            before, after = self.graph.poses.optimize(FINAL_OPTIMIZER_ITERATIONS, relative_tolerance=iterations)
         self.nodes_since_optimisation = 0
         self.loop_closed_since_optimisation = False
-        ids = np.array(self.node_order, dtype=int)
-        return GraphOptimized(frame_index, ids, np.stack([self.graph.poses[i] for i in ids]), before, after)
-
-    def _rebuilt_map(self, frame_index: int) -> MapUpdated:
-        """The whole map from every node's current pose, thinned to at most MAX_MAP_POINTS."""
-        samples = sum(int(np.count_nonzero(node.depth)) for node in self.nodes.values())
-        step = max(1, int(np.ceil(np.sqrt(samples / MAX_MAP_POINTS))))
-        points, colors = [], []
-        for node_id, node in self.nodes.items():
-            node_points, node_colors = node.cloud(self.camera, step)
-            points.append(transform_points(self.graph.poses[node_id], node_points))
-            colors.append(node_colors)
-        return MapUpdated(frame_index, np.concatenate(points), np.concatenate(colors), replace=True)
+        ids = np.array(self.graph.order, dtype=int)
+        return GraphOptimized(frame_index, ids, np.stack([self.graph.poses.poses[i] for i in ids]), before, after)
 
     # ------------------------------------------------------------------ end of run
     def finish(self) -> list[Event]:
         self.comparisons.shutdown()
         events: list[Event] = []
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
-        if self.nodes:
+        if len(self.graph):
             events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
-            events.append(self._rebuilt_map(last_frame))
+            if self.graph.prune_edges_with_error_above(PRUNE_CHI2):
+                events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
+            events.append(self.graph.map(last_frame, self.camera))
         if self.tracked:
-            poses = np.stack([self.graph.poses[t.node_id] @ t.relative for t in self.tracked])
+            poses = np.stack([self.graph.poses.poses[t.node_id] @ t.relative for t in self.tracked])
             odometry = np.stack([t.odometry for t in self.tracked])
         else:
             poses = odometry = np.zeros((0, 4, 4))

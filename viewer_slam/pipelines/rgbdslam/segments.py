@@ -1,7 +1,8 @@
 """Disconnected pieces of the pose graph and how an edge between two of them joins them.
 
-After a kidnap the camera tracks in a new segment anchored at the last known pose; the
-first edge to the old map tells where the new segment really lies. The newer segment is
+Ours, not v2's (``viewslam_new_segment_after_lost_frames``, off by default): after a
+kidnap the camera may track in a new segment anchored at the last known pose; the first
+edge to the old map tells where the new segment really lies. The newer segment is
 then moved rigidly onto the older one (so the optimiser starts at the solution, not at
 a guess that may be metres off) and its anchor prior is dropped.
 """
