@@ -25,6 +25,7 @@ from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
+from viewer_slam import palette
 from viewer_slam.recording import layout
 from viewer_slam.recording.session import output_path
 
@@ -136,7 +137,7 @@ def test_the_viewer_renders_the_recording_with_the_estimates(report, recorded, t
     assert image.shape[0] >= 900 and image.shape[1] >= 1600
     assert image.std() > 20 and len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 500
     for position, name in enumerate(report[0]["pipelines"]):  # each run's colour is drawn
-        distance = np.abs(image.astype(int) - layout.pipeline_color(name, position)).sum(axis=2)
+        distance = np.abs(image.astype(int) - palette.run_colour(name, position).rgb).sum(axis=2)
         assert np.count_nonzero(distance < 40) > 200, name
 
 

@@ -4,7 +4,6 @@ an unexpected error, an interrupted benchmark; and what each command imports at 
 import json
 import os
 import resource
-import shutil
 import signal
 import subprocess
 import sys

@@ -16,6 +16,7 @@ import rerun.blueprint as rrb
 from ..atomic import StagedFiles
 from ..comparison.compare import Comparison, RunComparison
 from ..comparison.reports import RecordedRun
+from .. import palette
 from . import layout
 from .blueprint import overview_eye
 from .recorder import log_world, transform
@@ -23,7 +24,7 @@ from .timelines import gap_starts, send_frame_columns
 
 SIDE_COLORS = {"A": (255, 140, 0), "B": (40, 150, 255)}
 DIFFERENCE_COLOR = (200, 80, 220)
-POSE_STATES = {"pose": layout.STATUS_COLORS["ok"], "no pose": layout.STATUS_COLORS["lost"]}
+POSE_STATES = {"pose": palette.STATUS["ok"].rgb, "no pose": palette.LOST.rgb}
 
 
 def side_label(side: str, run: str) -> str:
