@@ -49,7 +49,7 @@ def test_the_recording_logs_the_cause_at_each_loss_and_the_recovery(recorded):
     causes = sorted((frame, state[0]) for frame, state in states)
     assert [frame for frame, state in causes if state == "sensor blocked"] == [loss["frame"] for loss in losses]
     assert all(later[1] == "tracking" for earlier, later in zip(causes, causes[1:]) if earlier[1] != "tracking")
-    assert all(loss["text"] in lines for loss in losses)
+    assert all(any(line.startswith(f"{loss['text']}; the pipeline: ") for line in lines) for loss in losses)
 
 
 def test_the_summary_prints_the_causes(tmp_path, capsys, monkeypatch):

@@ -33,7 +33,7 @@ EDGES_BYTES_PER_FRAME = 512
 DEPTH_BYTES_PER_FRAME = 1536
 # A map snapshot is due once the frames have paid for this share of it, and is thinned to what
 # they paid: the map grows visibly while scrubbing, for the bytes of rarer whole snapshots.
-MAP_MIN_SHARE = 0.25
+MAP_MIN_SHARE = 0.1
 # Approximate bytes per element of each snapshot: positions, colours, radii, labels.
 MAP_POINT_BYTES = 16
 KEYFRAME_BYTES = 24
