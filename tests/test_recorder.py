@@ -371,8 +371,8 @@ def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():
     def block(rmse):
         return {"rmse": rmse}
 
-    pipeline = {"frames_with_pose": 12000, "coverage": {"ratio": 0.861}, "ate": block(10.245),
-                "penalized_ate": block(10.266), "rpe": {"trans": block(10.568), "rot": block(184.704)},
+    pipeline = {"frames_with_pose": 12000, "coverage": {"ratio": 0.861}, "alignment": "rigid", "ate": block(10.245),
+                "ate_segments": block(10.251), "penalized_ate": block(10.266), "rpe": {"trans": block(10.568), "rot": block(184.704)},
                 "loop_closures": {"accepted": 2740, "rejected": 1640}, "timing": {"fps": 115.7}}
     report = {"sequence": {"name": "360_kidnap-240-320x240-s0-v4"}, "interrupted": False,
               "pipelines": {"rgbdslam": pipeline, "rtabmap": pipeline}}
@@ -380,6 +380,7 @@ def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():
     print_summary(report, [], console)
     text = console.export_text()
     assert "…" not in text and max(map(len, text.splitlines())) <= 80
+    assert "rigid alignment of the whole run" in text and "each tracked segment aligned on its own" in text
     assert all(figure in text for figure in ("12000", "86%", "10.245", "10.266", "10.568", "184.70", "2740/1640",
                                              "115.7"))
 

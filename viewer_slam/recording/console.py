@@ -63,9 +63,12 @@ def _rmse(block: dict | None, decimals: int = 3) -> str:
 def print_summary(report: dict, written: list, console: Console | None = None) -> None:
     """One row per pipeline with the headline scores, then the files written."""
     console = console or Console()
+    alignments = sorted({block["alignment"] for block in report["pipelines"].values() if block.get("alignment")})
+    caption = (f"RMSE in m, RPE rot in deg; ATE, penal. ATE: {'/'.join(alignments) or 'rigid'} alignment of the "
+               "whole run (each tracked segment aligned on its own: ate_segments in the report); RPE over 1 s, "
+               "needs no alignment; loops ok/rejected")
     table = Table(title=f"{report['sequence']['name']}" + ("  (interrupted)" if report["interrupted"] else ""),
-                  box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True,
-                  caption="RMSE in m, RPE rot in deg; RPE over 1 s; loops ok/rejected")
+                  box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True, caption=caption)
     for column in ("pipeline", "poses", "coverage", "ATE", "penal.\nATE", "RPE\ntrans", "RPE\nrot", "loops",
                    "fps"):
         table.add_column(column, justify="left" if column == "pipeline" else "right", no_wrap=True)
