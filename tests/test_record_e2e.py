@@ -107,7 +107,7 @@ def test_sigint_stops_cleanly_with_a_valid_partial_recording(scenario, tmp_path)
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120
     # The recording grows under a temporary name beside its target until the run ends.
-    while not any(part.stat().st_size >= 64 * 1024 for part in tmp_path.glob(".stopped.rrd.*.part")) \
+    while not any(part.stat().st_size >= 256 * 1024 for part in tmp_path.glob(".stopped.rrd.*.part")) \
             and time.monotonic() < deadline:
         assert process.poll() is None, process.communicate()
         time.sleep(0.2)
