@@ -52,6 +52,7 @@ class EstimateReplay(Pipeline):
     """
 
     name = "estimate"
+    source = "estimate"
     Params = EstimateParams
 
     def __init__(self, params: EstimateParams, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):

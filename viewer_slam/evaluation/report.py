@@ -23,15 +23,15 @@ _DISTRIBUTIONS = {
 
 
 def pipeline_report(run: PipelineRun, evaluation: Evaluation | None,
-                    odometry_evaluation: Evaluation | None, source: str = "pipeline") -> dict[str, Any]:
+                    odometry_evaluation: Evaluation | None) -> dict[str, Any]:
     """One run's block; metric blocks are null without groundtruth (or without poses).
 
-    ``source`` says where its poses came from: ``"pipeline"``, or ``"estimate"`` (a
+    The run's ``source`` says where its poses came from: ``"pipeline"``, or ``"estimate"`` (a
     trajectory file replayed; its parameters are the file and the format read)."""
     metrics = evaluation.to_dict() if evaluation is not None else {
         "alignment": None, "ate": None, "ate_segments": None, "rpe": None, "coverage": None, "penalized_ate": None}
     return {
-        "source": source,
+        "source": run.source,
         "frames_with_pose": len(run.trajectory),
         **metrics,
         "odometry_ate": stats_or_none(odometry_evaluation.ate) if odometry_evaluation is not None else None,

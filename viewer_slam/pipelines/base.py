@@ -34,6 +34,7 @@ class Pipeline(ABC):
     """
 
     name: ClassVar[str]
+    source: ClassVar[str] = "pipeline"  # where a run's poses come from; an imported estimate says "estimate"
     Params: ClassVar[type]
 
     def __init__(self, camera: Camera, params: Any = None, seed: int = 0):

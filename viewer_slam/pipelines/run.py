@@ -24,6 +24,7 @@ class PipelineRun:
     pipeline: str
     parameters: dict[str, Any]
     seed: int
+    source: str = "pipeline"
     frames: int = 0
     trajectory: Trajectory = field(default_factory=Trajectory.empty)
     odometry: Trajectory | None = None
@@ -108,7 +109,8 @@ def drive(
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
     the run is marked interrupted, so everything up to that point is kept.
     """
-    run = PipelineRun(pipeline=name, parameters=params_to_dict(pipeline.params), seed=pipeline.seed)
+    run = PipelineRun(pipeline=name, parameters=params_to_dict(pipeline.params), seed=pipeline.seed,
+                      source=pipeline.source)
     sinks = [run.observe, *sinks]
 
     def emit(events: list[Event]) -> None:

@@ -37,7 +37,7 @@ from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
-from ..evaluation.imported import EstimateReplay, estimate_replay, parse_estimate
+from ..evaluation.imported import estimate_replay, parse_estimate
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
@@ -338,8 +338,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                     if evaluation is not None:
                         log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                        np.array(recorder.frame_timestamps))
-                    source = "estimate" if isinstance(runs[name], EstimateReplay) else "pipeline"
-                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation, source)
+                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
                     _write(trajectory_paths[name], lambda path: write_tum(path, run.trajectory), staged)
                     if failure is not None:
                         break
