@@ -128,6 +128,23 @@ def test_each_estimate_is_a_run_in_the_recording_and_its_trajectory_file(report,
     assert len(read_tum(out.with_name("run.droid.txt"))) == FRAMES
 
 
+def test_an_estimate_has_no_tracker_count_series_and_the_pipeline_has_them(report, recorded):
+    """An estimate measures no features, matches or inliers: no series (not zeros) and none in the plot."""
+    out = recorded[3]
+    logged = {}
+    for chunk in RrdReader(out).stream().to_chunks():
+        logged.setdefault(chunk.entity_path, []).append(chunk.num_rows)
+    for series in ("features", "matches", "inliers"):
+        assert sum(logged.get(f"/{layout.metric('rgbdslam', series)}", [])) > FRAMES, series  # style + a row a frame
+        for name in ("orb", "droid"):
+            assert f"/{layout.metric(name, series)}" not in logged, (name, series)
+    queries = [query for chunk in RrdReader(out).stream(store=RrdReader(out).blueprints()[0]).to_chunks()
+               if chunk.entity_path.endswith("/ViewContents")
+               for query in chunk.to_record_batch().column("ViewContents:query").to_pylist()[0]]
+    plotted = [query for query in queries if query.endswith(("/features", "/inliers"))]
+    assert sorted(plotted) == [f"/{layout.metric('rgbdslam', 'features')}", f"/{layout.metric('rgbdslam', 'inliers')}"]
+
+
 @pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
 def test_the_viewer_renders_the_recording_with_the_estimates(report, recorded, tmp_path):
     shot = tmp_path / "shot.png"

@@ -23,11 +23,14 @@ def overview_eye(positions: np.ndarray) -> rrb.EyeControls3D:
                              look_target=centre, eye_up=[0.0, 0.0, 1.0])
 
 
-def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | None = None) -> rrb.Blueprint:
+def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | None = None,
+                      counted: list[str] | None = None) -> rrb.Blueprint:
     """3D view of groundtruth and every pipeline; per pipeline its image with matches; the
     ATE of all pipelines in one plot, the other metrics in tabs, tracking state and log.
 
-    With groundtruth, the 3D view opens looking at its camera path."""
+    With groundtruth, the 3D view opens looking at its camera path. The features / inliers
+    plot shows the ``counted`` runs (default: all; an imported estimate has no counts)."""
+    counted = pipelines if counted is None else counted
     eye = overview_eye(groundtruth_positions) if groundtruth_positions is not None else None
     # Keyframe depth clouds, the many rejected loop closures and the local edges (short chords
     # among recent keyframes) would bury the map and the trajectories; one click shows them.
@@ -51,7 +54,7 @@ def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | 
         rrb.TimeSeriesView(name="RPE rotation [deg], Δ=1 s", contents=_series(pipelines, "rpe_rot")),
         rrb.TimeSeriesView(name="coverage so far", contents=_series(pipelines, "coverage")),
         rrb.TimeSeriesView(name="features / inliers",
-                           contents=_series(pipelines, "features") + _series(pipelines, "inliers")),
+                           contents=_series(counted, "features") + _series(counted, "inliers")),
         rrb.TimeSeriesView(name="pose-graph error after optimisation", contents=_series(pipelines, "graph_error")),
         *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"))
           for name in pipelines],

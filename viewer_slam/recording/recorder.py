@@ -40,6 +40,8 @@ KEYFRAME_BYTES = 24
 EDGE_BYTES = 36
 # Re-log the frustum when the scene (seen so far, without groundtruth) has grown by this factor.
 FRUSTUM_RESIZE_FACTOR = 1.25
+# The tracker's own per-frame counts (FrameTracked fields) and their line widths.
+TRACKER_COUNTS = {"features": 1.0, "matches": 1.0, "inliers": 2.0}
 
 
 def set_frame_time(stream: rr.RecordingStream, index: int, timestamp: float) -> None:
@@ -93,11 +95,14 @@ class PipelineRecorder:
     Sizes come from ``scene_extent`` (the groundtruth's, see :mod:`.sizes`), else from the
     poses seen so far. Every batch of instances goes through :meth:`_log_instances`, which
     sends a Clear rather than an empty batch; the recorder never sends columns.
+    ``tracker_counts`` False (an imported estimate, which measures no features, matches or
+    inliers) leaves those series out rather than plotting zeros.
     """
 
     def __init__(self, stream: rr.RecordingStream, name: str, camera: Camera, colour: palette.Colour,
-                 scene_extent: float | None = None):
+                 scene_extent: float | None = None, tracker_counts: bool = True):
         self.stream = stream
+        self.tracker_counts = tracker_counts
         self.name = name
         self.camera = camera
         self.colour = colour
@@ -163,7 +168,7 @@ class PipelineRecorder:
         for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "graph_error"):
             self._log(layout.metric(name, series), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
                       static=True)
-        for series, width in (("features", 1.0), ("matches", 1.0), ("inliers", 2.0)):
+        for series, width in TRACKER_COUNTS.items() if self.tracker_counts else ():
             self._log(layout.metric(name, series),
                       rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]), static=True)
         self._log(layout.metric(name, "tracking_state"),
@@ -186,7 +191,7 @@ class PipelineRecorder:
             self._log(layout.camera(self.name), transform(event.pose))
         if self._matched_frame != event.frame_index:
             self._log(layout.matches(self.name), rr.Clear(recursive=True))
-        counts = {"features": event.features, "matches": event.matches, "inliers": event.inliers}
+        counts = {series: getattr(event, series) for series in TRACKER_COUNTS} if self.tracker_counts else {}
         for series, value in {**counts, **event.metrics}.items():
             self._log(layout.metric(self.name, series), rr.Scalars(float(value)))
         for stage, ms in event.timings_ms.items():

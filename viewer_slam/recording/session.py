@@ -296,7 +296,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     interrupted = False
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
-    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions)
+    counted = [name for name in pipelines if _counts_features(runs[name])]
+    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions, counted)
     scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
     with StagedFiles() as staged, StopRequest().installed() as stop:
@@ -309,7 +310,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                     if stop.requested:
                         break
                     recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
-                                                scene_extent)
+                                                scene_extent, tracker_counts=name in counted)
 
                     def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
                         recorder.begin_frame(frame)
@@ -364,6 +365,11 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     if failure is not None:
         raise failure
     return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
+
+
+def _counts_features(run: Pipeline) -> bool:
+    """Whether the run measures features, matches and inliers: an imported estimate has only poses."""
+    return run.source != "estimate"
 
 
 def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
