@@ -1,7 +1,8 @@
 """Finished task results, kept so that a re-run skips work whose inputs have not changed.
 
 A result is filed under a hash of everything that determines it: the sequence's content,
-the pipeline (and the module implementing it), its parameters, seed and frame limit, and
+the pipeline (and the module implementing it) or the estimate file's bytes and format, its
+parameters, seed and frame limit, and
 the viewslam version and source code (so a development tree never serves results of code
 it no longer has). Only successful results are kept; failures are retried.
 """
@@ -45,6 +46,14 @@ def code_fingerprint() -> str:
     return digest.hexdigest()
 
 
+def _file_digest(path: Path) -> str | None:
+    """Hash of an estimate file's bytes (None when unreadable: the task will fail and not be stored)."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
+
+
 class ResultCache:
     """Task results on disk, one JSON file per key, under ``cache_dir("benchmark")`` by default."""
 
@@ -64,6 +73,8 @@ class ResultCache:
             "parameters": task.parameters,
             "seed": task.seed,
             "max_frames": task.max_frames,
+            "estimate": _file_digest(task.estimate) if task.estimate is not None else None,
+            "estimate_format": task.estimate_format,
             "viewslam": __version__,
             "code": code_fingerprint(),
         }

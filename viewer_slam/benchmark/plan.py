@@ -3,6 +3,9 @@
 from pathlib import Path
 
 from ..dataset.catalog import resolve_sequence, study_scenarios
+from ..dataset.tum import open_sequence
+from ..errors import InputError
+from ..evaluation.imported import estimate_replay
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import params_to_dict, resolve_params
 from .runner import BenchmarkTask
@@ -15,8 +18,12 @@ SCENARIO_SEED = 0
 def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int | None = None,
                scenario_frames: int | None = None, resolution: tuple[int, int] = (640, 480),
                assignments: list[str] = (), config: Path | None = None, seed: int = 0,
-               timeout_s: float | None = None, recordings: Path | None = None) -> list[BenchmarkTask]:
+               timeout_s: float | None = None, recordings: Path | None = None,
+               estimates: list[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
     """One task per sequence and pipeline, sequence-major; ``specs`` None means the synthetic scenarios.
+
+    ``estimates`` (name, file) are trajectories of one sequence: each is one more task after
+    the pipelines', so there must be exactly one sequence.
 
     ``max_frames`` cuts every sequence, recorded or synthetic, to its first frames (as
     `viewslam record --max-frames` does); ``scenario_frames`` is the length synthetic
@@ -25,13 +32,24 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
     resolved here so a bad key fails before anything runs.
     """
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, config)
+    if estimates and len(specs or study_scenarios()) != 1:
+        raise InputError(f"--estimate: an estimate is a trajectory of one sequence; give exactly one SEQUENCE "
+                         f"(got {len(specs or study_scenarios())})")
     tasks = []
     for spec in specs or study_scenarios():
         folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
+        def recording(run: str) -> Path | None:
+            return recordings / f"{name.replace('/', '_')}.{run}.rrd" if recordings is not None else None
+
         for pipeline in pipelines:
-            recording = recordings / f"{name.replace('/', '_')}.{pipeline}.rrd" if recordings is not None else None
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
                                        parameters=params_to_dict(params[pipeline]), seed=seed, max_frames=max_frames,
-                                       timeout_s=timeout_s, recording=recording))
+                                       timeout_s=timeout_s, recording=recording(pipeline)))
+        for estimate, file in estimates:
+            # Read now: a file that is no trajectory fails before any task runs, and its format is settled.
+            replay = estimate_replay(open_sequence(folder), file, estimate_format, max_frames=max_frames)
+            tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=estimate, max_frames=max_frames,
+                                       timeout_s=timeout_s, recording=recording(estimate), estimate=file,
+                                       estimate_format=replay.params.format))
     return tasks

@@ -11,7 +11,10 @@ from pathlib import Path
 
 from .. import __version__
 from ..atomic import StagedFiles
+from ..comparison.output import markdown_comparison
+from ..comparison.results import RUNS_FOLDER, BenchmarkResults, compare_results, load_results, runs_report_path
 from ..errors import InputError
+from ..evaluation.report import versions, write_report
 from .plots import CHARTS, plot_all
 from .runner import TaskResult
 from .tables import result_row, write_csv, write_json
@@ -23,24 +26,58 @@ COVERAGE_TIE = 0.01
 OUTPUT_FILES = ("results.csv", "results.json", "report.md")
 
 
-def write_outputs(results: list[TaskResult], out_dir: Path) -> list[Path]:
-    """Write every output into ``out_dir`` (each file renamed into place once complete); returns them all."""
+def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: BenchmarkResults | None = None) -> list[Path]:
+    """Write every output into ``out_dir`` (each file renamed into place once complete); returns them all.
+
+    With ``compare_with`` (another results folder), report.md also compares every row both
+    have, as `viewslam diff` does; the rows are read back from ``out_dir/runs``, exactly as
+    a later comparison against this folder would read them.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     rows = [result_row(result) for result in results]
     csv_path, json_path, report_path = (out_dir / name for name in OUTPUT_FILES)
     try:
         with StagedFiles() as staged:
+            runs = write_runs(results, out_dir, staged)
             write_csv(staged.path(csv_path), rows)
             write_json(staged.path(json_path), rows)
             staged.path(report_path).write_text(markdown_report(results))
             staged.commit()
+        if compare_with is not None:
+            comparison = markdown_comparison(compare_results(compare_with, load_results(out_dir)))
+            with StagedFiles() as staged:
+                staged.path(report_path).write_text(markdown_report(results, comparison=comparison))
+                staged.commit()
         charts = plot_all(rows, out_dir)
     except OSError as error:
         raise InputError.at(out_dir, f"cannot write the results: {error.strerror or error}") from None
-    return [csv_path, json_path, report_path, *charts]
+    return [csv_path, json_path, report_path, *runs, *charts]
 
 
-def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_") -> str:
+def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) -> list[Path]:
+    """Per sequence, a report in `viewslam record`'s form and each run's trajectory beside it, in ``OUT/runs``."""
+    (out_dir / RUNS_FOLDER).mkdir(exist_ok=True)
+    by_sequence = defaultdict(list)
+    for result in results:
+        if result.ok:
+            by_sequence[result.sequence].append(result)
+    written = []
+    for sequence, group in by_sequence.items():
+        path = runs_report_path(out_dir, sequence)
+        report = {"sequence": group[0].sequence_block, "interrupted": False, "versions": versions(),
+                  "pipelines": {result.pipeline: result.report for result in group}}
+        write_report(staged.path(path), report)
+        written.append(path)
+        for result in group:
+            trajectory = path.with_name(f"{path.stem}.{result.pipeline}.txt")
+            staged.path(trajectory).write_text(result.trajectory)
+            written.append(trajectory)
+    return written
+
+
+def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_",
+                    comparison: list[str] | None = None) -> str:
+    """The report; ``comparison`` is the body of its comparison section (see :func:`write_outputs`)."""
     pipelines = ", ".join(dict.fromkeys(result.pipeline for result in results))
     sequences = len(dict.fromkeys(result.sequence for result in results))
     failed = [result for result in results if not result.ok]
@@ -58,6 +95,8 @@ def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_")
         lines.append("")
     lines += ["## Findings", ""]
     lines += [f"- {finding}" for finding in findings(results)]
+    if comparison is not None:
+        lines += ["", "## Compared with other results", "", *comparison]
     lines += ["", "## Charts", ""]
     lines += [f"![{title}]({chart_prefix}{metric}.png)" for metric, title in CHARTS.items()]
     return "\n".join(lines) + "\n"

@@ -18,8 +18,10 @@ import numpy as np
 
 from ..dataset.tum import open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
-from ..evaluation.report import pipeline_report
+from ..evaluation.imported import replay_estimate
+from ..evaluation.report import pipeline_report, sequence_block
 from ..evaluation.run import evaluate_run
+from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..pipelines.params import apply_overrides
 from ..pipelines.run import run_pipeline
@@ -32,6 +34,8 @@ class BenchmarkTask:
     ``parameters`` is the pipeline's complete parameter set under its external keys.
     ``pipeline_modules`` is the pipeline registry the task was planned with, so worker
     processes (which may not share the planner's interpreter) build the same pipelines.
+    With ``estimate`` (a trajectory file, read in ``estimate_format`` or a detected one)
+    the task replays that estimate as the run ``pipeline`` instead of running a pipeline.
     """
 
     name: str
@@ -42,6 +46,8 @@ class BenchmarkTask:
     max_frames: int | None = None
     timeout_s: float | None = None
     recording: Path | None = None
+    estimate: Path | None = None
+    estimate_format: str | None = None
     pipeline_modules: dict[str, str] = field(default_factory=lambda: dict(base.PIPELINE_MODULES))
 
     @property
@@ -55,7 +61,8 @@ class TaskResult:
 
     ``report`` is the per-pipeline block of DESIGN's report (metrics, timing, parameters);
     ``time_span`` the first and last processed frame's timestamps, against which lost
-    intervals are read.
+    intervals are read; ``trajectory`` the run's poses as a TUM file holds them;
+    ``sequence_block`` the report's description of the sequence (name, path, frames).
     """
 
     sequence: str
@@ -65,6 +72,8 @@ class TaskResult:
     report: dict[str, Any] | None = None
     frames: int = 0
     time_span: tuple[float, float] | None = None
+    trajectory: str | None = None
+    sequence_block: dict[str, Any] | None = None
     cached: bool = False
 
     @property
@@ -125,31 +134,41 @@ def _run(task: BenchmarkTask) -> TaskResult:
     base.PIPELINE_MODULES.update(task.pipeline_modules)
     sequence = open_sequence(task.sequence)
     if task.recording is not None:
-        report = _record(task)
+        report, trajectory = _record(task)
         frames = len(sequence) if task.max_frames is None else min(len(sequence), task.max_frames)
     else:
-        params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
         signals = SignalRecorder()
-        run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames,
-                           sinks=[signals], frame_sinks=[signals.frame])
+        sinks = {"sinks": [signals], "frame_sinks": [signals.frame]}
+        if task.estimate is not None:
+            run = replay_estimate(sequence, task.pipeline, task.estimate, task.estimate_format,
+                                  max_frames=task.max_frames, **sinks)
+        else:
+            params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
+            run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames, **sinks)
         diagnose_run(run, signals, sequence.groundtruth)
         frames = run.frames
         report = pipeline_report(run, *evaluate_run(sequence.groundtruth, run, sequence.timestamps[:frames]))
+        trajectory = format_tum(run.trajectory)
     if frames == 0:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
     return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(report),
-                      frames=frames, time_span=time_span)
+                      frames=frames, time_span=time_span, trajectory=trajectory,
+                      sequence_block=sequence_block(sequence))
 
 
-def _record(task: BenchmarkTask) -> dict[str, Any]:
-    """Run through `viewslam record` (recording, report and trajectory beside it); the pipeline's block."""
+def _record(task: BenchmarkTask) -> tuple[dict[str, Any], str]:
+    """Run through `viewslam record` (recording, report and trajectory beside it); the run's block and poses."""
     from ..recording.session import RecordOptions, record  # Rerun is loaded only by tasks that record
 
-    assignments = [f"{key}={value}" for key, value in task.parameters.items()]
-    options = RecordOptions(sequence=str(task.sequence), pipeline=task.pipeline, out=task.recording,
-                            max_frames=task.max_frames, params=assignments, seed=task.seed, quiet=True)
-    return record(options).report["pipelines"][task.pipeline]
+    if task.estimate is not None:
+        runs = {"estimates": [f"{task.pipeline}={task.estimate}"], "format": task.estimate_format}
+    else:
+        runs = {"pipeline": task.pipeline, "params": [f"{key}={value}" for key, value in task.parameters.items()]}
+    options = RecordOptions(sequence=str(task.sequence), out=task.recording, max_frames=task.max_frames,
+                            seed=task.seed, quiet=True, **runs)
+    result = record(options)
+    return result.report["pipelines"][task.pipeline], result.trajectories[task.pipeline].read_text()
 
 
 def _plain(value: Any) -> Any:

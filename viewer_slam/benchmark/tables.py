@@ -24,17 +24,18 @@ def result_row(result: TaskResult) -> dict[str, Any]:
     """The table row of one result; metrics are None for a failed task or a missing score.
 
     ``rpe_rot_rmse`` is in degrees, lengths in metres, ``lost_intervals`` are
-    ``[start, end]`` pairs of dataset timestamps.
+    ``[start, end]`` pairs of dataset timestamps. An imported estimate has no timing of its own.
     """
     report = result.report
+    timed = _lookup(report, "source") != "estimate"
     return {
         "sequence": result.sequence,
         "pipeline": result.pipeline,
         "ate_rmse": _lookup(report, "ate", "rmse"),
         "rpe_trans_rmse": _lookup(report, "rpe", "trans", "rmse"),
         "rpe_rot_rmse": _lookup(report, "rpe", "rot", "rmse"),
-        "time_s": _lookup(report, "timing", "total_s"),
-        "fps": _lookup(report, "timing", "fps"),
+        "time_s": _lookup(report, "timing", "total_s") if timed else None,
+        "fps": _lookup(report, "timing", "fps") if timed else None,
         "coverage": _lookup(report, "coverage", "ratio"),
         "penalized_ate_rmse": _lookup(report, "penalized_ate", "rmse"),
         "frames": result.frames if result.ok else None,

@@ -30,10 +30,20 @@ def benchmark(
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the pipelines' random choices."),
     timeout: float = typer.Option(None, min=1, help="Seconds after which a task is stopped and reported failed."),
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
+    estimate: list[str] = typer.Option([], "--estimate", metavar="NAME=FILE",
+                                       help="Another system's trajectory of the one SEQUENCE, scored as a row "
+                                            "(repeatable); with estimates, no built-in pipeline runs unless "
+                                            "--pipeline asks."),
+    format: str = typer.Option(None, "--format", help="Format of the estimates: tum, kitti or euroc "
+                                                       "(default: detected)."),
+    compare: Path = typer.Option(None, "--compare", metavar="OTHER_RESULTS_DIR",
+                                 help="Also compare every row with the same row of an earlier benchmark's --out "
+                                      "(in report.md), as `viewslam diff` does."),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> int:
     """Run every sequence x pipeline pair, evaluate, print the results table and write it with charts and findings.
 
+    With --compare, report.md also compares every (sequence, run) row both folders have.
     Exits with 1 when a task failed (the others still complete and are reported), 130 when
     interrupted (the finished tasks are written).
     """
@@ -44,10 +54,20 @@ def benchmark(
     from ..benchmark.report import OUTPUT_FILES, write_outputs
     from ..benchmark.suite import run_benchmark
     from ..benchmark.tables import print_results
+    from ..comparison.results import check_planned_sequences, load_results
+    from ..dataset.tum import open_sequence
+    from ..evaluation.report import sequence_block
+    from ..evaluation.imported import named_estimates
+    from ..geometry.trajectory_formats import FORMATS
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
-    names = select_pipelines(",".join(pipelines + pipeline) or "both")
+    chosen = ",".join(pipelines + pipeline)
+    names = select_pipelines(chosen or "both") if chosen or not estimate else []
+    if format is not None and format not in FORMATS:
+        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
+    estimates = named_estimates(estimate, names)
+    other = load_results(compare) if compare is not None else None
     if out.exists() and not out.is_dir():
         raise InputError.at(out, "is a file; --out takes a folder")
     for name in OUTPUT_FILES:
@@ -55,9 +75,12 @@ def benchmark(
     with exclusive([out]):
         tasks = plan_tasks(sequences or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
-                           timeout_s=timeout, recordings=out / "recordings" if record else None)
+                           timeout_s=timeout, recordings=out / "recordings" if record else None,
+                           estimates=estimates, estimate_format=format)
+        if other is not None:
+            check_planned_sequences(other, {task.name: sequence_block(open_sequence(task.sequence)) for task in tasks})
         outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
-        paths = write_outputs(outcome.results, out)
+        paths = write_outputs(outcome.results, out, compare_with=other)
     print_results(outcome.results)
     failed = sum(not result.ok for result in outcome.results)
     done = len(outcome.results)

@@ -83,12 +83,22 @@ class Comparison:
 def compare_reports(path_a: Path, path_b: Path) -> Comparison:
     """Load both reports, check they are of one sequence, and compare their runs pairwise."""
     a, b = load_report(path_a), load_report(path_b)
-    if a.sequence.get("name") != b.sequence.get("name") or a.sequence.get("frames") != b.sequence.get("frames"):
+    check_same_sequence(a, b)
+    sequence = open_compared_sequence(a, b)
+    return Comparison(a, b, sequence, [compare_runs(run_a, run_b, sequence) for run_a, run_b in run_pairs(a, b)])
+
+
+def same_sequence(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether two reports' sequence blocks describe one sequence: the same name and number of frames."""
+    return a.get("name") == b.get("name") and a.get("frames") == b.get("frames")
+
+
+def check_same_sequence(a: RecordReport, b: RecordReport) -> None:
+    """Refuse reports of different sequences (by name and frame count), naming both."""
+    if not same_sequence(a.sequence, b.sequence):
         raise InputError(f"{a.path} and {b.path} are reports of different sequences "
                          f"({a.sequence.get('name')}, {a.sequence.get('frames')} frames; "
                          f"{b.sequence.get('name')}, {b.sequence.get('frames')} frames)")
-    sequence = _open(a, b)
-    return Comparison(a, b, sequence, [compare_runs(run_a, run_b, sequence) for run_a, run_b in run_pairs(a, b)])
 
 
 def run_pairs(a: RecordReport, b: RecordReport) -> list[tuple[RecordedRun, RecordedRun]]:
@@ -117,7 +127,7 @@ def compare_runs(a: RecordedRun, b: RecordedRun, sequence: TumSequence) -> RunCo
     )
 
 
-def _open(a: RecordReport, b: RecordReport) -> TumSequence:
+def open_compared_sequence(a: RecordReport, b: RecordReport) -> TumSequence:
     """The sequence folder either report names (the first that still exists)."""
     paths = [Path(report.sequence["path"]) for report in (a, b) if report.sequence.get("path")]
     for path in paths:

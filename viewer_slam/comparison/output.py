@@ -10,6 +10,7 @@ from rich.table import Table
 
 from ..terminal import print_table
 from .compare import Comparison, RunComparison
+from .results import ResultsComparison
 
 
 def frame_ranges(frames: np.ndarray) -> str:
@@ -65,6 +66,32 @@ def _cell(value: Any, sign: str = "") -> str:
     return f"{value:{sign}d}" if isinstance(value, int) and not isinstance(value, bool) else str(value)
 
 
+def summary_rows(run: RunComparison) -> list[tuple[str, str, str, str]]:
+    """The scores side by side: (score, A, B, B - A) as text."""
+    return [(label, _cell(a), _cell(b), _cell(difference(a, b), sign="+")) for label, (a, b) in run.summary.items()]
+
+
+def detail_lines(run: RunComparison) -> list[str]:
+    """The ATE difference, the frames only one run tracked, the losses only one had, the parameters that differ."""
+    lines = []
+    both = np.isfinite(run.ate_difference)
+    if both.any():
+        lines.append(f"ATE difference B - A over {both.sum()} frames both tracked: mean "
+                     f"{np.mean(run.ate_difference[both]):+.3f} m, from {np.min(run.ate_difference[both]):+.3f} "
+                     f"to {np.max(run.ate_difference[both]):+.3f} m")
+    lines.append(f"frames tracked by B only: {len(run.frames_only_b)} ({frame_ranges(run.frames_only_b)})")
+    lines.append(f"frames tracked by A only: {len(run.frames_only_a)} ({frame_ranges(run.frames_only_a)})")
+    for title, losses in (("losses in A only", run.losses_vanished), ("losses in B only", run.losses_appeared)):
+        lines.append(f"{title}: {len(losses) or 'none'}")
+        lines += [f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
+                  + ("" if loss["other_tracking"] else " (the other run had no pose there)") for loss in losses]
+    if run.parameters:
+        lines.append("parameters: " + ", ".join(f"{key} {a} -> {b}" for key, (a, b) in run.parameters.items()))
+    else:
+        lines.append("parameters: the same")
+    return lines
+
+
 def print_comparison(comparison: Comparison, console: Console | None = None) -> None:
     """Per compared run: the scores side by side with B - A, then frames, losses and parameters."""
     console = console or Console(markup=False, highlight=False, soft_wrap=True)  # "[m]" is no markup; no wrapping
@@ -73,22 +100,25 @@ def print_comparison(comparison: Comparison, console: Console | None = None) -> 
         table = Table(title=f"{run.a.name} (A) against {run.b.name} (B)", box=box.SIMPLE_HEAD, pad_edge=False)
         for column in ("score", "A", "B", "B - A"):
             table.add_column(column, justify="left" if column == "score" else "right", no_wrap=True)
-        for label, (a, b) in run.summary.items():
-            table.add_row(label, _cell(a), _cell(b), _cell(difference(a, b), sign="+"))
+        for row in summary_rows(run):
+            table.add_row(*row)
         print_table(table, console)
-        both = np.isfinite(run.ate_difference)
-        if both.any():
-            console.print(f"ATE difference B - A over {both.sum()} frames both tracked: mean "
-                          f"{np.mean(run.ate_difference[both]):+.3f} m, from {np.min(run.ate_difference[both]):+.3f} "
-                          f"to {np.max(run.ate_difference[both]):+.3f} m")
-        console.print(f"frames tracked by B only: {len(run.frames_only_b)} ({frame_ranges(run.frames_only_b)})")
-        console.print(f"frames tracked by A only: {len(run.frames_only_a)} ({frame_ranges(run.frames_only_a)})")
-        for title, losses in (("losses in A only", run.losses_vanished), ("losses in B only", run.losses_appeared)):
-            console.print(f"{title}: {len(losses) or 'none'}")
-            for loss in losses:
-                console.print(f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
-                              + ("" if loss["other_tracking"] else " (the other run had no pose there)"))
-        if run.parameters:
-            console.print("parameters: " + ", ".join(f"{key} {a} -> {b}" for key, (a, b) in run.parameters.items()))
-        else:
-            console.print("parameters: the same")
+        for line in detail_lines(run):
+            console.print(line)
+
+
+def markdown_comparison(comparison: ResultsComparison) -> list[str]:
+    """The lines of a benchmark report's comparison section: per row both ran, the scores and the details."""
+    lines = [f"A = `{comparison.a.folder}`, B = these results; differences are B - A.", ""]
+    for sequence, run in comparison.runs:
+        lines += [f"### {sequence} / {run.b.name}", "", "| score | A | B | B - A |", "|---|---:|---:|---:|"]
+        lines += ["| " + " | ".join(row) + " |" for row in summary_rows(run)]
+        lines += ["", *(f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
+                        for line in detail_lines(run)), ""]
+    if comparison.not_compared:
+        lines += ["Not compared:", ""]
+        lines += [f"- {sequence} / {run}: {why}" for sequence, run, why in comparison.not_compared]
+        lines.append("")
+    if not comparison.runs:
+        lines += ["No row ran in both.", ""]
+    return lines

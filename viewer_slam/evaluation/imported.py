@@ -11,6 +11,7 @@ gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 ``initialising``.
 """
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +29,8 @@ from ..pipelines.run import PipelineRun, Sink, drive
 from .coverage import coverage, median_period
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
+# An estimate's name becomes entity paths and a file name.
+RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 
 
 @dataclass
@@ -42,6 +45,21 @@ def parse_estimate(text: str) -> tuple[str, Path]:
     if not sep or not name.strip() or not file.strip():
         raise InputError(f"--estimate {text!r}: expected NAME=FILE, e.g. orbslam3=CameraTrajectory.txt")
     return name.strip(), Path(file.strip())
+
+
+def named_estimates(texts: list[str], pipelines: list[str]) -> list[tuple[str, Path]]:
+    """The ``--estimate NAME=FILE`` options as (name, file); every name must be unique among them and ``pipelines``."""
+    named = [parse_estimate(text) for text in texts]
+    taken = set(pipelines)
+    for name, file in named:
+        if not RUN_NAME.fullmatch(name):
+            raise InputError(f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
+                             f"(it names entities and files)")
+        if name in taken:
+            kind = "a pipeline" if name in pipelines else "another estimate"
+            raise InputError(f"--estimate {name}={file}: the name {name!r} is already {kind}'s; choose another")
+        taken.add(name)
+    return named
 
 
 class EstimateReplay(Pipeline):

@@ -47,12 +47,17 @@ def pipeline_report(run: PipelineRun, evaluation: Evaluation | None,
 def build_report(sequence, pipeline_blocks: dict[str, dict], interrupted: bool) -> dict[str, Any]:
     """The whole report for ``sequence`` (a TumSequence) and the pipelines' blocks."""
     return {
-        "sequence": {"name": sequence.name, "path": str(sequence.path), "frames": len(sequence),
-                     "duration_s": sequence.duration_s},
+        "sequence": sequence_block(sequence),
         "interrupted": interrupted,
         "versions": versions(),
         "pipelines": pipeline_blocks,
     }
+
+
+def sequence_block(sequence) -> dict[str, Any]:
+    """What a report says of its sequence: name, folder, frames and duration."""
+    return {"name": sequence.name, "path": str(sequence.path), "frames": len(sequence),
+            "duration_s": sequence.duration_s}
 
 
 def versions() -> dict[str, str | None]:

@@ -17,7 +17,6 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
-import re
 import shutil
 import sys
 import warnings
@@ -37,7 +36,7 @@ from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
-from ..evaluation.imported import estimate_replay, parse_estimate
+from ..evaluation.imported import estimate_replay, named_estimates
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
@@ -64,9 +63,6 @@ BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
 # Less free space than this after the file sink failed means the disk was full.
 FULL_DISK_BYTES = 1 << 20
 
-
-# An estimate's name becomes entity paths and a file name.
-RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 # open_bag's keywords and the flags that set them.
 BAG_FLAGS = {"rgb_topic": "--rgb-topic", "depth_topic": "--depth-topic", "camera_info_topic": "--camera-info-topic",
              "groundtruth": "--groundtruth", "groundtruth_topic": "--groundtruth-topic"}
@@ -155,17 +151,7 @@ def select_runs(choice: str | None, estimates: list[str],
     pipelines = select_pipelines(choice) if choice else [] if estimates else select_pipelines(BOTH)
     if format is not None and format not in FORMATS:
         raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
-    named = [parse_estimate(text) for text in estimates]
-    taken = set(pipelines)
-    for name, file in named:
-        if not RUN_NAME.fullmatch(name):
-            raise InputError(f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
-                             f"(it names entities and files)")
-        if name in taken:
-            kind = "a pipeline" if name in pipelines else "another estimate"
-            raise InputError(f"--estimate {name}={file}: the name {name!r} is already {kind}'s; choose another")
-        taken.add(name)
-    return pipelines, named
+    return pipelines, named_estimates(estimates, pipelines)
 
 
 def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]]:
