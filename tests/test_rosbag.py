@@ -1,5 +1,6 @@
 """ROS bags as sequences: real bags written from the shared TUM excerpt give the folder's frames."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,8 @@ from viewer_slam.dataset.rosbag import BagSequence, open_bag
 from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
 from viewer_slam.errors import InputError
 from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
+from viewer_slam.evaluation import evaluate
+from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 FRAMES = 6
 NAME = "rgbd_dataset_freiburg1_rpy"
@@ -120,21 +123,26 @@ def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_pa
         np.testing.assert_array_equal(frame.depth, (millimetres[k] / 1000.0).astype(np.float32))
 
 
+def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, step_ns: int = 10**8) -> None:
+    """``poses`` as PoseStamped messages on ``topic``, ``step_ns`` apart from ``start_ns``."""
+    types = bag.types
+    for k, pose in enumerate(poses):
+        (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
+        stamp = start_ns + k * step_ns
+        message = types["geometry_msgs/msg/PoseStamped"](
+            header=bag.header(stamp, "map"),
+            pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+                                                 orientation=types["geometry_msgs/msg/Quaternion"](
+                                                     x=qx, y=qy, z=qz, w=qw)))
+        bag.add(topic, "geometry_msgs/msg/PoseStamped", stamp, message)
+
+
 @pytest.mark.parametrize("ros", [1, 2])
 def test_groundtruth_from_a_pose_topic(tmp_path, ros):
     expected = [make_pose(exp_so3(np.array([0.1 * k, 0.0, 0.2])), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
 
     def poses(bag):
-        types = bag.types
-        for k, pose in enumerate(expected):
-            (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
-            stamp = 5 * 10**9 + k * 10**8
-            message = types["geometry_msgs/msg/PoseStamped"](
-                header=bag.header(stamp, "map"),
-                pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
-                                                     orientation=types["geometry_msgs/msg/Quaternion"](
-                                                         x=qx, y=qy, z=qz, w=qw)))
-            bag.add("/mocap/pose", "geometry_msgs/msg/PoseStamped", stamp, message)
+        write_poses(bag, "/mocap/pose", expected)
 
     path = tmp_path / ("desk.bag" if ros == 1 else "desk")
     synthetic_bag(path, ros, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
@@ -210,3 +218,68 @@ def test_a_folder_that_is_not_a_bag_is_one_line(tmp_path):
     (path / "metadata.yaml").write_text("not: [a, rosbag2")
     with pytest.raises(InputError, match=rf"^{path}: not a readable ROS bag: "):
         open_sequence(path)
+
+
+def evaluated(capsys, groundtruth: Path, estimate: Path, out: Path, *options: str) -> dict:
+    assert main(["evaluate", str(groundtruth), str(estimate), "--json", str(out), *options]) == 0, \
+        capsys.readouterr().err
+    capsys.readouterr()
+    return json.loads(out.read_text())
+
+
+def assert_same_scores(ours: dict, theirs: dict) -> None:
+    """Every number of two evaluate reports equal to 1e-9 (the tf chain is composed, not read)."""
+    assert ours.keys() == theirs.keys()
+    for key, value in theirs.items():
+        if isinstance(value, dict):
+            assert_same_scores(ours[key], value)
+        elif isinstance(value, float):
+            assert ours[key] == pytest.approx(value, abs=1e-9), key
+        else:
+            assert ours[key] == value, key
+
+
+@needs_excerpt
+def test_a_tum_bag_as_evaluate_groundtruth_scores_as_its_folder(bag, excerpt, tmp_path, capsys):
+    folder = open_sequence(excerpt)
+    poses, _ = folder.groundtruth_at(folder.timestamps)
+    poses[:, :3, 3] += np.random.default_rng(5).normal(0.0, 0.02, (len(poses), 3))
+    estimate = tmp_path / "estimate.txt"
+    write_tum(estimate, Trajectory(folder.timestamps, poses))
+    from_bag = evaluated(capsys, bag, estimate, tmp_path / "bag.json")
+    from_folder = evaluated(capsys, excerpt, estimate, tmp_path / "folder.json")
+    assert_same_scores(from_bag, from_folder)
+    assert from_bag["ate"]["n"] == FRAMES and from_bag["coverage"]["span"]["rule"] == "sequence frames"
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_bag_of_poses_alone_is_groundtruth_as_the_same_poses_in_a_file(tmp_path, capsys, ros):
+    truth = [make_pose(exp_so3(np.array([0.0, 0.05 * k, 0.0])), np.array([0.1 * k, 0.0, 0.02 * k]))
+             for k in range(30)]
+    path = tmp_path / ("mocap.bag" if ros == 1 else "mocap")
+    with BagWriter(path, ros) as bag:
+        write_poses(bag, "/vrpn/camera/pose", truth, step_ns=50_000_000)
+    stamps = 5 + np.arange(30) * 0.05
+    noisy = np.array(truth)
+    noisy[:, :3, 3] += np.random.default_rng(6).normal(0.0, 0.01, (30, 3))
+    write_tum(tmp_path / "estimate.txt", Trajectory(stamps, noisy))
+    from_bag = evaluated(capsys, path, tmp_path / "estimate.txt", tmp_path / "bag.json")
+    expected = evaluate(Trajectory(stamps, np.array(truth)), read_tum(tmp_path / "estimate.txt")).to_dict()
+    assert_same_scores(from_bag, json.loads(json.dumps(expected)))
+    assert from_bag["ate"]["n"] == 30 and from_bag["ate"]["rmse"] > 0.005
+    named = evaluated(capsys, path, tmp_path / "estimate.txt", tmp_path / "named.json",
+                      "--groundtruth-topic", "/vrpn/camera/pose")
+    assert named == from_bag
+
+
+def test_a_bag_without_a_pose_topic_is_one_line_as_evaluate_groundtruth(tmp_path, capsys):
+    still = tmp_path / "still.bag"
+    synthetic_bag(still, 1, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})  # its tf never moves
+    estimate = tmp_path / "estimate.txt"
+    estimate.write_text("5.0 0 0 0 0 0 0 1\n5.1 0.1 0 0 0 0 0 1\n")
+    for arguments, problem, named in (([still], "no pose topic and no moving tf chain to the colour camera", still),
+                                      ([still, "--groundtruth-topic", "/cam/image_raw"], "not one of", still),
+                                      ([estimate, "--groundtruth-topic", "/pose"], "only for a ROS bag", estimate)):
+        assert main(["evaluate", str(arguments[0]), str(estimate), *map(str, arguments[1:])]) == 2
+        error = capsys.readouterr().err.strip()
+        assert problem in error and str(named) in error and "\n" not in error and "Traceback" not in error

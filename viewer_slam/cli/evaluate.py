@@ -101,7 +101,8 @@ def parse_span(text: str | None) -> Span | None:
 
 @app.command("evaluate")
 def evaluate_command(
-    groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format) or a TUM sequence folder."),
+    groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format), a TUM sequence folder or a "
+                                                 "ROS bag (.bag file or ROS 2 folder)."),
     estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC); one table row "
                                                      "each."),
     json_path: Path | None = typer.Option(None, "--json", help="Write the metric blocks as JSON."),
@@ -122,9 +123,12 @@ def evaluate_command(
                                     help="Coverage span in groundtruth seconds (default: a sequence's frames, "
                                          "else from the estimate's first pose to the groundtruth's last)."),
     sequence: Path | None = typer.Option(None, "--sequence", metavar="FOLDER",
-                                         help="TUM sequence folder whose frames set the coverage span, the "
+                                         help="TUM sequence folder (or ROS bag) whose frames set the coverage span, the "
                                               "frame period and a KITTI file's times."),
     format: Format | None = typer.Option(None, "--format", help="Format of the estimates (default: detected)."),
+    groundtruth_topic: str | None = typer.Option(None, "--groundtruth-topic", metavar="TOPIC",
+                                                 help="The bag's pose topic to score against (default: the tf "
+                                                      "chain to the colour camera, else the only pose topic)."),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
@@ -138,7 +142,7 @@ def evaluate_command(
     for output in (json_path, plot):
         if output is not None:
             check_writable(output)
-    reference, clock = _groundtruth_and_clock(groundtruth)
+    reference, clock = _groundtruth_and_clock(groundtruth, groundtruth_topic)
     if sequence is not None:
         clock = _sequence_clock(sequence)
     labels = [str(path) for path in estimates]
@@ -184,8 +188,18 @@ def _writing(target: Path) -> Iterator[Path]:
     typer.echo(f"wrote {target}", err=True)
 
 
-def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, Clock]:
-    """A trajectory file (no clock), or a sequence folder's groundtruth and its frames' clock."""
+def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajectory, Clock]:
+    """A trajectory file (no clock), or a sequence folder's or bag's groundtruth and its frames' clock
+    (a bag of poses alone has none); ``topic`` names a bag's pose topic."""
+    from ..dataset.rosbag import is_bag  # the bag reader itself loads only for a bag
+
+    if is_bag(path):
+        from ..dataset.rosbag import open_groundtruth
+
+        reference, sequence = open_groundtruth(path, groundtruth_topic=topic)
+        return reference, _clock_of(sequence) if sequence is not None else Clock()
+    if topic is not None:
+        raise InputError(f"--groundtruth-topic: only for a ROS bag, and {path} is not one")
     if not path.is_dir():
         return read_tum(path), Clock()
     sequence = open_sequence(path)
@@ -195,8 +209,10 @@ def _groundtruth_and_clock(path: Path) -> tuple[Trajectory, Clock]:
 
 
 def _sequence_clock(path: Path) -> Clock:
-    if not path.is_dir():
-        raise InputError(f"--sequence {path}: not a folder")
+    from ..dataset.rosbag import is_bag
+
+    if not path.is_dir() and not is_bag(path):
+        raise InputError(f"--sequence {path}: not a folder or a ROS bag")
     return _clock_of(open_sequence(path))
 
 

@@ -11,7 +11,9 @@ TUM's own bags give the frames of their folders.
 The camera is the one a TUM folder of the same name would get (the published freiburg
 calibration), else the camera info's, else ROS's default. The groundtruth is a file given,
 else a pose topic given, else the tf chain from the root of the tf tree to the colour
-image's frame when a transform on it moves (the motion capture in TUM's bags).
+image's frame when a transform on it moves (the motion capture in TUM's bags). As the
+groundtruth of `viewslam evaluate` (:func:`open_groundtruth`), a bag may also be one of
+poses alone.
 
 rosbags is imported when a bag is opened, so commands that never open one never load it.
 """
@@ -182,6 +184,34 @@ def open_bag(path: Path, *, rgb_topic: str | None = None, depth_topic: str | Non
         else:
             trajectory = _tf_groundtruth(path, reader, _frame_id(path, reader, colour.topic))
     return BagSequence(path, camera, colour, depth, trajectory)
+
+
+def open_groundtruth(path: Path, *, groundtruth_topic: str | None = None) -> tuple[Trajectory, BagSequence | None]:
+    """A bag as the groundtruth to score against, and the bag as a sequence when it has images.
+
+    The poses are those of ``groundtruth_topic`` (a pose topic), else those a recording of the
+    bag gets (the tf chain to the colour camera), else the bag's only pose topic; a bag with
+    none of these is an :class:`InputError`. The sequence (None for a bag of poses alone)
+    gives the frames whose span the coverage is measured over, as a TUM folder's do.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError.at(path, "no such bag")
+    with _open_reader(path) as reader:
+        has_images = any(connection.msgtype == IMAGE for connection in reader.connections)
+    sequence = open_bag(path, groundtruth_topic=groundtruth_topic) if has_images else None
+    if sequence is not None and sequence.groundtruth is not None:
+        return sequence.groundtruth, sequence
+    with _open_reader(path) as reader:
+        if groundtruth_topic is not None:
+            return _pose_topic(path, reader, groundtruth_topic), sequence
+        topics = list(dict.fromkeys(c.topic for c in reader.connections if c.msgtype in POSE_TYPES))
+        if len(topics) != 1:
+            problem = "no pose topic" if not topics else f"several pose topics ({', '.join(topics)})"
+            moving_tf = " and no moving tf chain to the colour camera" if has_images else ""
+            raise InputError.at(path, f"{problem}{moving_tf} to take as the groundtruth; name one with "
+                                      f"--groundtruth-topic; topics: {_topic_list(reader)}")
+        return _pose_topic(path, reader, topics[0]), sequence
 
 
 @contextmanager
