@@ -283,3 +283,22 @@ def test_a_bag_without_a_pose_topic_is_one_line_as_evaluate_groundtruth(tmp_path
         assert main(["evaluate", str(arguments[0]), str(estimate), *map(str, arguments[1:])]) == 2
         error = capsys.readouterr().err.strip()
         assert problem in error and str(named) in error and "\n" not in error and "Traceback" not in error
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_bag_as_an_estimate_is_its_pose_topic(tmp_path, capsys, ros):
+    stamps = 5 + np.arange(30) * 0.05
+    truth = np.array([make_pose(exp_so3(np.array([0.02 * k, 0.0, 0.0])), np.array([0.0, 0.1 * k, 0.0]))
+                      for k in range(30)])
+    write_tum(tmp_path / "truth.txt", Trajectory(stamps, truth))
+    estimate = truth.copy()
+    estimate[:, :3, 3] += np.random.default_rng(7).normal(0.0, 0.01, (30, 3))
+    path = tmp_path / ("slam.bag" if ros == 1 else "slam")
+    with BagWriter(path, ros) as bag:
+        write_poses(bag, "/slam/pose", estimate, step_ns=50_000_000)
+    scores = evaluated(capsys, tmp_path / "truth.txt", path, tmp_path / "bag.json")
+    expected = evaluate(read_tum(tmp_path / "truth.txt"), Trajectory(stamps, estimate)).to_dict()
+    assert_same_scores(scores, json.loads(json.dumps(expected)))
+    assert main(["evaluate", str(tmp_path / "truth.txt"), str(path), "--estimate-topic", "/nope"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert "--estimate-topic /nope: no such topic" in error and str(path) in error and "\n" not in error

@@ -26,7 +26,7 @@ from ..terminal import print_table
 from .app import app
 
 SEQUENCE_RULE = "sequence frames"
-FORMAT_NAMES = {"tum": "TUM", "kitti": "KITTI", "euroc": "EuRoC"}
+FORMAT_NAMES = {"tum": "TUM", "kitti": "KITTI", "euroc": "EuRoC", "bag": "a ROS bag's pose topic"}
 SPAN_OPTION_RULE = "--span"
 
 GLOBAL_ALIGNMENT_TEXT = {
@@ -103,8 +103,8 @@ def parse_span(text: str | None) -> Span | None:
 def evaluate_command(
     groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format), a TUM sequence folder or a "
                                                  "ROS bag (.bag file or ROS 2 folder)."),
-    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC); one table row "
-                                                     "each."),
+    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC, or a ROS bag's "
+                                                     "pose topic); one table row each."),
     json_path: Path | None = typer.Option(None, "--json", help="Write the metric blocks as JSON."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a picture (.png, .pdf, .svg, ...): aligned top "
                                                           "view and errors over time."),
@@ -129,6 +129,9 @@ def evaluate_command(
     groundtruth_topic: str | None = typer.Option(None, "--groundtruth-topic", metavar="TOPIC",
                                                  help="The bag's pose topic to score against (default: the tf "
                                                       "chain to the colour camera, else the only pose topic)."),
+    estimate_topic: str | None = typer.Option(None, "--estimate-topic", metavar="TOPIC",
+                                              help="The pose topic of estimates that are ROS bags (default: the "
+                                                   "bag's only pose topic)."),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
@@ -149,8 +152,7 @@ def evaluate_command(
     repeated = next((path for path, label in zip(estimates, labels) if labels.count(label) > 1), None)
     if repeated is not None:
         raise InputError.at(repeated, "given twice as an estimate")
-    estimated, formats = zip(*(read_trajectory(path, format and format.value, clock.frame_stamps)
-                               for path in estimates))
+    estimated, formats = zip(*(_read_estimate(path, format, clock, estimate_topic) for path in estimates))
     evaluations = []
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
@@ -206,6 +208,15 @@ def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajec
     if sequence.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
     return sequence.groundtruth, _clock_of(sequence)
+
+
+def _read_estimate(path: Path, format: Format | None, clock: Clock, topic: str | None) -> tuple[Trajectory, str]:
+    """An estimate and the format it was read as: a bag's pose topic, else a file in ``format`` or a detected one."""
+    from ..dataset.rosbag import bag_poses, is_bag
+
+    if is_bag(path):
+        return bag_poses(path, topic, option="--estimate-topic"), "bag"
+    return read_trajectory(path, format and format.value, clock.frame_stamps)
 
 
 def _sequence_clock(path: Path) -> Clock:

@@ -13,7 +13,7 @@ calibration), else the camera info's, else ROS's default. The groundtruth is a f
 else a pose topic given, else the tf chain from the root of the tf tree to the colour
 image's frame when a transform on it moves (the motion capture in TUM's bags). As the
 groundtruth of `viewslam evaluate` (:func:`open_groundtruth`), a bag may also be one of
-poses alone.
+poses alone; as an estimate (:func:`bag_poses`), its pose topic is read.
 
 rosbags is imported when a bag is opened, so commands that never open one never load it.
 """
@@ -202,16 +202,25 @@ def open_groundtruth(path: Path, *, groundtruth_topic: str | None = None) -> tup
     sequence = open_bag(path, groundtruth_topic=groundtruth_topic) if has_images else None
     if sequence is not None and sequence.groundtruth is not None:
         return sequence.groundtruth, sequence
+    return bag_poses(path, groundtruth_topic, option="--groundtruth-topic",
+                     missing=" and no moving tf chain to the colour camera" if has_images else ""), sequence
+
+
+def bag_poses(path: Path, topic: str | None = None, *, option: str = "--groundtruth-topic",
+              missing: str = "") -> Trajectory:
+    """The poses of the bag's pose topic ``topic``, or of its only one; the ``option`` that names
+    one is in the error (with ``missing``, what else was looked for) when there is none or several."""
+    path = Path(path)
+    if not path.exists():
+        raise InputError.at(path, "no such bag")
     with _open_reader(path) as reader:
-        if groundtruth_topic is not None:
-            return _pose_topic(path, reader, groundtruth_topic), sequence
+        if topic is not None:
+            return _pose_topic(path, reader, topic, option)
         topics = list(dict.fromkeys(c.topic for c in reader.connections if c.msgtype in POSE_TYPES))
         if len(topics) != 1:
             problem = "no pose topic" if not topics else f"several pose topics ({', '.join(topics)})"
-            moving_tf = " and no moving tf chain to the colour camera" if has_images else ""
-            raise InputError.at(path, f"{problem}{moving_tf} to take as the groundtruth; name one with "
-                                      f"--groundtruth-topic; topics: {_topic_list(reader)}")
-        return _pose_topic(path, reader, topics[0]), sequence
+            raise InputError.at(path, f"{problem}{missing}; name one with {option}; topics: {_topic_list(reader)}")
+        return _pose_topic(path, reader, topics[0], option)
 
 
 @contextmanager
@@ -325,12 +334,12 @@ def _camera(path: Path, reader: AnyReader, colour: _Stream, topic: str | None) -
                   distortion=distortion + (0.0,) * (5 - len(distortion)))
 
 
-def _pose_topic(path: Path, reader: AnyReader, topic: str) -> Trajectory:
+def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--groundtruth-topic") -> Trajectory:
     """Poses of a PoseStamped, PoseWithCovarianceStamped, TransformStamped or Odometry topic."""
     connections = _connections(reader, topic)
     if not connections or connections[0].msgtype not in POSE_TYPES:
         found = connections[0].msgtype if connections else "no such topic"
-        raise InputError.at(path, f"--groundtruth-topic {topic}: {found}, not one of {', '.join(POSE_TYPES)}")
+        raise InputError.at(path, f"{option} {topic}: {found}, not one of {', '.join(POSE_TYPES)}")
     stamps, poses = [], []
     for connection, _, raw in _messages(path, reader, connections):
         message = _deserialize(path, reader, raw, connection)
