@@ -118,3 +118,17 @@ def test_recorded_task_writes_a_recording_and_scores_the_same(folder, tmp_path):
     assert {k: v for k, v in recorded.report.items() if k != "timing"} == \
            {k: v for k, v in plain.report.items() if k != "timing"}
     assert (recorded.frames, recorded.time_span) == (plain.frames, plain.time_span)
+
+
+def test_an_estimate_task_is_cached_under_its_file_s_bytes(folder, tmp_path):
+    """An estimate replayed is served from the cache until the file's content changes."""
+    estimate = tmp_path / "estimate.txt"
+    estimate.write_text((folder / "groundtruth.txt").read_text())
+    cache = ResultCache(tmp_path / "results")
+    replay = BenchmarkTask(name="tiny", sequence=folder, pipeline="mine", estimate=estimate, estimate_format="tum")
+    first = run_benchmark([replay], LocalExecutor(jobs=1), cache, progress=False).results[0]
+    assert first.ok and not first.cached and first.report["source"] == "estimate"
+    assert first.report["ate"]["rmse"] == pytest.approx(0.0, abs=1e-6)  # the groundtruth itself
+    assert run_benchmark([replay], LocalExecutor(jobs=1), cache, progress=False).results[0].cached
+    estimate.write_text(estimate.read_text() + "# the same poses, other bytes\n")
+    assert cache.load(replay) is None
