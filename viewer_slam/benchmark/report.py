@@ -43,12 +43,12 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
             write_json(staged.path(json_path), rows)
             staged.path(report_path).write_text(markdown_report(results))
             staged.commit()
-        if compare_with is not None:
+        charts = plot_all(rows, out_dir)
+        if compare_with is not None:  # a comparison refused (an InputError) leaves the report without it
             comparison = markdown_comparison(compare_results(compare_with, load_results(out_dir)))
             with StagedFiles() as staged:
                 staged.path(report_path).write_text(markdown_report(results, comparison=comparison))
                 staged.commit()
-        charts = plot_all(rows, out_dir)
     except OSError as error:
         raise InputError.at(out_dir, f"cannot write the results: {error.strerror or error}") from None
     return [csv_path, json_path, report_path, *runs, *charts]

@@ -57,15 +57,13 @@ def benchmark(
     from ..comparison.results import check_planned_sequences, load_results
     from ..dataset.tum import open_sequence
     from ..evaluation.report import sequence_block
-    from ..evaluation.imported import named_estimates
-    from ..geometry.trajectory_formats import FORMATS
+    from ..evaluation.imported import check_format, named_estimates
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     chosen = ",".join(pipelines + pipeline)
     names = select_pipelines(chosen or "both") if chosen or not estimate else []
-    if format is not None and format not in FORMATS:
-        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
+    check_format(format)
     estimates = named_estimates(estimate, names)
     other = load_results(compare) if compare is not None else None
     if out.exists() and not out.is_dir():
@@ -78,7 +76,9 @@ def benchmark(
                            timeout_s=timeout, recordings=out / "recordings" if record else None,
                            estimates=estimates, estimate_format=format)
         if other is not None:
-            check_planned_sequences(other, {task.name: sequence_block(open_sequence(task.sequence)) for task in tasks})
+            folders = {task.name: task.sequence for task in tasks}
+            check_planned_sequences(other, {name: sequence_block(open_sequence(folder))
+                                            for name, folder in folders.items()})
         outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
         paths = write_outputs(outcome.results, out, compare_with=other)
     print_results(outcome.results)

@@ -47,6 +47,12 @@ def parse_estimate(text: str) -> tuple[str, Path]:
     return name.strip(), Path(file.strip())
 
 
+def check_format(format: str | None) -> None:
+    """``--format``: None (detect) or one of :data:`FORMATS`."""
+    if format is not None and format not in FORMATS:
+        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
+
+
 def named_estimates(texts: list[str], pipelines: list[str]) -> list[tuple[str, Path]]:
     """The ``--estimate NAME=FILE`` options as (name, file); every name must be unique among them and ``pipelines``."""
     named = [parse_estimate(text) for text in texts]

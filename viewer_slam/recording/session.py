@@ -36,11 +36,10 @@ from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
-from ..evaluation.imported import estimate_replay, named_estimates
+from ..evaluation.imported import check_format, estimate_replay, named_estimates
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import write_tum
-from ..geometry.trajectory_formats import FORMATS
 from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.selection import BOTH, select_pipelines
@@ -149,8 +148,7 @@ def select_runs(choice: str | None, estimates: list[str],
     """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
     estimates (``--estimate NAME=FILE``, in ``format``); every name must be unique among them."""
     pipelines = select_pipelines(choice) if choice else [] if estimates else select_pipelines(BOTH)
-    if format is not None and format not in FORMATS:
-        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
+    check_format(format)
     return pipelines, named_estimates(estimates, pipelines)
 
 
