@@ -75,6 +75,11 @@ def benchmark(
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
                            timeout_s=timeout, recordings=out / "recordings" if record else None,
                            estimates=estimates, estimate_format=format)
+        if not quiet:
+            for task in tasks:
+                if task.estimate is not None:
+                    typer.echo(f"estimate {task.pipeline}: {task.estimate} read as {task.estimate_format} "
+                               f"({'given' if format else 'detected'})", err=True)
         if other is not None:
             folders = {task.name: task.sequence for task in tasks}
             check_planned_sequences(other, {name: sequence_block(open_sequence(folder))
