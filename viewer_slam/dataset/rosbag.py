@@ -27,7 +27,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from ..errors import InputError
@@ -50,9 +49,10 @@ CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
 POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
               "geometry_msgs/msg/TransformStamped", "nav_msgs/msg/Odometry")
-# Encoding -> conversion to RGB (None: already RGB).
-COLOUR_ENCODINGS = {"rgb8": None, "bgr8": cv2.COLOR_BGR2RGB, "rgba8": cv2.COLOR_RGBA2RGB,
-                    "bgra8": cv2.COLOR_BGRA2RGB, "mono8": cv2.COLOR_GRAY2RGB}
+# Encoding -> OpenCV's conversion to RGB, by name (None: already RGB); OpenCV loads only for
+# frames, so `viewslam evaluate` reads a bag's poses without it.
+COLOUR_ENCODINGS = {"rgb8": None, "bgr8": "COLOR_BGR2RGB", "rgba8": "COLOR_RGBA2RGB",
+                    "bgra8": "COLOR_BGRA2RGB", "mono8": "COLOR_GRAY2RGB"}
 # Encoding -> (pixel type, metres per unit).
 DEPTH_ENCODINGS = {"16UC1": ("u2", 1e-3), "mono16": ("u2", 1e-3), "32FC1": ("f4", 1.0)}
 _CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}
@@ -424,7 +424,11 @@ def _pixels(message, dtype: str, channels: int) -> np.ndarray:
 def _colour_image(message) -> np.ndarray:
     image = _pixels(message, "u1", _CHANNELS[message.encoding])
     conversion = COLOUR_ENCODINGS[message.encoding]
-    return np.ascontiguousarray(image) if conversion is None else cv2.cvtColor(image, conversion)
+    if conversion is None:
+        return np.ascontiguousarray(image)
+    import cv2
+
+    return cv2.cvtColor(image, getattr(cv2, conversion))
 
 
 def _depth_image(message) -> np.ndarray:
