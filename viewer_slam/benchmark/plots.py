@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (after choosing the headless back
 import numpy as np  # noqa: E402
 
 from .. import palette  # noqa: E402
+from ..atomic import StagedFiles  # noqa: E402
 
 CHARTS = {
     "ate_rmse": "ATE RMSE [m]",
@@ -26,8 +27,12 @@ CHARTS = {
 }
 
 
-def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: str = "benchmark_") -> list[Path]:
+def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: str = "benchmark_",
+                staged: StagedFiles | None = None) -> list[Path]:
     """Draw ``metric`` for every row into ``<prefix><metric>.png`` and ``.svg``; returns both paths.
+
+    With ``staged``, each file is written to its temporary stand-in, renamed into place at the
+    commit with the other outputs.
 
     A failed task is marked "failed" and a run without the score (no pose) "n/a" where its
     bar would be.
@@ -58,11 +63,12 @@ def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: 
         axes.grid(axis="y", alpha=0.3)
         axes.legend(ncols=len(pipelines), loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
         paths = [out_dir / f"{prefix}{metric}.png", out_dir / f"{prefix}{metric}.svg"]
-        figure.savefig(paths[0], dpi=120, metadata={"Software": None})
-        figure.savefig(paths[1], metadata={"Date": None, "Creator": None})
+        where = staged.path if staged is not None else Path
+        figure.savefig(where(paths[0]), format="png", dpi=120, metadata={"Software": None})
+        figure.savefig(where(paths[1]), format="svg", metadata={"Date": None, "Creator": None})
         plt.close(figure)
     return paths
 
 
-def plot_all(rows: list[dict[str, Any]], out_dir: Path, prefix: str = "benchmark_") -> list[Path]:
-    return [path for metric in CHARTS for path in plot_metric(rows, metric, out_dir, prefix)]
+def plot_all(rows: list[dict[str, Any]], out_dir: Path, staged: StagedFiles, prefix: str = "benchmark_") -> list[Path]:
+    return [path for metric in CHARTS for path in plot_metric(rows, metric, out_dir, prefix, staged)]

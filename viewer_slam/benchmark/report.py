@@ -42,8 +42,8 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
             write_csv(staged.path(csv_path), rows)
             write_json(staged.path(json_path), rows)
             staged.path(report_path).write_text(markdown_report(results))
+            charts = plot_all(rows, out_dir, staged)
             staged.commit()
-        charts = plot_all(rows, out_dir)
         if compare_with is not None:  # a comparison refused (an InputError) leaves the report without it
             comparison = markdown_comparison(compare_results(compare_with, load_results(out_dir)))
             with StagedFiles() as staged:
