@@ -12,6 +12,7 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import invert, rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeClassifier
+from ..maps import rebuilt_map
 from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
@@ -307,10 +308,8 @@ class Rtabmap(Pipeline):
     def _rebuilt_map(self, frame_index: int) -> MapUpdated:
         """Every location's cloud at its optimised pose, subsampled to MAP_POINTS_LIMIT."""
         locations = [self.memory.locations[i] for i in sorted(self.memory.locations)]
-        points = np.concatenate([transform_points(self.graph.poses[loc.id], loc.cloud_points) for loc in locations])
-        colors = np.concatenate([loc.cloud_colors for loc in locations])
-        stride = -(-len(points) // MAP_POINTS_LIMIT)
-        return MapUpdated(frame_index, points[::stride].astype(np.float32), colors[::stride], replace=True)
+        return rebuilt_map(frame_index, ((self.graph.poses[loc.id], loc.cloud_points, loc.cloud_colors)
+                                         for loc in locations), MAP_POINTS_LIMIT)
 
     # -- end of run --------------------------------------------------------------------
 
