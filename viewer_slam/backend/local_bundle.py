@@ -80,8 +80,9 @@ class BundleSettings:
 
 @dataclass
 class BundleResult:
-    """The adjusted frame's pose (``T_world_camera``), the points after adjustment (an
-    outlier's point is where it started) and which points had an edge dropped."""
+    """The adjusted frame's pose (``T_world_camera``), the points after adjustment and which
+    points had an observation dropped (such a point is re-estimated from its other
+    observations, or left where it started if the drop came after the last pass)."""
 
     pose: np.ndarray
     points: np.ndarray
