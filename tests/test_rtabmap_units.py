@@ -66,15 +66,17 @@ def test_hamming_distances_match_bit_counts():
     assert hamming_distances(a, b).tolist() == expected
 
 
-def test_local_map_cap_keeps_the_most_recently_seen_points():
+def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_observations():
     local_map = LocalMap()
     for frame in range(5):
-        local_map.add(np.full((10, 3), frame, float), descriptors(10), frame)
+        local_map.add(np.full((10, 3), frame, float), descriptors(10), frame,
+                      [(frame, float(i), 0.0, 1.0) for i in range(10)])
     local_map.observe(np.arange(5), 9)          # five points of frame 0 seen again last
     local_map.cap(25)
     assert len(local_map) == 25
     assert sorted(set(local_map.points[:, 0].tolist())) == [0.0, 3.0, 4.0]
     assert (local_map.last_seen == 9).sum() == 5
+    assert [references[0][0] for references in local_map.references] == local_map.points[:, 0].astype(int).tolist()
 
 
 def test_vocabulary_reuses_words_and_creates_new_ones():
