@@ -309,6 +309,32 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
 
 
+def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry.process(view(world, np.eye(4), words))
+    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    features = view(world, moved, words)
+    # 30 depths moved along their rays by 8 px of disparity on the fake g2o/Baseline of
+    # 7.5 cm: PnP, which only reprojects, takes them; in the bundle each point splits the
+    # conflict between its two stereo edges, 4 px each, chi2 16 > g2o/RobustKernelDelta 8.
+    baseline_px = CAMERA.fx * 0.075
+    depth = features.points[:30, 2]
+    features.points[:30] *= (baseline_px / (baseline_px / depth + 8.0) / depth)[:, None]
+    result = odometry.process(features)
+    assert np.allclose(result.pose, moved, atol=1e-3)
+    assert result.inliers == 270
+    assert not result.match_inliers[result.feature_index < 30].any()
+    # 270 inliers are over Odom/VisKeyFrameThr 150: not a key frame, the map is as it was.
+    assert list(odometry.key_frames.poses) == [1] and all(len(r) == 1 for r in odometry.map.references)
+    # A view of 140 points is a key frame: the points it registered on gain its observation.
+    key_frame = odometry.process(view(world[100:240], moved, words[100:240]))
+    registered = key_frame.map_index[key_frame.match_inliers]
+    assert key_frame.inliers > 100 and set(registered) <= set(range(100, 240))
+    assert list(odometry.key_frames.poses) == [1, 3]
+    assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in set(registered)) for i in range(300)]
+
+
 def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
     """Ten locations on a circle whose odometry accumulates ``drift`` metres per link."""
     graph = LocationGraph(iterations=50, max_error=max_error)

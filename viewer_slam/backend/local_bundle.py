@@ -38,6 +38,16 @@ def _point_key(index: int) -> int:
     return gtsam.symbol("l", index)
 
 
+def _pose_keys(frames: np.ndarray) -> list[int]:
+    """``_pose_key`` of many frames at once (a GTSAM symbol is its character << 56 | index)."""
+    keys = (ord("x") << 56) | np.maximum(frames, 0).astype(np.uint64)
+    return np.where(frames == FREE_FRAME, np.uint64(FREE_KEY), keys).tolist()
+
+
+def _point_keys(indices: np.ndarray) -> list[int]:
+    return ((ord("l") << 56) | indices.astype(np.uint64)).tolist()
+
+
 @dataclass
 class Observations:
     """Where the points were seen: ``point`` (M,) indices into the points, ``frame`` (M,)
@@ -140,13 +150,14 @@ class _Problem:
                                                      gtsam.noiseModel.Isotropic.Sigma(6, sigma)))
         for index in np.unique(observations.point):
             self.values.insert(_point_key(index), points[index])
-        disparity = fx * settings.baseline / np.where(observations.stereo, observations.depth, 1.0)
+        stereo = observations.stereo
+        right = observations.pixels[:, 0] - fx * settings.baseline / np.where(stereo, observations.depth, 1.0)
         self.edges = []
-        for m in range(len(observations)):
-            u, v = observations.pixels[m]
-            pose_key, point_key = _pose_key(observations.frame[m]), _point_key(observations.point[m])
-            if observations.stereo[m]:
-                self.edges.append(gtsam.GenericStereoFactor3D(gtsam.StereoPoint2(u, u - disparity[m], v), stereo_noise,
+        for (u, v), u_right, is_stereo, pose_key, point_key in zip(
+                observations.pixels.tolist(), right.tolist(), stereo.tolist(), _pose_keys(observations.frame),
+                _point_keys(observations.point)):
+            if is_stereo:
+                self.edges.append(gtsam.GenericStereoFactor3D(gtsam.StereoPoint2(u, u_right, v), stereo_noise,
                                                               pose_key, point_key, stereo_calibration))
             else:
                 self.edges.append(gtsam.GenericProjectionFactorCal3_S2(gtsam.Point2(u, v), mono_noise, pose_key,
@@ -158,12 +169,9 @@ class _Problem:
         graph = gtsam.NonlinearFactorGraph(self.common)
         for m in np.flatnonzero(kept):
             graph.add(self.edges[m])
-        observed = set(self.observations.point[kept].tolist())
-        pass_values = gtsam.Values()
-        for key in values.keys():
-            symbol = gtsam.Symbol(key)
-            if chr(symbol.chr()) != "l" or symbol.index() in observed:
-                pass_values.insert(key, values.atPose3(key) if chr(symbol.chr()) != "l" else values.atPoint3(key))
+        pass_values = gtsam.Values(values)
+        for index in np.setdiff1d(self.observations.point, self.observations.point[kept]):
+            pass_values.erase(_point_key(index))
         parameters = gtsam.LevenbergMarquardtParams()
         parameters.setMaxIterations(iterations)
         result = gtsam.LevenbergMarquardtOptimizer(graph, pass_values, parameters).optimize()
@@ -178,6 +186,7 @@ def adjust_frame(pose: np.ndarray, points: np.ndarray, observations: Observation
     FREE_FRAME) and the observed ``points`` (N, 3, world) with the ``held`` key-frame poses
     fixed; see the module docstring for the passes and the outlier rule."""
     problem = _Problem(pose, points, observations, held, link, K, settings)
+    observed = np.unique(observations.point)
     kept = np.ones(len(observations), bool)
     outliers = np.zeros(len(points), bool)
     values = problem.values
@@ -186,7 +195,7 @@ def adjust_frame(pose: np.ndarray, points: np.ndarray, observations: Observation
         values = problem.optimise(values, kept, iterations)
         if settings.kernel_delta <= 0:
             break
-        estimate = _points(values, points)
+        estimate = _points(values, points, observed)
         pose_of = {frame: values.atPose3(_pose_key(frame)).matrix() for frame in np.unique(observations.frame)}
         chi2 = edge_chi2(pose_of, estimate, observations, K, settings.baseline, settings.pixel_variance)
         dropped = kept & (chi2 > settings.kernel_delta)
@@ -195,13 +204,12 @@ def adjust_frame(pose: np.ndarray, points: np.ndarray, observations: Observation
         outliers[reset] = True
         for index in reset:
             values.update(_point_key(index), points[index])
-    return BundleResult(values.atPose3(FREE_KEY).matrix(), _points(values, points), outliers)
+    return BundleResult(values.atPose3(FREE_KEY).matrix(), _points(values, points, observed), outliers)
 
 
-def _points(values: gtsam.Values, initial: np.ndarray) -> np.ndarray:
-    """The points' current estimates (those that are not variables keep ``initial``)."""
+def _points(values: gtsam.Values, initial: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """The ``observed`` points' current estimates; the others keep ``initial``."""
     estimate = np.array(initial, dtype=np.float64)
-    for index in range(len(initial)):
-        if values.exists(_point_key(index)):
-            estimate[index] = values.atPoint3(_point_key(index))
+    for index, key in zip(observed.tolist(), _point_keys(observed)):
+        estimate[index] = values.atPoint3(key)
     return estimate
