@@ -272,7 +272,8 @@ class FrameToMapOdometry:
                                            features.points[features_used, 2], self.params.bundle_max_frames)
         last = self.key_frames.last
         link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance)
-        held = {frame: self.key_frames.poses[frame] for frame in np.unique(observations.frame) if frame >= 0}
+        seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
+        held = {frame: self.key_frames.poses[frame] for frame in seen_by}
         adjusted = adjust_frame(pose, self.map.points[points], observations, held, link, self.camera.K,
                                 self.bundle_settings)
         inliers = inliers.copy()
