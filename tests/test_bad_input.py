@@ -6,7 +6,9 @@ three-frame excerpt of the shared fr1/rpy sequence.
 """
 
 import json
+import os
 import shutil
+import subprocess
 import struct
 import zlib
 from collections.abc import Callable
@@ -118,6 +120,15 @@ RECORD_CASES = {
     "ratio-above-one": Case([*RECORD, "--param", "nn_distance_ratio=1.5"], "nn_distance_ratio"),
     "ratio-text": Case([*RECORD, "--param", "nn_distance_ratio=high"], "nn_distance_ratio"),
     "integer-fraction": Case([*RECORD, "--param", "max_keypoints=2.5"], "max_keypoints"),
+    "depth-range-inverted": Case([*RECORD, "--param", "minimum_depth=2", "--param", "maximum_depth=1"],
+                                 "maximum_depth must be above minimum_depth (2.0), or 0 for no limit, got 1.0"),
+    "vis-depth-range-inverted": Case([*RECORD, "--param", "Vis/MinDepth=3", "--param", "Vis/MaxDepth=0.5"],
+                                     "Vis/MaxDepth must be above Vis/MinDepth (3.0)"),
+    "matches-cap-below-minimum": Case([*RECORD, "--param", "max_matches=10"],
+                                      "max_matches must be at least min_matches (20), got 10"),
+    "config-and-param-inverted": Case([*RECORD, "--config", "{tmp}/c.toml", "--param", "minimum_depth=2"],
+                                      "c.toml and --param: parameter maximum_depth",
+                                      write("tmp/c.toml", "[rgbdslam]\nmaximum_depth = 1.5\n")),
     "detector-surf": Case([*RECORD, "--param", "feature_detector_type=SURF"], "SURF"),
     "detector-unknown": Case([*RECORD, "--param", "feature_detector_type=FAST"], "feature_detector_type"),
     "boolean-maybe": Case([*RECORD, "--param", "RGBD/ProximityBySpace=maybe"], "RGBD/ProximityBySpace"),
@@ -283,10 +294,13 @@ def test_bad_input_is_one_line_exit_2_and_loses_nothing(case, excerpt, tmp_path,
     assert not [path for path in out.iterdir() if path.name.startswith(".")]  # no temporary or lock file left
 
 
-@pytest.mark.parametrize("arguments", [["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
-                                       ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
-                                       ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"]],
-                         ids=["download", "record", "benchmark"])
+# Commands that create the cache before anything else.
+CACHE_COMMANDS = [["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
+                  ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
+                  ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"]]
+
+
+@pytest.mark.parametrize("arguments", CACHE_COMMANDS, ids=["download", "record", "benchmark"])
 def test_a_cache_that_is_a_file_is_one_line_naming_the_variable(arguments, tmp_path, monkeypatch, capfd):
     (tmp_path / "cache").write_text("not a folder")
     monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
@@ -295,6 +309,35 @@ def test_a_cache_that_is_a_file_is_one_line_naming_the_variable(arguments, tmp_p
     error = capfd.readouterr().err
     assert error.count("\n") == 1 and f"VIEWSLAM_CACHE {tmp_path / 'cache'}: cannot create" in error
     assert (tmp_path / "cache").read_text() == "not a folder"
+
+
+@pytest.fixture
+def read_only_cache(tmp_path):
+    """An empty cache folder nobody may write: a read-only tmpfs when root (root ignores modes)."""
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    if os.geteuid() != 0:
+        cache.chmod(0o555)
+        yield cache
+        cache.chmod(0o755)
+        return
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(cache)],
+                      capture_output=True).returncode != 0:
+        pytest.skip("no read-only file system can be mounted here")
+    yield cache
+    subprocess.run(["umount", str(cache)], check=True)
+
+
+@pytest.mark.parametrize("arguments", CACHE_COMMANDS, ids=["download", "record", "benchmark"])
+def test_a_read_only_cache_is_one_line_naming_the_variable(arguments, read_only_cache, tmp_path, monkeypatch,
+                                                            capfd):
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(read_only_cache))
+    monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
+    assert main([argument.format(tmp=tmp_path) for argument in arguments]) == 2
+    error = capfd.readouterr().err
+    assert error.count("\n") == 1 and f"VIEWSLAM_CACHE {read_only_cache}: cannot create" in error
+    assert not list(read_only_cache.iterdir())
+    assert not (tmp_path / "run.rrd").exists() and not list((tmp_path / "bench").glob("*"))
 
 
 def test_a_bom_in_the_listings_is_read_like_any_text(excerpt, tmp_path):

@@ -69,3 +69,17 @@ def test_unreadable_config_names_the_file(tmp_path):
     config.write_text("predecessor_candidates = = 3\n")
     with pytest.raises(InputError, match="broken.toml"):
         resolve_params(TYPES, [], config)
+
+
+def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
+    from viewer_slam.pipelines.rgbdslam import RgbdSlamParams
+
+    types = {"rgbdslam": RgbdSlamParams}
+    # 400 is above the default cap of 300 matches; the next assignment raises the cap.
+    resolved = resolve_params(types, ["min_matches=400", "max_matches=500"])["rgbdslam"]
+    assert (resolved.min_matches, resolved.max_matches) == (400, 500)
+    assert resolve_params(types, ["minimum_depth=5", "maximum_depth=0"])["rgbdslam"].minimum_depth == 5
+    with pytest.raises(InputError, match=r"^--param: parameter max_matches must be at least min_matches \(400\), got 300$"):
+        resolve_params(types, ["min_matches=400"])
+    with pytest.raises(InputError, match="maximum_depth must be above minimum_depth"):
+        apply_overrides(RgbdSlamParams(), {"minimum_depth": 1.0, "maximum_depth": 1.0}, "benchmark")

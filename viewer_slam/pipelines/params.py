@@ -29,6 +29,37 @@ def param(default: Any, key: str | None = None, help: str = "", choices: tuple |
                                                         "bounds": bounds})
 
 
+@dataclasses.dataclass(frozen=True)
+class Ordered:
+    """A rule between two parameters: ``lower`` stays below ``upper`` (at most equal to it when
+    not ``strict``), unless ``upper`` is ``off`` (a value that means "no limit").
+
+    A params dataclass lists its rules in a ``RELATIONS`` class attribute, by field name.
+    """
+
+    lower: str
+    upper: str
+    strict: bool = True
+    off: float | None = None
+
+    def problem(self, params: Any) -> str | None:
+        low, high = getattr(params, self.lower), getattr(params, self.upper)
+        if high == self.off or (low < high if self.strict else low <= high):
+            return None
+        keys = {f.name: _key(f) for f in dataclasses.fields(params)}
+        relation = "above" if self.strict else "at least"
+        unless = f", or {self.off:g} for no limit" if self.off is not None else ""
+        return f"{keys[self.upper]} must be {relation} {keys[self.lower]} ({low}){unless}, got {high}"
+
+
+def check_relations(params: Any, source: str) -> None:
+    """Raise :class:`InputError` naming ``source`` for the first ``RELATIONS`` rule ``params`` breaks."""
+    for rule in getattr(type(params), "RELATIONS", ()):
+        problem = rule.problem(params)
+        if problem is not None:
+            raise InputError(f"{source}: parameter {problem}")
+
+
 def _key(field: dataclasses.Field) -> str:
     return field.metadata.get("key") or field.name
 
@@ -88,11 +119,12 @@ def _problem(error, params_type: type) -> str:
     return f"{key} {problem}, got {detail['input']!r}"
 
 
-def apply_overrides(params: Any, overrides: dict[str, Any], source: str) -> Any:
+def apply_overrides(params: Any, overrides: dict[str, Any], source: str, relations: bool = True) -> Any:
     """A copy of ``params`` with ``overrides`` (external key -> raw value) applied and checked.
 
     Unknown keys and values of the wrong type or outside the declared choices and bounds
-    raise :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys).
+    raise :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys);
+    so does a broken ``RELATIONS`` rule, unless ``relations`` is False (more layers to come).
     """
     fields = param_fields(type(params))
     for key in overrides:
@@ -105,7 +137,10 @@ def apply_overrides(params: Any, overrides: dict[str, Any], source: str) -> Any:
         checked = schema(type(params)).model_validate(values)
     except pydantic.ValidationError as error:
         raise InputError(f"{source}: parameter {_problem(error, type(params))}") from None
-    return dataclasses.replace(params, **{name: getattr(checked, name) for name in type(checked).model_fields})
+    result = dataclasses.replace(params, **{name: getattr(checked, name) for name in type(checked).model_fields})
+    if relations:
+        check_relations(result, source)
+    return result
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, str]:
@@ -153,7 +188,7 @@ def resolve_params(params_types: dict[str, type], assignments: list[str] = (), c
         for name in params_types:
             table = data.get(name)
             if isinstance(table, dict):
-                resolved[name] = apply_overrides(resolved[name], table, str(config))
+                resolved[name] = apply_overrides(resolved[name], table, str(config), relations=False)
         flat = {k: v for k, v in data.items() if not isinstance(v, dict)}
         layers.append((str(config), flat))
     layers.append(("--param", parse_assignments(list(assignments))))
@@ -164,5 +199,8 @@ def resolve_params(params_types: dict[str, type], assignments: list[str] = (), c
                 valid = sorted({k for kind in params_types.values() for k in param_fields(kind)})
                 raise InputError(f"{source}: unknown parameter {key!r} for {', '.join(params_types)}; valid: {', '.join(valid)}")
             for name in owners:
-                resolved[name] = apply_overrides(resolved[name], {key: value}, source)
+                resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False)
+    sources = [str(config)] * (config is not None) + ["--param"] * bool(assignments)
+    for params in resolved.values():  # on the final values: one layer may set what another relies on
+        check_relations(params, " and ".join(sources) or "the defaults")
     return resolved

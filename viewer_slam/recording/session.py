@@ -18,17 +18,13 @@ any, stays) and the report says so.
 """
 
 import re
-import shutil
 import sys
-import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rerun as rr
-import rerun.blueprint as rrb
 
 from .. import palette
 from ..atomic import StagedFiles, check_writable, exclusive
@@ -40,7 +36,7 @@ from ..errors import InputError
 from ..evaluation.imported import estimate_replay, parse_estimate
 from ..evaluation.run import evaluate_run
 from ..evaluation.report import build_report, pipeline_report, write_report
-from ..geometry.trajectory import write_tum
+from ..geometry.trajectory import Trajectory, write_tum
 from ..geometry.trajectory_formats import FORMATS
 from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
@@ -51,18 +47,14 @@ from .console import RecordProgress
 from .interrupt import StopRequest
 from .loss_causes import log_loss_causes
 from .recorder import PipelineRecorder, log_frame_image, log_world
+from .rrd_file import RecordingFile
 from .sizes import extent
 from .timelines import log_evaluation
-from .viewer import viewer_binary
 
 DEMO_SCENARIO = "360_kidnap"
 DEMO_FRAMES = 240
 DEMO_RESOLUTION = (320, 240)
 DEMO_OUT = Path("recordings/demo.rrd")
-# Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
-BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
-# Less free space than this after the file sink failed means the disk was full.
-FULL_DISK_BYTES = 1 << 20
 
 
 # An estimate's name becomes entity paths and a file name.
@@ -202,59 +194,6 @@ class TappedSequence:
             self.error = error
 
 
-class RecordingFile:
-    """A Rerun stream saved to ``path`` (and shown live with ``spawn``); ``target`` names it in errors.
-
-    The file sink reports write errors (a full disk) only when flushed; :meth:`close`
-    flushes, and ``error`` then says what went wrong, or is None when the file is complete
-    (it ends with the RRD footer that readers need).
-    """
-
-    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, spawn: bool):
-        self.path = path
-        self.error: str | None = None
-        self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
-        rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
-        try:
-            if spawn:
-                rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=self.stream)
-                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(), default_blueprint=blueprint)
-            else:
-                self.stream.save(path, default_blueprint=blueprint)
-        except RuntimeError as error:
-            raise InputError.at(target, f"cannot write the recording: {_disk_problem(path, error)}") from None
-
-    def close(self) -> None:
-        try:
-            self.stream.flush()
-        except RuntimeError as error:
-            self.error = _disk_problem(self.path, error)
-        finally:
-            self.stream.disconnect()
-        if self.error is None and not _has_footer(self.path):
-            self.error = _disk_problem(self.path, None)
-
-
-def _has_footer(path: Path) -> bool:
-    from rerun.chunk import RrdReader
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")  # a file without footer opens with a warning
-        try:
-            RrdReader(path)
-        except (Warning, RuntimeError, OSError):
-            return False
-    return True
-
-
-def _disk_problem(path: Path, error: Exception | None) -> str:
-    """What most likely stopped the file sink: the free space says whether it was a full disk."""
-    free = shutil.disk_usage(path.parent).free
-    if free < FULL_DISK_BYTES:
-        return f"no space left on device ({free:,} bytes free)"
-    return f"the file sink failed ({error})" if error is not None else "the recording is incomplete (no footer)"
-
-
 def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
     count = len(range(0, len(sequence), stride))
     return count if max_frames is None else min(count, max_frames)
@@ -293,6 +232,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     pipelines = list(runs)
     report_path, trajectory_paths = report_paths(out, pipelines)
     blocks: dict[str, dict] = {}
+    trajectories: dict[str, Trajectory] = {}
     interrupted = False
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
@@ -339,13 +279,15 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                         log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
                                        np.array(recorder.frame_timestamps))
                     blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
-                    _write(trajectory_paths[name], lambda path: write_tum(path, run.trajectory), staged)
+                    trajectories[name] = run.trajectory
                     if failure is not None:
                         break
         finally:
             recording.close()
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
+        for name, trajectory in trajectories.items():  # written once a failed recording made room
+            _write(trajectory_paths[name], lambda path, trajectory=trajectory: write_tum(path, trajectory), staged)
         report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
         errors = [str(failure) if failure is not None else None,
                   f"{out}: {recording.error}" if recording.error is not None else None]

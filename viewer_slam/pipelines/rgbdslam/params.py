@@ -1,10 +1,11 @@
 """RGB-D SLAM's parameters under RGB-D SLAM v2's names and with its defaults."""
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 from ...errors import InputError
 from ...frontend.features import DETECTORS
-from ..params import param
+from ..params import Ordered, param
 
 SURF_MESSAGE = ("feature_detector_type SURF: SURF is patented and absent from the pip OpenCV builds; "
                 f"choose one of {', '.join(DETECTORS)}")
@@ -58,6 +59,9 @@ class RgbdSlamParams:
         0, ge=0, help="ours: after this many lost frames that match each other but not the map, start a new graph segment at the last pose (0 = off)")
     viewslam_optimization_spacing: float = param(
         0.0, ge=0, lt=1, help="ours: on a graph of N nodes optimise online at most every N times this many nodes (0 = off)")
+
+    RELATIONS: ClassVar[tuple[Ordered, ...]] = (Ordered("minimum_depth", "maximum_depth", off=0.0),
+                                                Ordered("min_matches", "max_matches", strict=False))
 
     def __post_init__(self):
         if self.feature_detector_type == "SURF":

@@ -1,8 +1,9 @@
 """RTAB-Map's parameters, under RTAB-Map's own names and with its defaults."""
 
 from dataclasses import dataclass
+from typing import ClassVar
 
-from ..params import param
+from ..params import Ordered, param
 
 
 @dataclass
@@ -77,6 +78,8 @@ class RtabmapParams:
     optimizer_iterations: int = param(20, ge=1, key="Optimizer/Iterations", help="GTSAM Levenberg-Marquardt iterations")
     optimize_max_error: float = param(3.0, ge=0, key="RGBD/OptimizeMaxError",
                                       help="reject a closure whose link errors exceed this many sigmas (0: off)")
+
+    RELATIONS: ClassVar[tuple[Ordered, ...]] = (Ordered("min_depth", "max_depth", off=0.0),)
 
     @property
     def feature_kind(self) -> str:

@@ -1,0 +1,146 @@
+"""A Rerun stream saved to an ``.rrd`` file, with the write errors Rerun's file sink hides.
+
+The file sink reports a failed write (a full disk, a file-size limit) only when flushed, and
+only if its writer thread is still there to answer: once that thread has died on the error,
+a flush queued behind it waits forever (Rerun 0.41), and so would the process at exit,
+which flushes every stream again. So the flush runs on a thread of its own while the file is
+watched: a file that stops growing while there is no room left for it is a stalled sink.
+The stream is then abandoned: kept referenced so that it is never dropped (dropping joins
+the dead writer), and the process leaves through ``os._exit`` once everything else it
+writes is done, without Rerun's exit-time flush.
+"""
+
+import atexit
+import os
+import resource
+import shutil
+import sys
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import rerun as rr
+import rerun.blueprint as rrb
+
+from ..errors import InputError
+from .viewer import viewer_binary
+
+# Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
+BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
+# Less free space than this after the file sink failed means the disk was full.
+FULL_DISK_BYTES = 1 << 20
+# A flush whose file has not grown for this long, with no room left, has stalled.
+STALL_S = 3.0
+POLL_S = 0.2
+# The exit status of a process whose recording could not be written.
+NOT_WRITTEN_EXIT = 2
+
+_abandoned: list[rr.RecordingStream] = []
+
+
+class RecordingFile:
+    """A Rerun stream saved to ``path`` (and shown live with ``spawn``); ``target`` names it in errors.
+
+    :meth:`close` flushes, and ``error`` then says what went wrong, or is None when the file
+    is complete (it ends with the RRD footer that readers need).
+    """
+
+    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, spawn: bool):
+        self.path = path
+        self.error: str | None = None
+        self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
+        rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
+        try:
+            if spawn:
+                rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=self.stream)
+                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(), default_blueprint=blueprint)
+            else:
+                self.stream.save(path, default_blueprint=blueprint)
+        except RuntimeError as error:
+            raise InputError.at(target, f"cannot write the recording: {disk_problem(path, error)}") from None
+
+    def close(self) -> None:
+        flushed, error = _flush_watched(self.stream, self.path)
+        if not flushed:
+            self.error = disk_problem(self.path, None)
+            _abandon(self.stream)
+            return
+        if error is not None:
+            self.error = disk_problem(self.path, error)
+        self.stream.disconnect()
+        if self.error is None and not _has_footer(self.path):
+            self.error = disk_problem(self.path, None)
+
+
+def _flush_watched(stream: rr.RecordingStream, path: Path) -> tuple[bool, RuntimeError | None]:
+    """Flush ``stream``: (False, None) when it stalled, else (True, the error it raised or None)."""
+    finished = threading.Event()
+    errors: list[RuntimeError] = []
+
+    def flush() -> None:
+        try:
+            stream.flush()
+        except RuntimeError as error:
+            errors.append(error)
+        finally:
+            finished.set()
+
+    threading.Thread(target=flush, name="rrd-flush", daemon=True).start()
+    size, grown_at = -1, time.monotonic()
+    while not finished.wait(POLL_S):  # the main thread stays free for Ctrl-C and SIGTERM
+        current = _size(path)
+        if current != size:
+            size, grown_at = current, time.monotonic()
+        elif time.monotonic() - grown_at > STALL_S and _room_problem(path) is not None:
+            return False, None
+    return True, errors[0] if errors else None
+
+
+def _abandon(stream: rr.RecordingStream) -> None:
+    _abandoned.append(stream)
+    if len(_abandoned) == 1:
+        rr.unregister_shutdown()
+        atexit.register(_exit_now)  # runs before any exit handler registered earlier
+
+
+def _exit_now() -> None:
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(NOT_WRITTEN_EXIT)
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return -1
+
+
+def _room_problem(path: Path) -> str | None:
+    """No space left on the file's disk, or the file at the process's file-size limit: which."""
+    free = shutil.disk_usage(path.parent).free
+    if free < FULL_DISK_BYTES:
+        return f"no space left on device ({free:,} bytes free)"
+    limit, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if limit != resource.RLIM_INFINITY and _size(path) >= limit:
+        return f"the file reached the process's file-size limit ({limit:,} bytes)"
+    return None
+
+
+def _has_footer(path: Path) -> bool:
+    from rerun.chunk import RrdReader
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a file without footer opens with a warning
+        try:
+            RrdReader(path)
+        except (Warning, RuntimeError, OSError):
+            return False
+    return True
+
+
+def disk_problem(path: Path, error: Exception | None) -> str:
+    """What most likely stopped the file sink."""
+    return _room_problem(path) or (
+        f"the file sink failed ({error})" if error is not None else "the recording is incomplete (no footer)")
