@@ -66,15 +66,17 @@ def test_hamming_distances_match_bit_counts():
     assert hamming_distances(a, b).tolist() == expected
 
 
-def test_local_map_cap_keeps_the_most_recently_seen_points():
+def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_observations():
     local_map = LocalMap()
     for frame in range(5):
-        local_map.add(np.full((10, 3), frame, float), descriptors(10), frame)
+        local_map.add(np.full((10, 3), frame, float), descriptors(10), frame,
+                      [(frame, float(i), 0.0, 1.0) for i in range(10)])
     local_map.observe(np.arange(5), 9)          # five points of frame 0 seen again last
     local_map.cap(25)
     assert len(local_map) == 25
     assert sorted(set(local_map.points[:, 0].tolist())) == [0.0, 3.0, 4.0]
     assert (local_map.last_seen == 9).sum() == 5
+    assert [references[0][0] for references in local_map.references] == local_map.points[:, 0].astype(int).tolist()
 
 
 def test_vocabulary_reuses_words_and_creates_new_ones():
@@ -305,6 +307,32 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     assert odometry.process(view(scene(rng=other), moved, descriptors(300, other))).pose is None
     restart = odometry.process(view(scene(rng=other), moved, descriptors(300, other)))
     assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
+
+
+def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry.process(view(world, np.eye(4), words))
+    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    features = view(world, moved, words)
+    # 30 depths moved along their rays by 8 px of disparity on the fake g2o/Baseline of
+    # 7.5 cm: PnP, which only reprojects, takes them; in the bundle each point splits the
+    # conflict between its two stereo edges, 4 px each, chi2 16 > g2o/RobustKernelDelta 8.
+    baseline_px = CAMERA.fx * 0.075
+    depth = features.points[:30, 2]
+    features.points[:30] *= (baseline_px / (baseline_px / depth + 8.0) / depth)[:, None]
+    result = odometry.process(features)
+    assert np.allclose(result.pose, moved, atol=1e-3)
+    assert result.inliers == 270
+    assert not result.match_inliers[result.feature_index < 30].any()
+    # 270 inliers are over Odom/VisKeyFrameThr 150: not a key frame, the map is as it was.
+    assert list(odometry.key_frames.poses) == [1] and all(len(r) == 1 for r in odometry.map.references)
+    # A view of 140 points is a key frame: the points it registered on gain its observation.
+    key_frame = odometry.process(view(world[100:240], moved, words[100:240]))
+    registered = key_frame.map_index[key_frame.match_inliers]
+    assert key_frame.inliers > 100 and set(registered) <= set(range(100, 240))
+    assert list(odometry.key_frames.poses) == [1, 3]
+    assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in set(registered)) for i in range(300)]
 
 
 def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:

@@ -8,20 +8,27 @@ guess (the frame after a loss: odometry clears its velocity when lost), the fram
 matched against the whole local map by descriptor alone. PnP RANSAC then gives the pose,
 accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
 at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
-OdomF2M/MaxSize. After Odom/ResetCountdown lost frames odometry starts a new map from
+OdomF2M/MaxSize. With OdomF2M/BundleAdjustment each registration is then refined by a
+local bundle adjustment against the key frames that saw its inliers (:mod:`.bundle`):
+the pose becomes the adjusted one, the points whose observations disagree are no longer
+inliers, and on a key frame the inlier map points move to their adjusted positions.
+After Odom/ResetCountdown lost frames odometry starts a new map from
 the last good pose; the first frame of a map carries no link to what came before, which
 is what makes RTAB-Map start a new graph session there.
 """
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ...frontend.features import Features, match_descriptors
+from ...backend.local_bundle import BundleSettings, Link, adjust_frame
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
+from .bundle import KeyFrames, Reference, bundle_observations
 from .graph import registration_variance
 from .params import RtabmapParams
 
@@ -31,25 +38,36 @@ LONE_CANDIDATE_MAX_DISTANCE = 64
 MIN_DEPTH_OF_PROJECTION = 0.1
 # Map points projected nearest to a feature (within the window) that compete for it.
 GUIDED_CANDIDATES = 24
+# With bundle adjustment RTAB-Map scales the registration's covariance down by 10 where it
+# exceeds ten times Registration::COVARIANCE_LINEAR_EPSILON.
+BUNDLE_VARIANCE_SCALE = 0.1
+BUNDLE_VARIANCE_FLOOR = 1e-7
 
 
 class LocalMap:
-    """3D features in the odometry frame with their descriptors and observation history."""
+    """3D features in the odometry frame with their descriptors, observation history and,
+    per point, the key frames' observations of it (for the bundle adjustment)."""
 
     def __init__(self):
         self.points = np.zeros((0, 3))
         self.descriptors = np.zeros((0, 32), np.uint8)
         self.times_seen = np.zeros(0, int)
         self.last_seen = np.zeros(0, int)
+        self.references: list[list[Reference]] = []
 
     def __len__(self) -> int:
         return len(self.points)
 
-    def add(self, points: np.ndarray, descriptors: np.ndarray, frame: int) -> None:
+    def add(self, points: np.ndarray, descriptors: np.ndarray, frame: int, references: list[Reference]) -> None:
         self.points = np.concatenate([self.points, points])
         self.descriptors = np.concatenate([self.descriptors, descriptors])
         self.times_seen = np.concatenate([self.times_seen, np.ones(len(points), int)])
         self.last_seen = np.concatenate([self.last_seen, np.full(len(points), frame)])
+        self.references += [[reference] for reference in references]
+
+    def refer(self, indices: np.ndarray, references: list[Reference]) -> None:
+        for index, reference in zip(indices, references):
+            self.references[index].append(reference)
 
     def observe(self, indices: np.ndarray, frame: int) -> None:
         self.times_seen[indices] += 1
@@ -62,6 +80,7 @@ class LocalMap:
         keep = np.sort(np.lexsort((-self.times_seen, -self.last_seen))[:max_size])
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.times_seen, self.last_seen = self.times_seen[keep], self.last_seen[keep]
+        self.references = [self.references[i] for i in keep]
 
 
 @dataclass
@@ -75,7 +94,8 @@ class OdometryResult:
     front of that camera, ``inlier_mask`` which of those are inliers; ``variance`` that of
     the registration (m², see :func:`registration_variance`); ``feature_index``,
     ``map_index`` and ``match_inliers`` all the matches (indices in the frame's features and
-    in the local map) and which are inliers.
+    in the local map) and which are inliers; ``map_points`` the inliers' map points after
+    bundle adjustment (as they were without it).
     """
 
     pose: np.ndarray | None
@@ -90,6 +110,7 @@ class OdometryResult:
     feature_index: np.ndarray | None = None
     map_index: np.ndarray | None = None
     match_inliers: np.ndarray | None = None
+    map_points: np.ndarray | None = None
 
 
 def hamming_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -130,6 +151,9 @@ class FrameToMapOdometry:
         self.params = params
         self.seed = seed
         self.map = LocalMap()
+        self.key_frames = KeyFrames()
+        self.bundle_settings = BundleSettings(params.bundle_pixel_variance, params.bundle_kernel_delta,
+                                              params.bundle_baseline, params.optimizer_iterations)
         self.pose: np.ndarray | None = None      # last registered pose
         self.velocity: np.ndarray | None = None  # last inter-frame motion T_prev_current; None: no guess
         self.lost_frames = 0
@@ -161,6 +185,7 @@ class FrameToMapOdometry:
         """Odometry::reset(pose): forget the local map; the next usable frame starts a new
         one at the last registered pose."""
         self.map = LocalMap()
+        self.key_frames = KeyFrames()
         self.velocity = None
         self.lost_frames = 0
         self.was_reset = True
@@ -172,8 +197,10 @@ class FrameToMapOdometry:
         if self.pose is None:
             self.pose = np.eye(4)
         self.velocity = None
-        self.map.add(transform_points(self.pose, features.points[with_depth]), features.descriptors[with_depth],
-                     self.frame_count)
+        self.key_frames.add(self.frame_count, self.pose.copy())
+        new = np.flatnonzero(with_depth)
+        self.map.add(transform_points(self.pose, features.points[new]), features.descriptors[new], self.frame_count,
+                     self._references(features, new))
         reset, self.was_reset = self.was_reset, False
         return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset)
 
@@ -207,8 +234,9 @@ class FrameToMapOdometry:
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
                shown_without_pose: np.ndarray) -> OdometryResult:
-        """PnP RANSAC on the matches; the matched map points are shown projected with the
-        estimated pose, or ``shown_without_pose`` when registration failed."""
+        """PnP RANSAC on the matches, then (OdomF2M/BundleAdjustment) the local bundle
+        adjustment; the matched map points are shown projected with the estimated pose, or
+        ``shown_without_pose`` when registration failed."""
         params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
                                     reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
@@ -216,27 +244,77 @@ class FrameToMapOdometry:
                                     seed=self.seed)
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
+        variance, map_points = 0.0, None
+        if pose is not None:
+            variance = registration_variance(self.map.points[map_index[inliers]],
+                                             transform_points(pose, features.points[feature_index[inliers]]))
+            map_points = self.map.points[map_index[inliers]]
+            if params.bundle_adjustment:
+                pose, inliers, map_points, variance = self._bundle_adjust(features, feature_index, map_index, inliers,
+                                                                          pose, variance)
         in_camera = transform_points(invert(pose if pose is not None else shown_without_pose), self.map.points[map_index])
         shown = in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION
         return OdometryResult(pose=pose, matches=len(map_index), inliers=int(inliers.sum()),
                               matched_pixels=features.keypoints[feature_index[shown]],
                               projected_pixels=self.camera.project(in_camera[shown]), inlier_mask=inliers[shown],
-                              feature_index=feature_index, map_index=map_index, match_inliers=inliers)
+                              variance=variance, feature_index=feature_index, map_index=map_index,
+                              match_inliers=inliers, map_points=map_points)
+
+    def _bundle_adjust(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
+                       inliers: np.ndarray, pose: np.ndarray, variance: float):
+        """The registration refined against the key frames that saw its inliers: the
+        adjusted pose, the inliers without the bundle's outliers (no pose when fewer than
+        Vis/MinInliers remain), their adjusted map points and the variance scaled down."""
+        inlier_rows = np.flatnonzero(inliers)
+        points, features_used = map_index[inlier_rows], feature_index[inlier_rows]
+        observations = bundle_observations([self.map.references[i] for i in points],
+                                           self._undistorted(features.keypoints[features_used]),
+                                           features.points[features_used, 2], self.params.bundle_max_frames)
+        last = self.key_frames.last
+        link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance)
+        seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
+        held = {frame: self.key_frames.poses[frame] for frame in seen_by}
+        adjusted = adjust_frame(pose, self.map.points[points], observations, held, link, self.camera.K,
+                                self.bundle_settings)
+        inliers = inliers.copy()
+        inliers[inlier_rows[adjusted.outliers]] = False
+        if inliers.sum() < self.params.min_inliers:
+            return None, np.zeros(len(map_index), bool), None, 0.0
+        if variance > BUNDLE_VARIANCE_FLOOR:
+            variance *= BUNDLE_VARIANCE_SCALE
+        return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], variance
+
+    def _undistorted(self, keypoints: np.ndarray) -> np.ndarray:
+        """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""
+        if not any(self.camera.distortion):
+            return keypoints.astype(np.float64)
+        return cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), self.camera.K,
+                                   np.asarray(self.camera.distortion), P=self.camera.K).reshape(-1, 2)
+
+    def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
+        """This frame's observations of its features ``index``, for the bundle adjustment."""
+        pixels = self._undistorted(features.keypoints[index])
+        return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
 
     def _update_map(self, features: Features, result: OdometryResult) -> None:
-        """Note the map points seen again and, on a key frame, add the frame's other features."""
+        """Note the map points seen again and, on a key frame, move them to their adjusted
+        positions, record this frame's observations of them and add the frame's other features."""
         params = self.params
         inlier_features = result.feature_index[result.match_inliers]
         inlier_points = result.map_index[result.match_inliers]
-        result.variance = registration_variance(self.map.points[inlier_points],
-                                                transform_points(result.pose, features.points[inlier_features]))
         self.map.observe(inlier_points, self.frame_count)
         if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0
                 or result.inliers <= params.keyframe_threshold * len(features) or result.inliers <= params.keyframe_inliers):
+            if params.bundle_adjustment:
+                self.key_frames.add(self.frame_count, result.pose)
+                self.map.points[inlier_points] = result.map_points
+                self.map.refer(inlier_points, self._references(features, inlier_features))
             self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), inlier_features))
 
     def _extend_map(self, features: Features, pose: np.ndarray, candidates: np.ndarray) -> None:
         """Add the frame's unregistered features with depth, then cap the map."""
         new = candidates[features.has_depth[candidates]]
-        self.map.add(transform_points(pose, features.points[new]), features.descriptors[new], self.frame_count)
+        self.map.add(transform_points(pose, features.points[new]), features.descriptors[new], self.frame_count,
+                     self._references(features, new))
         self.map.cap(self.params.local_map_size)
+        self.key_frames.keep_referenced(self.map.references)

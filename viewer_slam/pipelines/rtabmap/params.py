@@ -26,6 +26,16 @@ class RtabmapParams:
                                   help="update the local map when the inliers fall to this many")
     min_depth: float = param(0.0, ge=0, key="Vis/MinDepth", help="nearest depth (m) a feature may have (0: no limit)")
     max_depth: float = param(0.0, ge=0, key="Vis/MaxDepth", help="farthest depth (m) a feature may have (0: no limit)")
+    bundle_adjustment: int = param(1, key="OdomF2M/BundleAdjustment", choices=(0, 1),
+                                   help="local bundle adjustment of each registration (0: off, 1: on, GTSAM)")
+    bundle_max_frames: int = param(10, ge=0, key="OdomF2M/BundleAdjustmentMaxFrames",
+                                   help="key frames a map point's observations are sampled from (0: all)")
+    bundle_pixel_variance: float = param(1.0, gt=0, key="g2o/PixelVariance",
+                                         help="pixel variance of the bundle adjustment's observations")
+    bundle_kernel_delta: float = param(8.0, ge=0, key="g2o/RobustKernelDelta",
+                                       help="Huber delta; observations with chi2 over it are dropped (0: no kernel)")
+    bundle_baseline: float = param(0.075, ge=0, key="g2o/Baseline",
+                                   help="fake stereo baseline (m) that weighs the depth in the bundle (0: mono)")
     reset_countdown: int = param(0, ge=0, key="Odom/ResetCountdown",
                                  help="reset odometry after this many lost frames (0: never)")
     # Locations.

@@ -12,6 +12,7 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import invert, rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeClassifier
+from ..maps import rebuilt_map
 from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
@@ -28,6 +29,9 @@ DETECTION = {Link.LOOP: "appearance", Link.PROXIMITY: "proximity"}
 STAGES = ("features", "odometry", "vocabulary", "bayes", "verification", "optimisation", "memory")
 CLOUD_POINTS_ACROSS = 64         # coarse cloud per location: this many depth samples per image row
 MAP_POINTS_LIMIT = 200_000       # a rebuilt map is subsampled to at most this many points
+# Vis/MinDepth 0 means no limit, but a zero depth is a missing one (a TUM depth image's 0),
+# so the nearest usable depth is just above it.
+NEAREST_MEASURED_DEPTH = 1e-3
 
 
 @dataclass
@@ -52,7 +56,8 @@ class Rtabmap(Pipeline):
         super().__init__(camera, params, seed)
         p = self.params
         self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera,
-                                          min_depth=p.min_depth, max_depth=p.max_depth or np.inf)
+                                          min_depth=max(p.min_depth, NEAREST_MEASURED_DEPTH),
+                                          max_depth=p.max_depth or np.inf)
         self.odometry = FrameToMapOdometry(camera, p, seed)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
@@ -307,10 +312,8 @@ class Rtabmap(Pipeline):
     def _rebuilt_map(self, frame_index: int) -> MapUpdated:
         """Every location's cloud at its optimised pose, subsampled to MAP_POINTS_LIMIT."""
         locations = [self.memory.locations[i] for i in sorted(self.memory.locations)]
-        points = np.concatenate([transform_points(self.graph.poses[loc.id], loc.cloud_points) for loc in locations])
-        colors = np.concatenate([loc.cloud_colors for loc in locations])
-        stride = -(-len(points) // MAP_POINTS_LIMIT)
-        return MapUpdated(frame_index, points[::stride].astype(np.float32), colors[::stride], replace=True)
+        return rebuilt_map(frame_index, ((self.graph.poses[loc.id], loc.cloud_points, loc.cloud_colors)
+                                         for loc in locations), MAP_POINTS_LIMIT)
 
     # -- end of run --------------------------------------------------------------------
 

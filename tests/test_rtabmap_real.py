@@ -1,0 +1,27 @@
+"""rtabmap on the shared real excerpt (fr1/rpy, first 87 frames, 640x480): accuracy bounds
+set from the figures of docs/pipelines/rtabmap.md with a margin, so that they catch a slide
+back, not noise."""
+
+import pytest
+
+from fixtures_eval import TUM_RPY
+from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.evaluation import evaluate
+from viewer_slam.pipelines.params import apply_overrides
+from viewer_slam.pipelines.rtabmap import RtabmapParams
+from viewer_slam.pipelines.run import run_pipeline
+
+pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
+
+
+@pytest.mark.parametrize("overrides, bound_m", [
+    ({}, 0.075),                                 # measured 6.45 cm
+    ({"g2o/Baseline": 0.0}, 0.030),              # reprojection-only bundle: measured 2.38 cm
+    ({"OdomF2M/BundleAdjustment": 0}, 0.060),    # no bundle adjustment: measured 4.87 cm
+])
+def test_every_frame_has_a_pose_and_the_ate_stays_within_its_bound(overrides, bound_m):
+    sequence = open_sequence(TUM_RPY)
+    result = run_pipeline(sequence, "rtabmap", apply_overrides(RtabmapParams(), overrides, "test"), seed=0,
+                          sinks=[lambda event: None])
+    assert len(result.trajectory) == len(sequence)
+    assert evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"] < bound_m

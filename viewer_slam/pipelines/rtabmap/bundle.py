@@ -1,0 +1,55 @@
+"""What the odometry's local bundle adjustment (OdomF2M/BundleAdjustment) works on.
+
+As in ``OdometryF2M::computeTransform``: every key frame records where it saw each local
+map point it registered on or added (the word references); a key frame stays in the
+bundle while some map point still refers to it. Each registration is then adjusted
+against the key frames that saw its inlier points, a point's references thinned to about
+OdomF2M/BundleAdjustmentMaxFrames of them (every k-th, and always the newest).
+"""
+
+import numpy as np
+
+from ...backend.local_bundle import FREE_FRAME, Observations
+
+Reference = tuple[int, float, float, float]    # key frame, undistorted u, v, depth (NaN: none)
+
+
+class KeyFrames:
+    """Poses (``T_odom_camera``) of the key frames some map point refers to; ``last`` is
+    the newest, the one a registration is linked to."""
+
+    def __init__(self):
+        self.poses: dict[int, np.ndarray] = {}
+        self.last: int | None = None
+
+    def add(self, frame: int, pose: np.ndarray) -> None:
+        self.poses[frame] = pose
+        self.last = frame
+
+    def keep_referenced(self, references: list[list[Reference]]) -> None:
+        """Forget the key frames no point refers to any more (the newest stays)."""
+        referenced = {reference[0] for point in references for reference in point}
+        self.poses = {frame: pose for frame, pose in self.poses.items() if frame in referenced or frame == self.last}
+
+
+def sampled(references: list[Reference], max_frames: int) -> list[Reference]:
+    """Every k-th reference, k = len // max_frames (1 when that is 0 or max_frames is 0),
+    plus the newest."""
+    step = max(1, len(references) // max_frames) if max_frames > 0 else 1
+    chosen = references[::step]
+    if len(references) > 1 and chosen[-1] is not references[-1]:
+        chosen.append(references[-1])
+    return chosen
+
+
+def bundle_observations(references: list[list[Reference]], pixels: np.ndarray, depth: np.ndarray,
+                        max_frames: int) -> Observations:
+    """The observations of points ``0..n-1``: their sampled key-frame references, then the
+    adjusted frame's own at ``pixels`` (n, 2) with ``depth`` (n,)."""
+    rows = [(index, *reference) for index, point in enumerate(references) for reference in sampled(point, max_frames)]
+    count = len(pixels)
+    stored = np.array(rows, dtype=np.float64).reshape(-1, 5)
+    return Observations(point=np.concatenate([stored[:, 0].astype(int), np.arange(count)]),
+                        frame=np.concatenate([stored[:, 1].astype(int), np.full(count, FREE_FRAME)]),
+                        pixels=np.concatenate([stored[:, 2:4], pixels]),
+                        depth=np.concatenate([stored[:, 4], depth]))
