@@ -15,7 +15,7 @@ from scipy.spatial.transform import Rotation
 from ..dataset.frame import Frame
 from ..geometry.interpolation import interpolate_poses
 from ..geometry.trajectory import Trajectory
-from ..pipelines.events import Event, FrameTracked
+from ..pipelines.events import DYNAMIC_SHARE_METRIC, Event, FrameTracked
 
 IMAGE_STEP = 4
 """Image signals use every 4th pixel of every 4th row: 80x60 samples of a 320x240 frame."""
@@ -25,9 +25,6 @@ with a relative threshold (GFTT's quality level) finds corners in the sensor noi
 blank wall; an absolute contrast does not."""
 UNIFORM_TOLERANCE = 8
 """Grey levels (of 255) within which a pixel counts as equal to the image's median grey."""
-DYNAMIC_SHARE_METRIC = "dynamic_share"
-"""The ``FrameTracked.metrics`` key for the share (0..1) of matched points whose residual
-under the frame's estimated camera motion exceeds the pipeline's inlier threshold."""
 
 
 @dataclass(frozen=True)

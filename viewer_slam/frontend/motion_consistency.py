@@ -4,7 +4,7 @@ A static point seen in two frames lands, under the camera motion estimated betwe
 where it was measured; a point on a person or a moved box does not. The share of matched
 points whose residual under the estimated motion exceeds the pipeline's inlier threshold
 is what a pipeline reports as ``FrameTracked.metrics["dynamic_share"]``
-(:data:`viewer_slam.diagnosis.signals.DYNAMIC_SHARE_METRIC`), and the diagnosis calls a
+(:data:`viewer_slam.pipelines.events.DYNAMIC_SHARE_METRIC`), and the diagnosis calls a
 loss a dynamic scene when it reaches the ``dynamic_share`` threshold (docs/diagnosis.md).
 """
 

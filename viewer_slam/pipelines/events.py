@@ -20,6 +20,12 @@ class TrackingStatus(str, Enum):
     RELOCALISED = "relocalised"
 
 
+DYNAMIC_SHARE_METRIC = "dynamic_share"
+"""The ``FrameTracked.metrics`` key for the share (0..1) of matched points whose residual
+under the frame's estimated camera motion exceeds the pipeline's inlier threshold: what the
+loss diagnosis reads for its "dynamic scene" cause."""
+
+
 @dataclass
 class FrameTracked:
     """One per processed frame. ``pose`` is the online estimate (None when lost).
