@@ -61,6 +61,21 @@ def corrupt_image_data(seq: Path, tmp: Path) -> None:
     image.write_bytes(bytes(data))
 
 
+def invalid_compressed_data(seq: Path, tmp: Path) -> None:
+    """The first colour image's IDAT data damaged with its CRC recomputed: every chunk checks
+    out, only the zlib stream inside is invalid (where libpng would print its own line)."""
+    image = first_image(seq, "rgb")
+    data = bytearray(image.read_bytes())
+    offset = 8
+    while data[offset + 4:offset + 8] != b"IDAT":
+        offset += 12 + struct.unpack(">I", data[offset:offset + 4])[0]
+    (length,) = struct.unpack(">I", data[offset:offset + 4])
+    start = offset + 8 + length // 2
+    data[start:start + 64] = bytes(64)
+    data[offset + 8 + length:offset + 12 + length] = struct.pack(">I", zlib.crc32(data[offset + 4:offset + 8 + length]))
+    image.write_bytes(bytes(data))
+
+
 def truncate_image(seq: Path, tmp: Path) -> None:
     image = first_image(seq, "rgb")
     image.write_bytes(image.read_bytes()[:5000])
@@ -204,6 +219,7 @@ RECORD_CASES = {
     # the first frame
     "camera-size-differs": Case(RGBDSLAM, "rgb/", camera(width=320, height=240)),
     "png-corrupt-data": Case(RGBDSLAM, "rgb/", corrupt_image_data),
+    "png-invalid-compressed-data": Case(RGBDSLAM, "rgb/", invalid_compressed_data),
     "png-truncated": Case(RGBDSLAM, "rgb/", truncate_image),
     "png-not-an-image": Case(RGBDSLAM, "rgb/", lambda seq, tmp: first_image(seq, "rgb").write_bytes(b"hello")),
     "image-missing": Case(RGBDSLAM, "depth/", remove_image),

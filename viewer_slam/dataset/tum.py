@@ -6,6 +6,7 @@ of the consumer on a background thread (PNG decoding releases the GIL), so decod
 overlaps with the processing of the frames before.
 """
 
+import io
 import logging
 import re
 import struct
@@ -77,11 +78,9 @@ class TumSequence(TimedFrames):
 
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
-        import cv2  # OpenCV loads only when images are read, not for listings and groundtruth
-
         rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]
-        rgb = cv2.cvtColor(self._read_image(rgb_path, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
-        raw_depth = self._read_image(depth_path, cv2.IMREAD_UNCHANGED)
+        rgb = self._read_image(rgb_path, colour=True)
+        raw_depth = self._read_image(depth_path, colour=False)
         if raw_depth.dtype != np.uint16 or raw_depth.ndim != 2:
             raise InputError.at(depth_path, f"depth image must be single-channel 16-bit, "
                                 f"found {raw_depth.dtype} with shape {raw_depth.shape}")
@@ -111,9 +110,9 @@ class TumSequence(TimedFrames):
                     future.cancel()
 
     @staticmethod
-    def _read_image(path: Path, flags: int) -> np.ndarray:
-        import cv2
-
+    def _read_image(path: Path, colour: bool) -> np.ndarray:
+        """An RGB (``colour``) or unchanged (depth) image; PNGs decode with Pillow, which
+        raises on damaged data where libpng prints its own complaint on stderr."""
         try:
             data = path.read_bytes()
         except FileNotFoundError:
@@ -122,15 +121,33 @@ class TumSequence(TimedFrames):
             raise InputError.at(path, f"cannot read image: {error.strerror}") from None
         if data.startswith(_PNG_SIGNATURE):
             _check_png(path, data)
+            return _decode_png(path, data, colour)
+        import cv2  # OpenCV loads only when images are read, not for listings and groundtruth
+
+        flags = cv2.IMREAD_COLOR if colour else cv2.IMREAD_UNCHANGED
         image = cv2.imdecode(np.frombuffer(data, np.uint8), flags) if data else None
         if image is None:
             raise InputError.at(path, "not a readable image")
-        return image
+        return cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if colour else image
+
+
+def _decode_png(path: Path, data: bytes, colour: bool) -> np.ndarray:
+    """Pixels of a checked PNG: RGB uint8 for ``colour``, else as stored (16-bit depth as uint16)."""
+    from PIL import Image
+
+    try:
+        with Image.open(io.BytesIO(data)) as image:
+            if colour and image.mode != "RGB":
+                image = image.convert("RGB")
+            pixels = np.asarray(image)
+    except (OSError, SyntaxError, ValueError, zlib.error) as error:
+        raise InputError.at(path, f"corrupt PNG ({error})") from None
+    return pixels.astype(pixels.dtype.newbyteorder("="), copy=False)
 
 
 def _check_png(path: Path, data: bytes) -> None:
-    """Refuse a truncated or corrupt PNG before libpng sees it (libpng prints its own complaint
-    on stderr): every chunk must be complete, match its CRC, and the last must be IEND."""
+    """Refuse a truncated or corrupt PNG with the chunk at fault named: every chunk must be
+    complete, match its CRC, and the last must be IEND."""
     offset = len(_PNG_SIGNATURE)
     while offset + 12 <= len(data):
         length, kind = struct.unpack(">I4s", data[offset:offset + 8])
