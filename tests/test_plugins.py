@@ -58,8 +58,10 @@ def test_installed_plugin_is_listed_with_its_parameters_and_broken_ones_do_not_h
 def test_without_the_plugins_only_the_built_in_pipelines_are_listed(tmp_path):
     listing = viewslam(None, tmp_path, "pipelines")
     assert listing.returncode == 0 and listing.stderr == ""
-    assert [line.split(" (")[0] for line in listing.stdout.splitlines() if not line.startswith(" ")] == \
-        ["rgbdslam", "rtabmap"]
+    headings = [line for line in listing.stdout.splitlines() if not line.startswith(" ")]
+    assert [line.split(" (")[0] for line in headings] == ["rgbdslam", "rtabmap"]
+    # Each pipeline is summed up by its docstring's first paragraph, whole sentences only.
+    assert all(line.endswith(".") for line in headings)
 
 
 def test_a_plugin_records_like_a_built_in_pipeline(site, tmp_path):

@@ -27,10 +27,16 @@ def pipelines_command() -> None:
         except InputError as error:
             print(f"viewslam: warning: {error}", file=sys.stderr)
     for name, origin, pipeline in listed:
-        summary = (pipeline.__doc__ or "").strip().splitlines()
-        typer.echo(f"{name} ({origin}){': ' + summary[0] if summary else ''}")
+        summary = _summary(pipeline)
+        typer.echo(f"{name} ({origin}){': ' + summary if summary else ''}")
         for line in _parameter_lines(pipeline.Params):
             typer.echo(f"  {line}")
+
+
+def _summary(pipeline) -> str:
+    """The first paragraph of the class docstring on one line (a wrapped sentence stays whole)."""
+    paragraph = (pipeline.__doc__ or "").strip().split("\n\n")[0]
+    return " ".join(paragraph.split())
 
 
 def _distribution(plugin) -> str:

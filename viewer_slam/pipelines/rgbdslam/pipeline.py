@@ -91,6 +91,10 @@ def no_motion_information(gap_s: float) -> np.ndarray:
 
 
 class RgbdSlam(Pipeline):
+    """Each frame matched with recent, neighbouring and sampled nodes by features and RANSAC
+    under the Kinect noise model, as RGB-D SLAM v2; every match an edge of a pose graph
+    optimised online; a lost camera dropped until a node matches again."""
+
     name = "rgbdslam"
     Params = RgbdSlamParams
 
