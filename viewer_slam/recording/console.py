@@ -60,6 +60,13 @@ def _rmse(block: dict | None, decimals: int = 3) -> str:
     return "—" if not block else f"{block['rmse']:.{decimals}f}"
 
 
+def _pipeline_cells(block: dict) -> tuple[str, str]:
+    """Loops and frames/s: what a pipeline measures; an estimate replayed from a file has neither."""
+    if block.get("source") == "estimate":
+        return "—", "—"
+    return f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}", f"{block['timing']['fps']:.1f}"
+
+
 def print_summary(report: dict, written: list, console: Console | None = None) -> None:
     """One row per pipeline with the headline scores, then the files written."""
     console = console or Console()
@@ -79,8 +86,7 @@ def print_summary(report: dict, written: list, console: Console | None = None) -
             Text(name, style=palette.run_colour(name, position).hex), str(block["frames_with_pose"]),
             "—" if coverage is None else f"{coverage['ratio']:.0%}",
             _rmse(block["ate"]), _rmse(block["penalized_ate"]), _rmse(rpe.get("trans")), _rmse(rpe.get("rot"), 2),
-            f"{block['loop_closures']['accepted']}/{block['loop_closures']['rejected']}",
-            f"{block['timing']['fps']:.1f}")
+            *_pipeline_cells(block))
     print_table(table, console)
     for block in report["pipelines"].values():
         for loss in block.get("tracking_lost", []):
