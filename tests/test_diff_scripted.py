@@ -66,3 +66,33 @@ def test_frame_ranges_join_consecutive_frames():
 def test_an_out_path_without_the_rrd_extension_is_refused(reports, tmp_path, capsys):
     assert main(["diff", *map(str, reports), "--out", str(tmp_path / "diff.png")]) == 2
     assert "the recording must have the .rrd extension" in capsys.readouterr().err
+
+
+def test_two_methods_of_one_report_are_compared_by_name(tmp_path, monkeypatch, capsys):
+    """A pipeline against an estimate file in one recording (the file: the same pipeline's
+    trajectory, lost from frame 10): --runs names the pair."""
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    folder = write_tum_folder(tmp_path / "tiny", frames=FRAMES)
+    assert main(["record", str(folder), "--pipeline", "fake", "--param", "lost_from=10", "--out",
+                 str(tmp_path / "early.rrd"), "--quiet"]) == 0
+    assert main(["record", str(folder), "--pipeline", "fake", "--estimate", f"early={tmp_path / 'early.fake.txt'}",
+                 "--out", str(tmp_path / "both.rrd"), "--quiet"]) == 0
+    capsys.readouterr()
+    report, out = tmp_path / "both.json", tmp_path / "diff.json"
+    assert main(["diff", str(report), str(report), "--runs", "fake:early", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    (run,) = json.loads(out.read_text())["runs"]
+    assert (run["a"], run["b"]) == ("fake", "early")
+    assert run["frames_only_a"] == list(range(10, FRAMES)) and run["frames_only_b"] == []
+    assert run["parameters"] is None and "parameters: not compared" in printed
+    # The replayed file has no rate or loop closures of its own: no number to subtract.
+    assert run["summary"]["frames/s"]["b"] is None and run["summary"]["frames/s"]["difference"] is None
+    assert run["summary"]["poses"] == {"a": FRAMES, "b": 10, "difference": 10 - FRAMES}
+
+
+@pytest.mark.parametrize("runs, problem", [("fake", "expected A_RUN:B_RUN"), ("fake:nothing", "has no run 'nothing'")])
+def test_a_bad_run_pair_is_one_line(reports, runs, problem, capsys):
+    assert main(["diff", *map(str, reports), "--runs", runs]) == 2
+    error = capsys.readouterr().err
+    assert problem in error and error.count("\n") == 1

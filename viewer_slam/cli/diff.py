@@ -16,8 +16,12 @@ def diff_command(
     b: Path = typer.Argument(..., help="Report B, of the same sequence; differences are B - A."),
     out: Path | None = typer.Option(None, help="Also write a recording (.rrd) of both runs and the difference."),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the comparison as JSON to FILE."),
+    runs: str | None = typer.Option(None, "--runs", metavar="A_RUN:B_RUN",
+                                    help="Compare run A_RUN of A with run B_RUN of B (e.g. rgbdslam:rtabmap, "
+                                         "also within one report); default: the runs of the same name."),
 ) -> int:
     """Compare two runs frame by frame: errors, frames only one tracked, losses, parameters, scores."""
+    pair = _run_pair(runs)
     if out is not None and out.suffix != ".rrd":
         raise InputError.at(out, "the recording must have the .rrd extension")
     for target in (out, json_path):
@@ -25,7 +29,7 @@ def diff_command(
             check_writable(target)
     from ..comparison import compare_reports, comparison_to_dict, print_comparison  # OpenCV loads only now
 
-    comparison = compare_reports(a, b)
+    comparison = compare_reports(a, b, pair)
     print_comparison(comparison)
     if json_path is not None:
         _write_json(json_path, comparison_to_dict(comparison))
@@ -35,6 +39,15 @@ def diff_command(
         write_diff_recording(comparison, out)
         print(f"wrote {out}")
     return 0
+
+
+def _run_pair(runs: str | None) -> tuple[str, str] | None:
+    if runs is None:
+        return None
+    name_a, colon, name_b = runs.partition(":")
+    if not colon or not name_a or not name_b:
+        raise InputError(f"--runs: expected A_RUN:B_RUN (e.g. rgbdslam:rtabmap), got {runs!r}")
+    return name_a, name_b
 
 
 def _write_json(path: Path, data: dict) -> None:

@@ -32,6 +32,8 @@ SUMMARY = (  # label, path into a run block
     ("keyframes", ("keyframes",)),
     ("frames/s", ("timing", "fps")),
 )
+PIPELINE_ONLY = {"loop closures", "keyframes", "frames/s"}
+"""Scores a pipeline measures and an estimate replayed from a file does not have."""
 
 
 @dataclass
@@ -40,7 +42,8 @@ class RunComparison:
 
     ``ate_a``/``ate_b`` hold one error per sequence frame (NaN where the run had no pose
     or there is no groundtruth) under the run's ``alignment_a``/``alignment_b`` onto the
-    groundtruth; ``summary`` maps a score's label to ``(a, b)``.
+    groundtruth; ``summary`` maps a score's label to ``(a, b)``; ``parameters`` the values
+    that differ, None for runs with no parameter in common (two different methods).
     """
 
     a: RecordedRun
@@ -54,7 +57,7 @@ class RunComparison:
     tracked_a: np.ndarray
     tracked_b: np.ndarray
     summary: dict[str, tuple[Any, Any]]
-    parameters: dict[str, tuple[Any, Any]]
+    parameters: dict[str, tuple[Any, Any]] | None
     losses_vanished: list[dict[str, Any]]
     losses_appeared: list[dict[str, Any]]
 
@@ -80,12 +83,23 @@ class Comparison:
     runs: list[RunComparison]
 
 
-def compare_reports(path_a: Path, path_b: Path) -> Comparison:
-    """Load both reports, check they are of one sequence, and compare their runs pairwise."""
+def compare_reports(path_a: Path, path_b: Path, runs: tuple[str, str] | None = None) -> Comparison:
+    """Load both reports, check they are of one sequence, and compare their runs pairwise:
+    those of the same name, or with ``runs`` = (name in A, name in B) that one pair, so two
+    methods (or a report against itself) can be compared."""
     a, b = load_report(path_a), load_report(path_b)
     check_same_sequence(a, b)
+    pairs = run_pairs(a, b) if runs is None else [named_pair(a, b, *runs)]
     sequence = open_compared_sequence(a, b)
-    return Comparison(a, b, sequence, [compare_runs(run_a, run_b, sequence) for run_a, run_b in run_pairs(a, b)])
+    return Comparison(a, b, sequence, [compare_runs(run_a, run_b, sequence) for run_a, run_b in pairs])
+
+
+def named_pair(a: RecordReport, b: RecordReport, name_a: str, name_b: str) -> tuple[RecordedRun, RecordedRun]:
+    """Run ``name_a`` of report A and ``name_b`` of report B; a missing name is refused with what there is."""
+    for report, name in ((a, name_a), (b, name_b)):
+        if name not in report.runs:
+            raise InputError.at(report.path, f"has no run {name!r} (its runs: {', '.join(report.runs)})")
+    return a.runs[name_a], b.runs[name_b]
 
 
 def same_sequence(a: dict[str, Any], b: dict[str, Any]) -> bool:
@@ -120,7 +134,7 @@ def compare_runs(a: RecordedRun, b: RecordedRun, sequence: TumSequence) -> RunCo
         a=a, b=b, frame_indices=np.arange(len(stamps)), timestamps=stamps,
         ate_a=ate_a, ate_b=ate_b, alignment_a=alignment_a, alignment_b=alignment_b,
         tracked_a=tracked_a, tracked_b=tracked_b,
-        summary={label: (_lookup(a.block, keys), _lookup(b.block, keys)) for label, keys in SUMMARY},
+        summary={label: (_score(a.block, label, keys), _score(b.block, label, keys)) for label, keys in SUMMARY},
         parameters=_parameter_differences(a.block["parameters"], b.block["parameters"]),
         losses_vanished=_unmatched_losses(a.block["tracking_lost"], b.block["tracking_lost"], tracked_b),
         losses_appeared=_unmatched_losses(b.block["tracking_lost"], a.block["tracking_lost"], tracked_a),
@@ -160,6 +174,12 @@ def _frame_errors(trajectory: Trajectory, sequence: TumSequence) -> tuple[np.nda
     return errors, evaluation.alignment
 
 
+def _score(block: dict[str, Any], label: str, keys: tuple[str, ...]) -> Any:
+    if label in PIPELINE_ONLY and block.get("source") == "estimate":
+        return None
+    return _lookup(block, keys)
+
+
 def _lookup(block: dict[str, Any], keys: tuple[str, ...]) -> Any:
     value: Any = block
     for key in keys:
@@ -169,7 +189,9 @@ def _lookup(block: dict[str, Any], keys: tuple[str, ...]) -> Any:
     return value
 
 
-def _parameter_differences(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[Any, Any]]:
+def _parameter_differences(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tuple[Any, Any]] | None:
+    if (a or b) and not set(a) & set(b):
+        return None
     return {key: (a.get(key), b.get(key)) for key in [*a, *(k for k in b if k not in a)] if a.get(key) != b.get(key)}
 
 

@@ -36,7 +36,8 @@ def run_comparison_to_dict(run: RunComparison) -> dict[str, Any]:
     return {
         "a": run.a.name, "b": run.b.name,
         "summary": {label: {"a": a, "b": b, "difference": difference(a, b)} for label, (a, b) in run.summary.items()},
-        "parameters": {key: {"a": a, "b": b} for key, (a, b) in run.parameters.items()},
+        "parameters": None if run.parameters is None else {key: {"a": a, "b": b}
+                                                            for key, (a, b) in run.parameters.items()},
         "frames_only_a": run.frames_only_a.tolist(),
         "frames_only_b": run.frames_only_b.tolist(),
         "losses_vanished": run.losses_vanished,
@@ -85,7 +86,9 @@ def detail_lines(run: RunComparison) -> list[str]:
         lines.append(f"{title}: {len(losses) or 'none'}")
         lines += [f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
                   + ("" if loss["other_tracking"] else " (the other run had no pose there)") for loss in losses]
-    if run.parameters:
+    if run.parameters is None:
+        lines.append("parameters: not compared (no parameter in common: different methods)")
+    elif run.parameters:
         lines.append("parameters: " + ", ".join(f"{key} {a} -> {b}" for key, (a, b) in run.parameters.items()))
     else:
         lines.append("parameters: the same")
