@@ -70,18 +70,26 @@ def main() -> None:
     print(f"sequence {sequence.name}: {frames} frames, {sequence.camera.width}x{sequence.camera.height}")
 
     trajectory, wall_s, cpu_s = open3d_odometry(sequence, args.frames)
-    peer_ate = evaluate(sequence.groundtruth, trajectory).ate.stats()["rmse"]
+    peer_ate = _ate_cm(sequence, trajectory) / 100
     peer_fps, peer_cpu_fps = frames / wall_s, frames / cpu_s
-    print("| method | ATE RMSE cm | ATE / Open3D | fps (wall) | fps (CPU) | CPU fps / Open3D |")
-    print("|---|---|---|---|---|---|")
-    print(f"| Open3D RGB-D odometry | {100 * peer_ate:.2f} | 1.00 | {peer_fps:.1f} | {peer_cpu_fps:.1f} | 1.00 |")
+    print("| method | ATE RMSE cm | odometry ATE cm | ATE / Open3D | fps (wall) | fps / Open3D | fps (CPU) | "
+          "CPU fps / Open3D |")
+    print("|---|---|---|---|---|---|---|---|")
+    print(f"| Open3D RGB-D odometry | {100 * peer_ate:.2f} | {100 * peer_ate:.2f} | 1.00 | {peer_fps:.1f} | 1.00 | "
+          f"{peer_cpu_fps:.1f} | 1.00 |")
     for name in args.pipelines:
         cpu = process_cpu_s()
         run = run_pipeline(sequence, name, seed=0, max_frames=args.frames)
         cpu_fps = run.frames / (process_cpu_s() - cpu)
-        ate = evaluate(sequence.groundtruth, run.trajectory).ate.stats()["rmse"]
-        print(f"| {name} | {100 * ate:.2f} | {ate / peer_ate:.2f} | {run.fps:.1f} | {cpu_fps:.1f} | "
-              f"{cpu_fps / peer_cpu_fps:.2f} |", flush=True)
+        ate, odometry_ate = (_ate_cm(sequence, trajectory) for trajectory in (run.trajectory, run.odometry))
+        print(f"| {name} | {ate:.2f} | {odometry_ate:.2f} | {ate / (100 * peer_ate):.2f} | {run.fps:.1f} | "
+              f"{run.fps / peer_fps:.2f} | {cpu_fps:.1f} | {cpu_fps / peer_cpu_fps:.2f} |", flush=True)
+
+
+def _ate_cm(sequence, trajectory: Trajectory) -> float:
+    """ATE RMSE in cm, NaN for a run without a pose."""
+    evaluation = evaluate(sequence.groundtruth, trajectory) if len(trajectory) else None
+    return float("nan") if evaluation is None or evaluation.ate is None else 100 * evaluation.ate.stats()["rmse"]
 
 
 if __name__ == "__main__":
