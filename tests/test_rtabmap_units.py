@@ -423,10 +423,11 @@ def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_val
     assert (~unmasked.has_depth).sum() > 50
 
 
-def test_registration_variance_is_the_median_squared_residual_ignoring_missing_depth():
-    reference = np.zeros((4, 3))
-    registered = np.array([[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03], [np.nan, 0, 0]])
-    assert registration_variance(reference, registered) == pytest.approx(0.02 ** 2)
+def test_registration_variance_is_2_1981_times_the_median_squared_residual_ignoring_missing_depth():
+    """util3d::estimateMotion3DTo2D: 2.1981 x the squared distance at index n/2 of the sorted ones."""
+    reference = np.zeros((5, 3))
+    registered = np.array([[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03], [0.04, 0, 0], [np.nan, 0, 0]])
+    assert registration_variance(reference, registered) == pytest.approx(2.1981 * 0.03 ** 2)
 
 
 @pytest.mark.parametrize("assignment, message", [
