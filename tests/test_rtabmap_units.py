@@ -335,6 +335,22 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in set(registered)) for i in range(300)]
 
 
+def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():
+    """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry.process(view(world, np.eye(4), words))
+    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    new_rng = np.random.default_rng(5)
+    seen = view(np.r_[world[100:240], scene(30, new_rng)], moved, np.r_[words[100:240], descriptors(30, new_rng)])
+    seen.keypoints[:20, 0] += 12.0           # map points 100..119 matched 12 px off: outliers of PnP
+    result = odometry.process(seen)
+    matched = dict(zip(result.feature_index.tolist(), result.match_inliers.tolist()))
+    assert all(i in matched and not matched[i] for i in range(20)) and result.inliers <= 150   # a key frame
+    assert [len(r) for r in odometry.map.references[:300]] == [1 + (100 <= i < 240) for i in range(300)]
+    assert len(odometry.map) == 300 + 30
+
+
 def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
     """Ten locations on a circle whose odometry accumulates ``drift`` metres per link."""
     graph = LocationGraph(iterations=50, max_error=max_error)

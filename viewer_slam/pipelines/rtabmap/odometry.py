@@ -297,10 +297,12 @@ class FrameToMapOdometry:
         return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
 
     def _update_map(self, features: Features, result: OdometryResult) -> None:
-        """Note the map points seen again and, on a key frame, move them to their adjusted
-        positions, record this frame's observations of them and add the frame's other features."""
+        """Note the map points seen again and, on a key frame, move the inliers' map points to
+        their adjusted positions, record this frame's observations of every matched map point
+        and add the features that matched none (OdometryF2M::computeTransform: a matched
+        feature carries its map word's id, inlier or not, so it is an observation of that word
+        and never a new one)."""
         params = self.params
-        inlier_features = result.feature_index[result.match_inliers]
         inlier_points = result.map_index[result.match_inliers]
         self.map.observe(inlier_points, self.frame_count)
         if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0
@@ -308,8 +310,8 @@ class FrameToMapOdometry:
             if params.bundle_adjustment:
                 self.key_frames.add(self.frame_count, result.pose)
                 self.map.points[inlier_points] = result.map_points
-                self.map.refer(inlier_points, self._references(features, inlier_features))
-            self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), inlier_features))
+                self.map.refer(result.map_index, self._references(features, result.feature_index))
+            self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), result.feature_index))
 
     def _extend_map(self, features: Features, pose: np.ndarray, candidates: np.ndarray) -> None:
         """Add the frame's unregistered features with depth, then cap the map."""
