@@ -129,14 +129,15 @@ def guided_matches(keypoints: np.ndarray, descriptors: np.ndarray, projections: 
     _, candidates = cKDTree(projections).query(keypoints, k=k, distance_upper_bound=window, p=np.inf)
     found = candidates < len(projections)
     query = np.broadcast_to(np.arange(len(keypoints))[:, None], candidates.shape)[found]
-    distance = np.full(candidates.shape, np.iinfo(np.int32).max)
+    distance = np.full(candidates.shape, np.iinfo(np.int32).max, dtype=np.int64)
     distance[found] = hamming_distances(descriptors[query], map_descriptors[candidates[found]])
-    nearest_two = np.argsort(distance, axis=1, kind="stable")[:, :2]
+    # The two nearest by (distance, candidate rank): a partial sort of unique keys.
+    two_smallest = np.partition(distance * k + np.arange(k), 1, axis=1)[:, :2]
+    best, second, nearest = two_smallest[:, 0] // k, two_smallest[:, 1] // k, two_smallest[:, 0] % k
     rows = np.arange(len(keypoints))
-    best, second = distance[rows, nearest_two[:, 0]], distance[rows, nearest_two[:, 1]]
     lone = found.sum(axis=1) == 1
     passes = np.where(lone, best <= LONE_CANDIDATE_MAX_DISTANCE, best < nndr * second) & found.any(axis=1)
-    query, train, distance = rows[passes], candidates[passes, nearest_two[passes, 0]], best[passes]
+    query, train, distance = rows[passes], candidates[passes, nearest[passes]], best[passes]
     best_first = np.argsort(distance, kind="stable")
     _, unique = np.unique(train[best_first], return_index=True)
     keep = np.sort(best_first[unique])
