@@ -168,7 +168,7 @@ def quaternion_vector(rotation: np.ndarray) -> np.ndarray:
     return axis * signs
 
 
-class _LinkEdge:
+class LinkEdge:
     """g2o's EdgeSBACam from a fixed key frame to the adjusted frame: error (translation,
     quaternion vector part) of ``measured^-1 T_key^-1 T_adjusted``, information 1/variance."""
 
@@ -224,7 +224,7 @@ class _Problem:
         frames = observations.frame[order]
         self.free_rows, self.held_rows = np.flatnonzero(self.free), np.flatnonzero(~self.free)
         self.held_to_camera = np.stack([invert(held[frame]) for frame in frames[self.held_rows]]).reshape(-1, 4, 4)
-        self.link = _LinkEdge(held[link.frame], link) if link is not None else None
+        self.link = LinkEdge(held[link.frame], link) if link is not None else None
         self.observed = np.bincount(self.point, minlength=point_count) > 0
         self.first_of_point = np.searchsorted(self.point, np.flatnonzero(self.observed))
         self.free_points, self.held_points = self.point[self.free_rows], self.point[self.held_rows]
