@@ -114,8 +114,12 @@ class OdometryResult:
 
 
 def hamming_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise Hamming distances between two equally long arrays of binary descriptors."""
-    return np.bitwise_count(np.bitwise_xor(a, b)).sum(axis=1, dtype=np.int32)
+    """Row-wise Hamming distances between two equally long arrays of binary descriptors
+    (counted on 64-bit words when the rows allow it: eight times fewer elements)."""
+    differing = np.ascontiguousarray(np.bitwise_xor(a, b))
+    if differing.shape[1] % 8 == 0:
+        differing = differing.view(np.uint64)
+    return np.bitwise_count(differing).sum(axis=1, dtype=np.int32)
 
 
 def guided_matches(keypoints: np.ndarray, descriptors: np.ndarray, projections: np.ndarray,
