@@ -4,7 +4,8 @@ import gtsam
 import numpy as np
 import pytest
 
-from viewer_slam.backend.local_bundle import FREE_FRAME, BundleSettings, Link, Observations, adjust_frame, edge_chi2
+from viewer_slam.backend.local_bundle import (FREE_FRAME, BundleSettings, Link, Observations, LinkEdge, adjust_frame,
+                                           edge_chi2, updated_pose)
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, transform_points
 
 FX, FY, CX, CY = 500.0, 510.0, 320.0, 240.0
@@ -88,3 +89,20 @@ def test_without_a_kernel_one_pass_drops_nothing():
     result = adjust_frame(truth, world, observations, held, None, K, BundleSettings(kernel_delta=0.0))
     assert not result.outliers.any()
     assert np.linalg.norm(result.pose[:3, 3] - truth[:3, 3]) < 0.002
+
+
+def test_the_camera_moves_as_g2os_sbacam_update_translation_added_rotation_by_a_quaternion_on_the_right():
+    pose = make_pose(exp_so3([0.2, -0.1, 0.3]), [1.0, 2.0, 3.0])
+    vector_part = np.sin(0.05) * np.array([0.0, 0.0, 1.0])     # quaternion of a 0.1 rad turn about z
+    moved = updated_pose(pose, np.r_[0.1, 0.0, -0.2, vector_part])
+    np.testing.assert_allclose(moved[:3, 3], [1.1, 2.0, 2.8])
+    np.testing.assert_allclose(moved[:3, :3], pose[:3, :3] @ exp_so3([0, 0, 0.1]), atol=1e-12)
+
+
+def test_the_link_error_is_the_relative_translation_and_quaternion_vector_part_as_g2os_edgesbacam():
+    key = make_pose(exp_so3([0.1, 0.0, 0.2]), [0.5, 0.0, 0.0])
+    measured = make_pose(np.eye(3), [0.1, 0.0, 0.0])
+    adjusted = key @ measured @ make_pose(exp_so3([0.0, 0.3, 0.0]), [0.0, 0.02, 0.0])
+    link = LinkEdge(key, Link(0, measured, variance=0.01))
+    np.testing.assert_allclose(link.error(adjusted), [0.0, 0.02, 0.0, 0.0, np.sin(0.15), 0.0], atol=1e-12)
+    assert link.chi2(adjusted) == pytest.approx((0.02 ** 2 + np.sin(0.15) ** 2) / 0.01)

@@ -7,7 +7,7 @@ import pytest
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 from viewer_slam.pipelines.params import apply_overrides, resolve_params
 from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
-from viewer_slam.frontend.features import Features
+from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
                                                  highest_hypothesis, prediction_matrix)
@@ -335,6 +335,22 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in set(registered)) for i in range(300)]
 
 
+def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():
+    """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry.process(view(world, np.eye(4), words))
+    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    new_rng = np.random.default_rng(5)
+    seen = view(np.r_[world[100:240], scene(30, new_rng)], moved, np.r_[words[100:240], descriptors(30, new_rng)])
+    seen.keypoints[:20, 0] += 12.0           # map points 100..119 matched 12 px off: outliers of PnP
+    result = odometry.process(seen)
+    matched = dict(zip(result.feature_index.tolist(), result.match_inliers.tolist()))
+    assert all(i in matched and not matched[i] for i in range(20)) and result.inliers <= 150   # a key frame
+    assert [len(r) for r in odometry.map.references[:300]] == [1 + (100 <= i < 240) for i in range(300)]
+    assert len(odometry.map) == 300 + 30
+
+
 def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
     """Ten locations on a circle whose odometry accumulates ``drift`` metres per link."""
     graph = LocationGraph(iterations=50, max_error=max_error)
@@ -390,10 +406,44 @@ def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_beli
     assert too_large_rotation(relative) == rejected
 
 
-def test_registration_variance_is_the_median_squared_residual_ignoring_missing_depth():
-    reference = np.zeros((4, 3))
-    registered = np.array([[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03], [np.nan, 0, 0]])
-    assert registration_variance(reference, registered) == pytest.approx(0.02 ** 2)
+def test_keypoint_depth_is_smoothed_over_the_neighbours_within_2_cm_as_util2d_getdepth():
+    """Weights 4 (centre), 2 (edge), 1 (corner); 1.50 (49 cm off), 1.03 (3 cm off) and 0 (missing)
+    are left out: (4 x 1.00 + 2 x 1.01 + 2 x 1.01 + 0.99 + 1.00 + 1.015) / (4 + 2 + 2 + 1 + 1 + 1)."""
+    depth = np.zeros((5, 5), np.float32)
+    depth[1:4, 1:4] = [[0.99, 1.01, 1.00],
+                       [1.50, 1.00, 1.01],
+                       [1.03, 0.00, 1.015]]
+    expected = (4 * 1.00 + 2 * 1.01 + 2 * 1.01 + 0.99 + 1.00 + 1.015) / 11
+    assert smoothed_depth(depth, np.array([2]), np.array([2]))[0] == pytest.approx(expected, abs=1e-6)
+
+
+def test_a_keypoint_without_depth_at_its_pixel_stays_without_depth_and_the_border_has_fewer_neighbours():
+    depth = np.full((4, 4), 2.0, np.float32)
+    depth[1, 1] = 0.0
+    depth[0, 0] = 2.01
+    smoothed = smoothed_depth(depth, np.array([1, 0]), np.array([1, 0]))
+    assert smoothed[0] == 0.0
+    assert smoothed[1] == pytest.approx((4 * 2.01 + 2 * 2.0 + 2 * 2.0) / 8, abs=1e-6)   # (0, 1), (1, 0); (1, 1) missing
+
+
+def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_valid():
+    rng = np.random.default_rng(4)
+    gray = cv2.resize(rng.integers(0, 256, (30, 40), dtype=np.uint8), (320, 240), interpolation=cv2.INTER_NEAREST)
+    depth = np.zeros((240, 320), np.float32)
+    depth[:, 160:] = 1.5
+    camera = Camera(fx=260.0, fy=260.0, cx=160.0, cy=120.0, width=320, height=240)
+    masked = FeatureExtractor("GFTT_ORB", 300, camera, min_depth=1e-3, max_depth=np.inf, depth_mask=True)
+    features = masked.extract(np.dstack([gray] * 3), depth)
+    assert len(features) > 100 and features.has_depth.all()
+    unmasked = FeatureExtractor("GFTT_ORB", 300, camera, min_depth=1e-3, max_depth=np.inf).extract(np.dstack([gray] * 3), depth)
+    assert (~unmasked.has_depth).sum() > 50
+
+
+def test_registration_variance_is_2_1981_times_the_median_squared_residual_ignoring_missing_depth():
+    """util3d::estimateMotion3DTo2D: 2.1981 x the squared distance at index n/2 of the sorted ones."""
+    reference = np.zeros((5, 3))
+    registered = np.array([[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03], [0.04, 0, 0], [np.nan, 0, 0]])
+    assert registration_variance(reference, registered) == pytest.approx(2.1981 * 0.03 ** 2)
 
 
 @pytest.mark.parametrize("assignment, message", [

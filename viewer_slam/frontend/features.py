@@ -16,6 +16,12 @@ from .adjuster import ADJUSTABLE, ORB_THRESHOLD, SIFT_THRESHOLD, GridDetector
 
 BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
 DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
+# RTAB-Map's depth smoothing (util2d::getDepth): the keypoint's depth averaged over its 3x3
+# neighbourhood with weights 4 (centre), 2 (edge) and 1 (corner), counting only the
+# neighbours within SMOOTHING_MAX_DEPTH_ERROR (m) of the centre's depth.
+SMOOTHING_OFFSETS = np.array([(row, col) for row in (-1, 0, 1) for col in (-1, 0, 1)])
+SMOOTHING_WEIGHTS = np.array([1.0, 2.0, 1.0, 2.0, 4.0, 2.0, 1.0, 2.0, 1.0])
+SMOOTHING_MAX_DEPTH_ERROR = 0.02
 
 
 @dataclass
@@ -77,11 +83,18 @@ class FeatureExtractor:
     as v2's ``Node`` constructor, keypoints without depth are dropped and the ``max_features``
     strongest of the rest described. Otherwise one detector gives the ``max_features``
     strongest keypoints.
+
+    Two options reproduce RTAB-Map's extraction: ``depth_mask`` detects only where the depth
+    is within range (Vis/DepthAsMask), ``depth_smoothing`` reads a keypoint's depth as
+    ``util3d::generateKeypoints3DDepth`` does (:func:`smoothed_depth`).
     """
 
     def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
-                 min_depth: float = 0.3, max_depth: float = 6.0, adjuster_iterations: int = 0):
+                 min_depth: float = 0.3, max_depth: float = 6.0, adjuster_iterations: int = 0,
+                 depth_mask: bool = False, depth_smoothing: bool = False):
         self.kind = kind
+        self.depth_mask = depth_mask
+        self.depth_smoothing = depth_smoothing
         self.max_features = max_features
         self.camera = camera
         self.min_depth = min_depth
@@ -98,7 +111,7 @@ class FeatureExtractor:
                 with_depth = ~np.isnan(self.backproject(np.array([k.pt for k in keypoints], np.float32), depth)[:, 0])
                 keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
         else:
-            keypoints = self.detector.detect(gray, None)
+            keypoints = self.detector.detect(gray, self._in_range(depth) if self.depth_mask else None)
         if not keypoints:
             return keypoints
         return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
@@ -116,6 +129,10 @@ class FeatureExtractor:
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
+    def _in_range(self, depth: np.ndarray) -> np.ndarray:
+        """Detection mask (255 where min_depth < depth <= max_depth), as Feature2D::generateKeypoints."""
+        return ((depth > self.min_depth) & (depth <= self.max_depth)).astype(np.uint8) * 255
+
     def backproject(self, xy: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """3D points of keypoints, NaN where the depth at the rounded pixel is unusable.
 
@@ -125,7 +142,7 @@ class FeatureExtractor:
         """
         cols = np.clip(np.rint(xy[:, 0]).astype(int), 0, depth.shape[1] - 1)
         rows = np.clip(np.rint(xy[:, 1]).astype(int), 0, depth.shape[0] - 1)
-        z = depth[rows, cols].astype(np.float64)
+        z = (smoothed_depth(depth, rows, cols) if self.depth_smoothing else depth[rows, cols]).astype(np.float64)
         pixels = xy.astype(np.float64)
         if any(self.camera.distortion):
             pixels = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion),
@@ -133,6 +150,23 @@ class FeatureExtractor:
         points = self.camera.backproject(pixels, z)
         points[(z < self.min_depth) | (z > self.max_depth)] = np.nan
         return points
+
+
+def smoothed_depth(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Depth at pixels (rows, cols) smoothed as RTAB-Map's ``util2d::getDepth``: a weighted
+    mean over the 3x3 neighbourhood (:data:`SMOOTHING_WEIGHTS`) of the measured depths within
+    :data:`SMOOTHING_MAX_DEPTH_ERROR` of the centre's; 0 where the centre has none."""
+    neighbour_rows = rows[:, None] + SMOOTHING_OFFSETS[:, 0]
+    neighbour_cols = cols[:, None] + SMOOTHING_OFFSETS[:, 1]
+    inside = ((neighbour_rows >= 0) & (neighbour_rows < depth.shape[0])
+              & (neighbour_cols >= 0) & (neighbour_cols < depth.shape[1]))
+    window = depth[np.clip(neighbour_rows, 0, depth.shape[0] - 1),
+                   np.clip(neighbour_cols, 0, depth.shape[1] - 1)].astype(np.float64)
+    centre = window[:, 4:5]
+    counted = inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_MAX_DEPTH_ERROR)
+    weights = SMOOTHING_WEIGHTS * counted
+    mean = (weights * np.where(counted, window, 0.0)).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
+    return np.where(centre[:, 0] > 0, mean, 0.0)
 
 
 def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio: float) -> tuple[np.ndarray, np.ndarray]:

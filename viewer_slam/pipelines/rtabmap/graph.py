@@ -14,17 +14,20 @@ import numpy as np
 from ...backend.pose_graph import Edge, PoseGraph, information_from_sigmas
 from ...geometry.se3 import invert
 
+# PCL's computeVariance: a Gaussian's variance from the median of squared distances.
+MEDIAN_TO_VARIANCE = 2.1981
 MIN_LINK_SIGMA = 0.001          # floor of a link's standard deviation (m, and rad)
 ANCHOR_SIGMA = 1e-4
 ANCHOR_INFORMATION = information_from_sigmas(ANCHOR_SIGMA, ANCHOR_SIGMA)
 
 
 def registration_variance(reference: np.ndarray, registered: np.ndarray) -> float:
-    """Variance of a registration as RTAB-Map estimates it: the median squared distance
+    """Variance of a registration as RTAB-Map estimates it (``util3d::estimateMotion3DTo2D``,
+    after PCL's ``computeVariance``): MEDIAN_TO_VARIANCE times the median squared distance
     between the inliers' 3D points and their registered counterparts (NaN pairs skipped)."""
     squared = np.sum((reference - registered) ** 2, axis=1)
-    squared = squared[~np.isnan(squared)]
-    return float(np.median(squared)) if len(squared) else 0.0
+    squared = np.sort(squared[~np.isnan(squared)])
+    return MEDIAN_TO_VARIANCE * float(squared[len(squared) // 2]) if len(squared) else 0.0
 
 
 def link_information(variance: float) -> np.ndarray:

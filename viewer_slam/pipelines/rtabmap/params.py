@@ -26,6 +26,7 @@ class RtabmapParams:
                                   help="update the local map when the inliers fall to this many")
     min_depth: float = param(0.0, ge=0, key="Vis/MinDepth", help="nearest depth (m) a feature may have (0: no limit)")
     max_depth: float = param(0.0, ge=0, key="Vis/MaxDepth", help="farthest depth (m) a feature may have (0: no limit)")
+    depth_as_mask: bool = param(True, key="Vis/DepthAsMask", help="detect features only where the depth is valid")
     bundle_adjustment: int = param(1, key="OdomF2M/BundleAdjustment", choices=(0, 1),
                                    help="local bundle adjustment of each registration (0: off, 1: on, GTSAM)")
     bundle_max_frames: int = param(10, ge=0, key="OdomF2M/BundleAdjustmentMaxFrames",

@@ -57,7 +57,8 @@ class Rtabmap(Pipeline):
         p = self.params
         self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera,
                                           min_depth=max(p.min_depth, NEAREST_MEASURED_DEPTH),
-                                          max_depth=p.max_depth or np.inf)
+                                          max_depth=p.max_depth or np.inf, depth_mask=p.depth_as_mask,
+                                          depth_smoothing=True)
         self.odometry = FrameToMapOdometry(camera, p, seed)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
