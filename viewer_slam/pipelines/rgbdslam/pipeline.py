@@ -13,11 +13,14 @@ after every ``optimizer_skip_step`` nodes; at the end, edges whose error stays a
 v2's pruning threshold are dropped and the graph optimised again.
 
 The comparisons of one frame are independent, so they run on two threads (OpenCV's
-matcher and most of numpy release the GIL); each draws its RANSAC samples from a
+matcher and the compiled RANSAC release the GIL); each draws its RANSAC samples from a
 generator seeded by (seed, frame, node), so the result does not depend on the scheduling.
+As v2's ``concurrent_optimization``, the online optimisation (and the map rebuilt after it)
+runs on a thread of its own while the next frame is detected and matched; it is waited for
+before that frame changes the graph, so the result does not depend on the scheduling either.
 """
 
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -109,9 +112,19 @@ class RgbdSlam(Pipeline):
         self.nodes_since_optimisation = 0
         self.loop_closed_since_optimisation = False
         self.comparisons = ThreadPoolExecutor(COMPARISON_THREADS, thread_name_prefix="rgbdslam-comparison")
+        self.optimiser = ThreadPoolExecutor(1, thread_name_prefix="rgbdslam-optimiser")
+        self.optimisation_due: tuple[int, bool] | None = None
+        self.optimisation: Future | None = None
 
     # ------------------------------------------------------------------ frames
     def process(self, frame: Frame) -> list[Event]:
+        events = self._track(frame)
+        if self.optimisation_due is not None:
+            self.optimisation = self.optimiser.submit(self._optimise_online, *self.optimisation_due)
+            self.optimisation_due = None
+        return events
+
+    def _track(self, frame: Frame) -> list[Event]:
         watch = Stopwatch()
         events: list[Event] = []
         p = self.params
@@ -130,6 +143,7 @@ class RgbdSlam(Pipeline):
         if p.min_translation_meter > 0 or p.min_rotation_degree > 0:
             # v2 first compares with the newest node; a frame that stayed near it is no node.
             attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch)
+            self._await_optimisation(events, watch)
             if attempts[0].motion is not None and not self._moved_enough(attempts[0].motion.transform):
                 status = self._recover(frame, attempts[0], events)
                 self._attach(frame, newest, attempts[0].motion.transform, self.graph.odometry[newest])
@@ -140,6 +154,7 @@ class RgbdSlam(Pipeline):
                                neighbours=p.neighbor_candidates, sampled=p.min_sampled_candidates,
                                geodesic_depth=p.geodesic_depth, rng=self.rng)
         attempts += self._compare(frame, measured, targets, watch)
+        self._await_optimisation(events, watch)
         if p.observability_threshold > 0:
             with watch("emm"):
                 self._check_environment(frame, measured, attempts)
@@ -327,11 +342,30 @@ class RgbdSlam(Pipeline):
         self.nodes_since_optimisation += 1
         self.loop_closed_since_optimisation = loop_closed
         if self.nodes_since_optimisation >= self._optimisation_interval():
-            with watch("optimisation"):
-                events.append(self._optimise(frame.index, self.params.optimizer_iterations))
-            if loop_closed:
-                with watch("map"):
-                    events.append(graph.map(frame.index, self.camera))
+            self.nodes_since_optimisation = 0
+            self.loop_closed_since_optimisation = False
+            self.optimisation_due = (frame.index, loop_closed)
+
+    def _optimise_online(self, frame_index: int, loop_closed: bool) -> tuple[list[Event], Stopwatch]:
+        """The online optimisation and, after a loop closure, the rebuilt map (on the optimiser thread)."""
+        watch = Stopwatch()
+        with watch("optimisation"):
+            events: list[Event] = [self._optimise(frame_index, self.params.optimizer_iterations)]
+        if loop_closed:
+            with watch("map"):
+                events.append(self.graph.map(frame_index, self.camera))
+        return events, watch
+
+    def _await_optimisation(self, events: list[Event], watch: Stopwatch) -> None:
+        """Wait for the optimisation started after the previous node; its events and stage
+        times join this frame's."""
+        if self.optimisation is None:
+            return
+        done, own = self.optimisation.result()
+        self.optimisation = None
+        events.extend(done)
+        for stage, ms in own.ms.items():
+            watch.add(stage, ms)
 
     def _optimisation_interval(self) -> int:
         """Nodes between online optimisations: optimizer_skip_step, or with
@@ -368,15 +402,15 @@ class RgbdSlam(Pipeline):
             before, after = self.graph.poses.optimize(int(iterations))
         else:
             before, after = self.graph.poses.optimize(FINAL_OPTIMIZER_ITERATIONS, relative_tolerance=iterations)
-        self.nodes_since_optimisation = 0
-        self.loop_closed_since_optimisation = False
         ids = np.array(self.graph.order, dtype=int)
         return GraphOptimized(frame_index, ids, np.stack([self.graph.poses.poses[i] for i in ids]), before, after)
 
     # ------------------------------------------------------------------ end of run
     def finish(self) -> list[Event]:
-        self.comparisons.shutdown()
         events: list[Event] = []
+        self._await_optimisation(events, Stopwatch())
+        self.comparisons.shutdown()
+        self.optimiser.shutdown()
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
         if len(self.graph):
             events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
