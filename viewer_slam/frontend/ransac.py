@@ -60,29 +60,31 @@ class RansacResult:
 
 
 @jit
-def _pair_distance(transform, source, target, sigma_depth):
-    """errorFunction2 for one pair: squared Mahalanobis distance of ``T source - target``
+def _pair_distance(r, source, target, sigma_depth):
+    """errorFunction2 for one pair: squared Mahalanobis distance of ``r source - target``
     under ``R^T C_source R + C_target`` (v2's form), or inf beyond the shortcut bound.
 
-    Each covariance is ``diag(RASTER_COV_X z, RASTER_COV_Y z, (sigma_depth z²)²)``; the
-    symmetric 3x3 system is solved in closed form (adjugate over determinant).
+    ``r`` is the transform's top 3x4 as a flat tuple. Each covariance is
+    ``diag(RASTER_COV_X z, RASTER_COV_Y z, (sigma_depth z²)²)``; the symmetric 3x3 system is
+    solved in closed form (adjugate over determinant).
     """
-    r = transform
-    x = r[0, 0] * source[0] + r[0, 1] * source[1] + r[0, 2] * source[2] + r[0, 3] - target[0]
-    y = r[1, 0] * source[0] + r[1, 1] * source[1] + r[1, 2] * source[2] + r[1, 3] - target[1]
-    z = r[2, 0] * source[0] + r[2, 1] * source[1] + r[2, 2] * source[2] + r[2, 3] - target[2]
-    z_source, z_target = source[2], target[2]
+    r00, r01, r02, r03, r10, r11, r12, r13, r20, r21, r22, r23 = r
+    sx, sy, z_source = source
+    tx, ty, z_target = target
+    x = r00 * sx + r01 * sy + r02 * z_source + r03 - tx
+    y = r10 * sx + r11 * sy + r12 * z_source + r13 - ty
+    z = r20 * sx + r21 * sy + r22 * z_source + r23 - z_target
     depth_source = (sigma_depth * z_source * z_source) ** 2
     depth_target = (sigma_depth * z_target * z_target) ** 2
     if x * x + y * y + z * z > SHORTCUT_FACTOR * (max(RASTER_COV_X, depth_source) + max(RASTER_COV_X, depth_target)):
         return np.inf
     cx, cy, cz = RASTER_COV_X * z_source, RASTER_COV_Y * z_source, depth_source
-    s00 = cx * r[0, 0] * r[0, 0] + cy * r[1, 0] * r[1, 0] + cz * r[2, 0] * r[2, 0] + RASTER_COV_X * z_target
-    s11 = cx * r[0, 1] * r[0, 1] + cy * r[1, 1] * r[1, 1] + cz * r[2, 1] * r[2, 1] + RASTER_COV_Y * z_target
-    s22 = cx * r[0, 2] * r[0, 2] + cy * r[1, 2] * r[1, 2] + cz * r[2, 2] * r[2, 2] + depth_target
-    s01 = cx * r[0, 0] * r[0, 1] + cy * r[1, 0] * r[1, 1] + cz * r[2, 0] * r[2, 1]
-    s02 = cx * r[0, 0] * r[0, 2] + cy * r[1, 0] * r[1, 2] + cz * r[2, 0] * r[2, 2]
-    s12 = cx * r[0, 1] * r[0, 2] + cy * r[1, 1] * r[1, 2] + cz * r[2, 1] * r[2, 2]
+    s00 = cx * r00 * r00 + cy * r10 * r10 + cz * r20 * r20 + RASTER_COV_X * z_target
+    s11 = cx * r01 * r01 + cy * r11 * r11 + cz * r21 * r21 + RASTER_COV_Y * z_target
+    s22 = cx * r02 * r02 + cy * r12 * r12 + cz * r22 * r22 + depth_target
+    s01 = cx * r00 * r01 + cy * r10 * r11 + cz * r20 * r21
+    s02 = cx * r00 * r02 + cy * r10 * r12 + cz * r20 * r22
+    s12 = cx * r01 * r02 + cy * r11 * r12 + cz * r21 * r22
     a00, a11, a22 = s11 * s22 - s12 * s12, s00 * s22 - s02 * s02, s00 * s11 - s01 * s01
     a01, a02, a12 = s02 * s12 - s01 * s22, s01 * s12 - s11 * s02, s01 * s02 - s00 * s12
     determinant = s00 * a00 + s01 * a01 + s02 * a02
@@ -90,11 +92,21 @@ def _pair_distance(transform, source, target, sigma_depth):
 
 
 @jit
+def _top_rows(transform):
+    """The transform's top 3x4, row by row, as a tuple of scalars."""
+    return (transform[0, 0], transform[0, 1], transform[0, 2], transform[0, 3],
+            transform[1, 0], transform[1, 1], transform[1, 2], transform[1, 3],
+            transform[2, 0], transform[2, 1], transform[2, 2], transform[2, 3])
+
+
+@jit
 def _distances(transforms, source, target, sigma_depth):
     out = np.empty((transforms.shape[0], source.shape[0]))
     for h in range(transforms.shape[0]):
+        r = _top_rows(transforms[h])
         for n in range(source.shape[0]):
-            out[h, n] = _pair_distance(transforms[h], source[n], target[n], sigma_depth)
+            out[h, n] = _pair_distance(r, (source[n, 0], source[n, 1], source[n, 2]),
+                                       (target[n, 0], target[n, 1], target[n, 2]), sigma_depth)
     return out
 
 
@@ -229,8 +241,10 @@ def _inliers(transform, source, target, sigma_depth, threshold):
     (NO_INLIERS_ERROR below three inliers)."""
     members = np.empty(source.shape[0], dtype=np.int64)
     count, total = 0, 0.0
+    r = _top_rows(transform)
     for n in range(source.shape[0]):
-        distance = _pair_distance(transform, source[n], target[n], sigma_depth)
+        distance = _pair_distance(r, (source[n, 0], source[n, 1], source[n, 2]),
+                                  (target[n, 0], target[n, 1], target[n, 2]), sigma_depth)
         if distance <= threshold:
             members[count] = n
             count += 1
