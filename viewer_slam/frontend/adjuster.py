@@ -8,19 +8,20 @@ at most ``adjuster_max_iterations`` times while the threshold stays within bound
 finds more than 1.5 times its share raises it by 1.3 for the next frame
 (``VideoDynamicAdaptedFeatureDetector`` over ``DetectorAdjuster``). Each cell keeps its
 strongest keypoints, up to its share of 1.5 * ``max_keypoints``. As in v2, the cells are
-detected in parallel (OpenCV releases the GIL); each has a detector of its own.
+detected in parallel on the process's worker threads (OpenCV releases the GIL); each has a
+detector of its own.
 """
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from .workers import workers
+
 CELL_OVERLAP_PX = 31
 TOO_FEW_FACTOR = 0.7
 TOO_MANY_FACTOR = 1.3
-DETECTION_THREADS = 2
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,6 @@ class GridDetector:
         self.per_cell = high // cells
         self.detectors = [AdjustedDetector(kind, round(max_keypoints / cells), round(high / cells), iterations)
                           for _ in range(cells)]
-        self.pool = ThreadPoolExecutor(DETECTION_THREADS, thread_name_prefix="grid-detector")
 
     def _detect_cell(self, gray: np.ndarray, cell: int, rows: tuple[int, int], cols: tuple[int, int]) -> list:
         """The cell's strongest keypoints, in image coordinates."""
@@ -108,5 +108,5 @@ class GridDetector:
         """Keypoints of every cell, each cell's strongest first."""
         rows, cols = cell_ranges(gray.shape[0], self.grid), cell_ranges(gray.shape[1], self.grid)
         cells = [(i * self.grid + j, row, col) for i, row in enumerate(rows) for j, col in enumerate(cols)]
-        found = self.pool.map(lambda cell: self._detect_cell(gray, *cell), cells)
+        found = workers().map(lambda cell: self._detect_cell(gray, *cell), cells)
         return [keypoint for cell in found for keypoint in cell]

@@ -12,15 +12,16 @@ frame within 0.1 s of the newest node that did not match it. The graph is optimi
 after every ``optimizer_skip_step`` nodes; at the end, edges whose error stays above
 v2's pruning threshold are dropped and the graph optimised again.
 
-The comparisons of one frame are independent, so they run on two threads (OpenCV's
-matcher and the compiled RANSAC release the GIL); each draws its RANSAC samples from a
-generator seeded by (seed, frame, node), so the result does not depend on the scheduling.
-As v2's ``concurrent_optimization``, the online optimisation (and the map rebuilt after it)
-runs on a thread of its own while the next frame is detected and matched; it is waited for
-before that frame changes the graph, so the result does not depend on the scheduling either.
+The comparisons of one frame are independent, so they run on the process's two worker
+threads (the compiled matcher and RANSAC release the GIL); each draws its RANSAC samples
+from a generator seeded by (seed, frame, node), so the result does not depend on the
+scheduling. As v2's ``concurrent_optimization``, the online optimisation (and the map
+rebuilt after it) runs on a worker thread while the next frame is detected and matched;
+it is waited for before that frame changes the graph, so the result does not depend on the
+scheduling either.
 """
 
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,7 @@ import numpy as np
 from ...backend.pose_graph import information_from_sigmas
 from ...dataset.frame import Frame
 from ...frontend.features import FeatureExtractor, Features
+from ...frontend.workers import workers
 from ...geometry.camera import Camera
 from ...geometry.se3 import rotation_angle, transform_points
 from ..base import Pipeline
@@ -54,7 +56,6 @@ NO_MOTION_MAX_GAP_S = 0.1
 # v2's batch run prunes edges whose squared Mahalanobis error exceeds this after the final
 # optimisation and optimises again (pruneEdgesWithErrorAbove(5)).
 PRUNE_CHI2 = 5.0
-COMPARISON_THREADS = 2
 # Stands for the lost chain's frame in the seed of a comparison (node ids are >= 0).
 LOST_CHAIN = -1
 
@@ -111,8 +112,6 @@ class RgbdSlam(Pipeline):
         self.lost_chain_length = 0
         self.nodes_since_optimisation = 0
         self.loop_closed_since_optimisation = False
-        self.comparisons = ThreadPoolExecutor(COMPARISON_THREADS, thread_name_prefix="rgbdslam-comparison")
-        self.optimiser = ThreadPoolExecutor(1, thread_name_prefix="rgbdslam-optimiser")
         self.optimisation_due: tuple[int, bool] | None = None
         self.optimisation: Future | None = None
 
@@ -120,7 +119,7 @@ class RgbdSlam(Pipeline):
     def process(self, frame: Frame) -> list[Event]:
         events = self._track(frame)
         if self.optimisation_due is not None:
-            self.optimisation = self.optimiser.submit(self._optimise_online, *self.optimisation_due)
+            self.optimisation = workers().submit(self._optimise_online, *self.optimisation_due)
             self.optimisation_due = None
         return events
 
@@ -188,7 +187,7 @@ class RgbdSlam(Pipeline):
             return *self._register(frame, measured, node_id, self.graph.nodes[node_id].measured, own, ratio), own
 
         attempts = []
-        for (node_id, kind), (matches, motion, reason, own) in zip(candidates, self.comparisons.map(register, candidates)):
+        for (node_id, kind), (matches, motion, reason, own) in zip(candidates, workers().map(register, candidates)):
             for stage, ms in own.ms.items():
                 watch.add(stage, ms)
             attempts.append(Attempt(node_id, kind, matches, motion, reason))
@@ -347,7 +346,7 @@ class RgbdSlam(Pipeline):
             self.optimisation_due = (frame.index, loop_closed)
 
     def _optimise_online(self, frame_index: int, loop_closed: bool) -> tuple[list[Event], Stopwatch]:
-        """The online optimisation and, after a loop closure, the rebuilt map (on the optimiser thread)."""
+        """The online optimisation and, after a loop closure, the rebuilt map (on a worker thread)."""
         watch = Stopwatch()
         with watch("optimisation"):
             events: list[Event] = [self._optimise(frame_index, self.params.optimizer_iterations)]
@@ -409,8 +408,6 @@ class RgbdSlam(Pipeline):
     def finish(self) -> list[Event]:
         events: list[Event] = []
         self._await_optimisation(events, Stopwatch())
-        self.comparisons.shutdown()
-        self.optimiser.shutdown()
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
         if len(self.graph):
             events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
