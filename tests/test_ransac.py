@@ -82,3 +82,15 @@ def test_required_inliers_drop_to_three_quarters_of_few_matches():
                           rng=np.random.default_rng(0))
     assert result is not None and result.inlier_count == 18
     assert invert(result.transform) @ truth == pytest.approx(np.eye(4), abs=1e-6)
+
+
+def test_points_on_a_plane_give_the_proper_rotation_not_a_reflection():
+    # 60 points on the plane z = 2 (a rank-2 cross-covariance), turned a quarter about the optical axis
+    rng = np.random.default_rng(5)
+    source = np.column_stack([rng.uniform(-1, 1, (60, 2)), np.full(60, 2.0)])
+    truth = make_pose(exp_so3([0, 0, np.pi / 2]), [0.05, 0.0, 0.1])
+    target = source @ truth[:3, :3].T + truth[:3, 3]
+    result = ransac_rigid(source, target, iterations=200, max_mahalanobis=3.0, min_inliers=20, sigma_depth=0.01,
+                          rng=np.random.default_rng(0))
+    assert result is not None and result.inliers.all()
+    np.testing.assert_allclose(result.transform, truth, atol=1e-9)

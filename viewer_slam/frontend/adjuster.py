@@ -7,13 +7,17 @@ fewer than its share of ``max_keypoints`` lowers its threshold by 0.7 and detect
 at most ``adjuster_max_iterations`` times while the threshold stays within bounds; one that
 finds more than 1.5 times its share raises it by 1.3 for the next frame
 (``VideoDynamicAdaptedFeatureDetector`` over ``DetectorAdjuster``). Each cell keeps its
-strongest keypoints, up to its share of 1.5 * ``max_keypoints``.
+strongest keypoints, up to its share of 1.5 * ``max_keypoints``. As in v2, the cells are
+detected in parallel on the process's worker threads (OpenCV releases the GIL); each has a
+detector of its own.
 """
 
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from .workers import workers
 
 CELL_OVERLAP_PX = 31
 TOO_FEW_FACTOR = 0.7
@@ -91,15 +95,18 @@ class GridDetector:
         self.detectors = [AdjustedDetector(kind, round(max_keypoints / cells), round(high / cells), iterations)
                           for _ in range(cells)]
 
+    def _detect_cell(self, gray: np.ndarray, cell: int, rows: tuple[int, int], cols: tuple[int, int]) -> list:
+        """The cell's strongest keypoints, in image coordinates."""
+        (top, bottom), (left, right) = rows, cols
+        found = self.detectors[cell].detect(np.ascontiguousarray(gray[top:bottom, left:right]))
+        found = sorted(found, key=lambda k: -abs(k.response))[:self.per_cell]
+        for keypoint in found:
+            keypoint.pt = (keypoint.pt[0] + left, keypoint.pt[1] + top)
+        return found
+
     def detect(self, gray: np.ndarray) -> list:
         """Keypoints of every cell, each cell's strongest first."""
-        keypoints = []
         rows, cols = cell_ranges(gray.shape[0], self.grid), cell_ranges(gray.shape[1], self.grid)
-        for i, (top, bottom) in enumerate(rows):
-            for j, (left, right) in enumerate(cols):
-                found = self.detectors[i * self.grid + j].detect(np.ascontiguousarray(gray[top:bottom, left:right]))
-                found = sorted(found, key=lambda k: -abs(k.response))[:self.per_cell]
-                for keypoint in found:
-                    keypoint.pt = (keypoint.pt[0] + left, keypoint.pt[1] + top)
-                keypoints += found
-        return keypoints
+        cells = [(i * self.grid + j, row, col) for i, row in enumerate(rows) for j, col in enumerate(cols)]
+        found = workers().map(lambda cell: self._detect_cell(gray, *cell), cells)
+        return [keypoint for cell in found for keypoint in cell]

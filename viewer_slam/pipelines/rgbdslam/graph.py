@@ -33,6 +33,7 @@ class NodeGraph:
         self.keyframes: list[int] = []
         self.segments = Segments()
         self.kinds = EdgeClassifier()
+        self.clouds: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
 
     def __len__(self) -> int:
         return len(self.order)
@@ -78,5 +79,13 @@ class NodeGraph:
         shown = [node for node in self.nodes.values() if node.measured_pose]
         samples = sum(int(np.count_nonzero(node.depth)) for node in shown)
         step = max(1, int(np.ceil(np.sqrt(samples / MAX_MAP_POINTS))))
-        return rebuilt_map(frame_index, ((self.poses.poses[node.node_id], *node.cloud(camera, step)) for node in shown),
-                           MAX_MAP_POINTS)
+        return rebuilt_map(frame_index, ((self.poses.poses[node.node_id], *self._cloud(node, camera, step))
+                                         for node in shown), MAX_MAP_POINTS)
+
+    def _cloud(self, node: Node, camera: Camera, step: int) -> tuple[np.ndarray, np.ndarray]:
+        """The node's camera-frame cloud at ``step``, kept until the step changes: only the
+        poses change from one rebuild to the next."""
+        cached = self.clouds.get(node.node_id)
+        if cached is None or cached[0] != step:
+            cached = self.clouds[node.node_id] = (step, *node.cloud(camera, step))
+        return cached[1], cached[2]

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...frontend.features import Features, match_with_ratios
+from ...frontend.hamming import hamming_ratio_matches
 from ...frontend.ransac import ransac_rigid
 from .params import RgbdSlamParams
 
@@ -57,8 +58,11 @@ def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
 
 def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams) -> tuple[np.ndarray, np.ndarray]:
     """Ratio-test matches, best (lowest ratio) first, at most ``max_matches`` (``keepStrongestMatches``)."""
-    frame_index, node_index, ratios = match_with_ratios(frame.features.descriptors, node.features.descriptors,
-                                                        frame.features.binary, params.nn_distance_ratio)
+    query, train = frame.features.descriptors, node.features.descriptors
+    if frame.features.binary:
+        frame_index, node_index, ratios = hamming_ratio_matches(query, train, params.nn_distance_ratio)
+    else:
+        frame_index, node_index, ratios = match_with_ratios(query, train, False, params.nn_distance_ratio)
     order = np.argsort(ratios, kind="stable")[:params.max_matches]
     return frame_index[order], node_index[order]
 
