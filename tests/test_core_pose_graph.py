@@ -79,3 +79,21 @@ def test_edges_between_the_same_nodes_are_told_apart():
     graph.add_edge(second)
     graph.remove_edge(second)
     assert graph.edges == [first] and graph.edges[0] is first
+
+
+def test_a_graph_that_grew_and_lost_an_edge_optimises_as_one_built_without_it():
+    # Factors are kept between optimisations: an edge taken back must leave no trace.
+    truth = circle()
+    grown, loop = drifting_graph(truth, information_from_sigmas(0.001, 0.001))
+    grown.optimize()
+    grown.remove_edge(loop)
+    wrong = Edge(3, 9, make_pose(np.eye(3), [5.0, 0, 0]), information_from_sigmas(0.001, 0.001))
+    grown.add_edge(wrong)
+    grown.remove_edge(wrong)
+    fresh, fresh_loop = drifting_graph(truth, information_from_sigmas(0.001, 0.001))
+    fresh.remove_edge(fresh_loop)
+    for node, pose in fresh.poses.items():
+        grown.poses[node] = pose.copy()
+    assert grown.optimize() == fresh.optimize()
+    for node in fresh.poses:
+        np.testing.assert_array_equal(grown.poses[node], fresh.poses[node])

@@ -1,9 +1,11 @@
 """A Pose3 graph optimised with GTSAM's Levenberg-Marquardt.
 
-Nodes and edges are kept in Python and the GTSAM factor graph is rebuilt for each
-optimisation: graphs here hold hundreds of nodes, the rebuild costs far less than the
-optimisation, and it lets a pipeline try an edge and take it back (RTAB-Map rejects a
-loop closure whose optimised error is too large).
+Nodes and edges are kept in Python, each edge's GTSAM factor is made once, and the factor
+graph grows as edges come: a graph of thousands of nodes (RGB-D SLAM v2 makes one per frame
+and optimises after each) is not rebuilt from Python for every optimisation. Taking an edge
+back (RTAB-Map rejects a loop closure whose optimised error is too large) or changing a
+prior rebuilds it from the cached factors, priors first and edges in the order they came,
+so the factors are always in the same order for the same graph.
 """
 
 from dataclasses import dataclass
@@ -39,21 +41,31 @@ class PoseGraph:
         self.edges: list[Edge] = []
         self.priors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.huber_threshold = huber_threshold
+        self._factors: dict[Edge, gtsam.NonlinearFactor] = {}
+        self._graph: gtsam.NonlinearFactorGraph | None = None
 
     def add_node(self, node_id: int, pose: np.ndarray) -> None:
         self.poses[node_id] = np.array(pose, dtype=np.float64)
 
     def add_prior(self, node_id: int, pose: np.ndarray, information: np.ndarray) -> None:
         self.priors[node_id] = (np.array(pose, dtype=np.float64), information)
+        self._graph = None
 
     def remove_prior(self, node_id: int) -> None:
-        self.priors.pop(node_id, None)
+        if self.priors.pop(node_id, None) is not None:
+            self._graph = None
 
     def add_edge(self, edge: Edge) -> None:
         self.edges.append(edge)
+        factor = self._factors[edge] = gtsam.BetweenFactorPose3(
+            edge.from_id, edge.to_id, gtsam.Pose3(edge.relative), self._noise(edge.information, edge.robust))
+        if self._graph is not None:
+            self._graph.add(factor)
 
     def remove_edge(self, edge: Edge) -> None:
         self.edges.remove(edge)
+        del self._factors[edge]
+        self._graph = None
 
     def _noise(self, information: np.ndarray, robust: bool):
         model = gtsam.noiseModel.Gaussian.Information(information)
@@ -62,16 +74,16 @@ class PoseGraph:
         return model
 
     def _build(self) -> tuple[gtsam.NonlinearFactorGraph, gtsam.Values]:
-        graph = gtsam.NonlinearFactorGraph()
+        if self._graph is None:
+            self._graph = gtsam.NonlinearFactorGraph()
+            for node_id, (pose, information) in self.priors.items():
+                self._graph.add(gtsam.PriorFactorPose3(node_id, gtsam.Pose3(pose), self._noise(information, False)))
+            for edge in self.edges:
+                self._graph.add(self._factors[edge])
         values = gtsam.Values()
         for node_id, pose in self.poses.items():
             values.insert(node_id, gtsam.Pose3(pose))
-        for node_id, (pose, information) in self.priors.items():
-            graph.add(gtsam.PriorFactorPose3(node_id, gtsam.Pose3(pose), self._noise(information, False)))
-        for edge in self.edges:
-            graph.add(gtsam.BetweenFactorPose3(edge.from_id, edge.to_id, gtsam.Pose3(edge.relative),
-                                               self._noise(edge.information, edge.robust)))
-        return graph, values
+        return self._graph, values
 
     def error(self) -> float:
         graph, values = self._build()
