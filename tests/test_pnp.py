@@ -1,8 +1,7 @@
-"""PnP RANSAC: exact poses from clean correspondences, outliers flagged, seeded repeatability."""
+"""PnP RANSAC: exact poses from clean correspondences, outliers flagged, repeatable whatever the global generator."""
 
 import cv2
 import numpy as np
-import pytest
 
 from viewer_slam.frontend.pnp import solve_pnp_ransac
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, transform_points
@@ -22,7 +21,7 @@ def scene(outliers: int, seed: int = 0):
 
 def test_recovers_the_pose_and_flags_exactly_the_outliers():
     points, pixels, pose = scene(outliers=60)
-    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0)
+    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20)
     assert np.abs(result.pose - pose).max() < 1e-6
     assert not result.inliers[:60].any() and result.inliers[60:].all()
     assert result.inlier_count == 140
@@ -30,18 +29,21 @@ def test_recovers_the_pose_and_flags_exactly_the_outliers():
 
 def test_too_few_agreeing_points_give_no_pose():
     points, pixels, _ = scene(outliers=190)
-    assert solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0) is None
-    assert solve_pnp_ransac(points[:10], pixels[:10], K, reprojection_error=2.0, iterations=300, min_inliers=20,
-                            seed=0) is None
+    assert solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20) is None
+    assert solve_pnp_ransac(points[:10], pixels[:10], K, reprojection_error=2.0, iterations=300, min_inliers=20) is None
 
 
-@pytest.mark.parametrize("seed", [0, 7])
-def test_same_seed_gives_the_same_result(seed):
-    points, pixels, _ = scene(outliers=80, seed=3)
+def test_the_global_generator_does_not_change_the_result():
+    """OpenCV's RANSAC samples from a fixed-seed generator of its own: with 15 hypotheses
+    among 150 outliers the winner is a chance one, and still the same for every global seed."""
+    points, pixels, _ = scene(outliers=150, seed=3)
     noisy = pixels + np.random.default_rng(1).normal(0, 0.7, pixels.shape)
-    first = solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=50, min_inliers=20, seed=seed)
-    second = solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=50, min_inliers=20, seed=seed)
-    assert np.array_equal(first.pose, second.pose) and np.array_equal(first.inliers, second.inliers)
+    results = []
+    for global_seed in (0, 7, 12345):
+        cv2.setRNGSeed(global_seed)
+        results.append(solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=15, min_inliers=4))
+    assert all(np.array_equal(r.pose, results[0].pose) and np.array_equal(r.inliers, results[0].inliers)
+               for r in results)
 
 
 def test_distorted_pixels_give_the_true_pose():
@@ -49,8 +51,8 @@ def test_distorted_pixels_give_the_true_pose():
     points, _, pose = scene(outliers=0)
     in_camera = transform_points(invert(pose), points)
     pixels = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, np.array(distortion))[0].reshape(-1, 2)
-    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0,
+    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20,
                               distortion=distortion)
     assert np.abs(result.pose - pose).max() < 1e-6
-    ignored = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, seed=0)
+    ignored = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20)
     assert ignored is None or np.abs(ignored.pose - pose).max() > 1e-3

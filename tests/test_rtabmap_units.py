@@ -286,7 +286,7 @@ def scene(count: int = 300, rng=None) -> np.ndarray:
 
 def test_after_a_loss_odometry_registers_against_the_whole_local_map():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
     assert odometry.process(view(world, np.eye(4), words)).new_session
     blocked = odometry.process(view(world, np.eye(4), descriptors(300, np.random.default_rng(3))))
     assert blocked.pose is None and odometry.velocity is None
@@ -299,7 +299,7 @@ def test_after_a_loss_odometry_registers_against_the_whole_local_map():
 
 def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"), 0)
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"))
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
     odometry.process(view(world, np.eye(4), words))
     assert np.allclose(odometry.process(view(world, moved, words)).pose, moved, atol=1e-3)
@@ -311,7 +311,7 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
 
 def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
     odometry.process(view(world, np.eye(4), words))
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
     features = view(world, moved, words)
@@ -338,7 +338,7 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
 def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():
     """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams(), seed=0)
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
     odometry.process(view(world, np.eye(4), words))
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
     new_rng = np.random.default_rng(5)

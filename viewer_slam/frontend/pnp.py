@@ -1,4 +1,4 @@
-"""3D-2D registration: OpenCV's PnP RANSAC, seeded, refined on its inliers."""
+"""3D-2D registration: OpenCV's PnP RANSAC, refined on its inliers."""
 
 from dataclasses import dataclass
 
@@ -23,7 +23,7 @@ class PnpResult:
 
 
 def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
-                     reprojection_error: float, iterations: int, min_inliers: int, seed: int,
+                     reprojection_error: float, iterations: int, min_inliers: int,
                      distortion: tuple[float, ...] | None = None) -> PnpResult | None:
     """Camera pose from 3D points ``(N, 3)`` seen at pixels ``(N, 2)``, or None when fewer
     than ``min_inliers`` correspondences agree.
@@ -31,8 +31,9 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
     RANSAC hypotheses come from the minimal AP3P solver (four points, so far fewer
     iterations than EPnP's five at the same confidence); the winner is refined by
     Levenberg-Marquardt on its inliers, which are then recounted. OpenCV draws its samples
-    from its global generator, reseeded on every call so that the same input and seed give
-    the same pose. ``distortion`` (OpenCV's k1, k2, p1, p2, k3) is the lens model of the
+    from a generator of the call's own with a fixed seed, not from the global one
+    ``cv2.setRNGSeed`` sets, so the same input always gives the same pose and no seed
+    applies (as in RTAB-Map itself, which calls the same function). ``distortion`` (OpenCV's k1, k2, p1, p2, k3) is the lens model of the
     pixels: TUM's freiburg1/2 images are not rectified.
     """
     if len(object_points) < max(min_inliers, 4):
@@ -40,7 +41,6 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
     object_points = np.ascontiguousarray(object_points, dtype=np.float64)
     image_points = np.ascontiguousarray(image_points, dtype=np.float64)
     lens = np.asarray(distortion, dtype=np.float64) if distortion is not None and any(distortion) else None
-    cv2.setRNGSeed(seed)
     ok, rvec, tvec, inliers = cv2.solvePnPRansac(
         object_points, image_points, K, lens, iterationsCount=iterations, reprojectionError=reprojection_error,
         confidence=RANSAC_CONFIDENCE, flags=cv2.SOLVEPNP_AP3P)

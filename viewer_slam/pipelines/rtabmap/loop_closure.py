@@ -50,13 +50,13 @@ def too_large_rotation(relative: np.ndarray) -> bool:
     return abs(pitch) > MAX_LOOP_ROTATION or abs(yaw) > MAX_LOOP_ROTATION
 
 
-def register(old: Location, new: Location, camera: Camera, params: RtabmapParams, seed: int) -> Registration:
+def register(old: Location, new: Location, camera: Camera, params: RtabmapParams) -> Registration:
     """The new location's pose in the old one's frame from its keypoints and the old 3D words."""
     with_depth = np.flatnonzero(~np.isnan(old.points[:, 0]))
     query, train = match_descriptors(new.descriptors, old.descriptors[with_depth], True, params.correspondence_nndr)
     solution = solve_pnp_ransac(old.points[with_depth[train]], new.keypoints[query], camera.K,
                                 reprojection_error=params.pnp_reprojection_error, distortion=camera.distortion,
-                                iterations=params.ransac_iterations, min_inliers=params.min_inliers, seed=seed)
+                                iterations=params.ransac_iterations, min_inliers=params.min_inliers)
     if solution is None:
         return Registration(None, len(query), 0,
                             rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")

@@ -151,10 +151,9 @@ def guided_matches(keypoints: np.ndarray, descriptors: np.ndarray, projections: 
 class FrameToMapOdometry:
     """Registers each frame to the local map; see the module docstring."""
 
-    def __init__(self, camera: Camera, params: RtabmapParams, seed: int = 0):
+    def __init__(self, camera: Camera, params: RtabmapParams):
         self.camera = camera
         self.params = params
-        self.seed = seed
         self.map = LocalMap()
         self.key_frames = KeyFrames()
         self.bundle_settings = BundleSettings(params.bundle_pixel_variance, params.bundle_kernel_delta,
@@ -245,8 +244,7 @@ class FrameToMapOdometry:
         params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
                                     reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
-                                    iterations=params.ransac_iterations, min_inliers=params.min_inliers,
-                                    seed=self.seed)
+                                    iterations=params.ransac_iterations, min_inliers=params.min_inliers)
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
         variance, map_points = 0.0, None

@@ -59,7 +59,7 @@ class Rtabmap(Pipeline):
                                           min_depth=max(p.min_depth, NEAREST_MEASURED_DEPTH),
                                           max_depth=p.max_depth or np.inf, depth_mask=p.depth_as_mask,
                                           depth_smoothing=True)
-        self.odometry = FrameToMapOdometry(camera, p, seed)
+        self.odometry = FrameToMapOdometry(camera, p)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
         self.edges = EdgeClassifier()
@@ -272,7 +272,7 @@ class Rtabmap(Pipeline):
     def _close(self, frame: Frame, old: Location, new: Location, link: Link, score: float, watch: Stopwatch,
                events: list[Event]) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
-        registration = watch("verification", register, old, new, self.camera, self.params, self.seed)
+        registration = watch("verification", register, old, new, self.camera, self.params)
         if registration.relative is None:
             events.append(GraphEdge(frame.index, old.id, new.id, False, registration.rejected,
                                     self.edges.kind(old.id, new.id), None, score, registration.inliers,
