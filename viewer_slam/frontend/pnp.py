@@ -33,8 +33,9 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
     Levenberg-Marquardt on its inliers, which are then recounted. OpenCV draws its samples
     from a generator of the call's own with a fixed seed, not from the global one
     ``cv2.setRNGSeed`` sets, so the same input always gives the same pose and no seed
-    applies (as in RTAB-Map itself, which calls the same function). ``distortion`` (OpenCV's k1, k2, p1, p2, k3) is the lens model of the
-    pixels: TUM's freiburg1/2 images are not rectified.
+    applies (as in RTAB-Map itself, which calls the same function). ``distortion``
+    (OpenCV's k1, k2, p1, p2, k3) is the lens model of the pixels: TUM's freiburg1/2 images
+    are not rectified.
     """
     if len(object_points) < max(min_inliers, 4):
         return None

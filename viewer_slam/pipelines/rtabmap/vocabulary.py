@@ -7,8 +7,8 @@ Term Memory bounds the search; a retrieved location brings its words back.
 
 Nearest words come from a FLANN LSH index (the binary-descriptor index), rebuilt once
 enough words are waiting, plus an exhaustive search over the words added since. OpenCV
-shuffles the LSH hash bits with its own generator, reseeded before each build, so the
-words found do not depend on what ran before in the process.
+shuffles the LSH hash bits with its global generator, reseeded with the run's seed before
+each build, so the words found do not depend on what ran before in the process.
 """
 
 from collections import defaultdict
