@@ -25,6 +25,7 @@ and its point counts as an outlier.
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..geometry.se3 import invert, make_pose, transform_points
@@ -223,18 +224,13 @@ class _Problem:
         self.measured = measurements(observations, K[0, 0], settings.baseline)[order]
         frames = observations.frame[order]
         self.free_rows, self.held_rows = np.flatnonzero(self.free), np.flatnonzero(~self.free)
-        self.held_to_camera = np.stack([invert(held[frame]) for frame in frames[self.held_rows]]).reshape(-1, 4, 4)
+        held_frames, held_index = np.unique(frames[self.held_rows], return_inverse=True)
+        to_camera = np.stack([invert(held[frame]) for frame in held_frames]) if len(held_frames) else np.empty((0, 4, 4))
+        self.held_to_camera = to_camera[held_index.ravel()]
         self.link = LinkEdge(held[link.frame], link) if link is not None else None
         self.observed = np.bincount(self.point, minlength=point_count) > 0
         self.first_of_point = np.searchsorted(self.point, np.flatnonzero(self.observed))
         self.free_points, self.held_points = self.point[self.free_rows], self.point[self.held_rows]
-
-    def rotations(self, pose: np.ndarray) -> np.ndarray:
-        """(M, 3, 3) world-to-camera rotation of each edge's camera."""
-        rotation = np.empty((len(self.point), 3, 3))
-        rotation[self.held_rows] = self.held_to_camera[:, :3, :3]
-        rotation[self.free_rows] = pose[:3, :3].T
-        return rotation
 
     def in_camera(self, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
         result = np.empty((len(self.point), 3))
@@ -260,42 +256,86 @@ class _Problem:
     def normal_equations(self, at: "_Evaluation", kept: np.ndarray):
         """The Gauss-Newton system of the kept edges in blocks: camera (6x6, 6), per point
         (N, 3, 3) and (N, 3), and camera-point (N, 6, 3); b is minus the gradient."""
-        settings, pose, error, in_camera = self.settings, at.pose, at.error, at.in_camera
+        settings, pose = self.settings, at.pose
         weight = np.where(kept, huber(at.chi2, settings.kernel_delta)[1], 0.0) / settings.pixel_variance
-        projection = self._projection_jacobian(in_camera)
-        point_jacobian = projection @ self.rotations(pose)
-        weighted_transposed = (weight[:, None, None] * point_jacobian).transpose(0, 2, 1)
-        per_edge = np.concatenate([(weighted_transposed @ point_jacobian).reshape(-1, 9),
-                                   -(weighted_transposed @ error[:, :, None])[:, :, 0]], axis=1)
-        per_point = np.zeros((self.point_count, 12))
-        per_point[self.observed] = np.add.reduceat(per_edge, self.first_of_point, axis=0)
-        free = self.free_rows
-        camera_jacobian = projection[free] @ np.concatenate(
-            [np.broadcast_to(-pose[:3, :3].T, (len(free), 3, 3)), 2.0 * skew(in_camera[free])], axis=2)
-        weighted_camera = (weight[free, None, None] * camera_jacobian).transpose(0, 2, 1)
-        hessian_camera = (weighted_camera @ camera_jacobian).sum(axis=0)
-        gradient_camera = -(weighted_camera @ error[free][:, :, None]).sum(axis=0)[:, 0]
-        coupling = np.zeros((self.point_count, 6, 3))
-        np.add.at(coupling, self.free_points, weighted_camera @ point_jacobian[free])
+        world_to_camera = np.empty((len(self.point), 3, 3))
+        world_to_camera[self.held_rows] = self.held_to_camera[:, :3, :3]
+        world_to_camera[self.free_rows] = pose[:3, :3].T
+        system = (np.zeros((6, 6)), np.zeros(6), np.zeros((self.point_count, 3, 3)), np.zeros((self.point_count, 3)),
+                  np.zeros((self.point_count, 6, 3)))
+        _accumulate_normal_equations(at.in_camera, at.error, weight, self.stereo, self.free, self.point,
+                                     world_to_camera, self.K[0, 0], self.K[1, 1], settings.baseline, *system)
+        hessian_camera, gradient_camera = system[0], system[1]
         if self.link is not None:
             jacobian = self.link.jacobian(pose)
             hessian_camera += self.link.information * jacobian.T @ jacobian
             gradient_camera -= self.link.information * jacobian.T @ self.link.error(pose)
-        return hessian_camera, gradient_camera, per_point[:, :9].reshape(-1, 3, 3), per_point[:, 9:], coupling
+        return system
 
-    def _projection_jacobian(self, in_camera: np.ndarray) -> np.ndarray:
-        """(M, 3, 3) d(u, v, u_right) / d(camera-frame point); no third row for a mono edge."""
-        fx, fy, baseline = self.K[0, 0], self.K[1, 1], self.settings.baseline
-        x, y, z = in_camera.T
+
+@numba.njit(cache=True, nogil=True)
+def _accumulate_normal_equations(in_camera, error, weight, stereo, free, point, world_to_camera, fx, fy, baseline,
+                                 hessian_camera, gradient_camera, hessian_points, gradient_points, coupling):
+    """Adds each edge's weighted J^T J and -J^T e to the blocks, compiled: the per-edge 3x3
+    and 3x6 products are too small for NumPy to run them at speed. J is the projection's
+    Jacobian (u, v and, with depth, u_right) times d(camera-frame point) / d(point) = the
+    edge camera's world-to-camera rotation and, for the adjusted frame, / d(t, dv) =
+    (-R^T, 2 [p]x) for g2o's camera increment."""
+    projection = np.zeros((3, 3))
+    point_jacobian = np.empty((3, 3))
+    camera_jacobian = np.empty((3, 6))
+    for m in range(len(point)):
+        w = weight[m]
+        if w == 0.0:
+            continue
+        x, y, z = in_camera[m, 0], in_camera[m, 1], in_camera[m, 2]
         inverse_z = 1.0 / z
-        jacobian = np.zeros((len(z), 3, 3))
-        jacobian[:, 0, 0] = jacobian[:, 2, 0] = fx * inverse_z
-        jacobian[:, 0, 2] = -fx * x * inverse_z ** 2
-        jacobian[:, 1, 1] = fy * inverse_z
-        jacobian[:, 1, 2] = -fy * y * inverse_z ** 2
-        jacobian[:, 2, 2] = -fx * (x - baseline) * inverse_z ** 2
-        jacobian[~self.stereo, 2] = 0.0
-        return jacobian
+        projection[0, 0] = fx * inverse_z
+        projection[0, 2] = -fx * x * inverse_z ** 2
+        projection[1, 1] = fy * inverse_z
+        projection[1, 2] = -fy * y * inverse_z ** 2
+        rows = 3 if stereo[m] else 2
+        projection[2, 0] = fx * inverse_z
+        projection[2, 2] = -fx * (x - baseline) * inverse_z ** 2
+        rotation = world_to_camera[m]
+        for i in range(rows):
+            for j in range(3):
+                point_jacobian[i, j] = (projection[i, 0] * rotation[0, j] + projection[i, 1] * rotation[1, j]
+                                        + projection[i, 2] * rotation[2, j])
+        p = point[m]
+        for a in range(3):
+            for b in range(3):
+                total = 0.0
+                for i in range(rows):
+                    total += point_jacobian[i, a] * point_jacobian[i, b]
+                hessian_points[p, a, b] += w * total
+            total = 0.0
+            for i in range(rows):
+                total += point_jacobian[i, a] * error[m, i]
+            gradient_points[p, a] -= w * total
+        if not free[m]:
+            continue
+        for i in range(rows):  # (-R^T, 2 [p]x) with R^T = world_to_camera
+            for j in range(3):
+                camera_jacobian[i, j] = -point_jacobian[i, j]
+            camera_jacobian[i, 3] = 2.0 * (projection[i, 1] * z - projection[i, 2] * y)
+            camera_jacobian[i, 4] = 2.0 * (projection[i, 2] * x - projection[i, 0] * z)
+            camera_jacobian[i, 5] = 2.0 * (projection[i, 0] * y - projection[i, 1] * x)
+        for a in range(6):
+            for b in range(6):
+                total = 0.0
+                for i in range(rows):
+                    total += camera_jacobian[i, a] * camera_jacobian[i, b]
+                hessian_camera[a, b] += w * total
+            total = 0.0
+            for i in range(rows):
+                total += camera_jacobian[i, a] * error[m, i]
+            gradient_camera[a] -= w * total
+            for b in range(3):
+                total = 0.0
+                for i in range(rows):
+                    total += camera_jacobian[i, a] * point_jacobian[i, b]
+                coupling[p, a, b] += w * total
 
 
 def skew(vectors: np.ndarray) -> np.ndarray:
