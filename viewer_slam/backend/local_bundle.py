@@ -12,7 +12,8 @@ so the depth is weighed in pixels too; one without depth is a plain projection.
 
 The solver is g2o's Levenberg-Marquardt (``OptimizationAlgorithmLevenberg``) on the Schur
 complement of the points (``BlockSolver_6_3``, points marginalised), vectorised over the
-observations: the camera moves by ``t += dt`` and ``R = R q(dv)`` with ``q(dv)`` the unit
+observations, the normal equations summed in compiled code: the camera moves by
+``t += dt`` and ``R = R q(dv)`` with ``q(dv)`` the unit
 quaternion of vector part ``dv`` (g2o's ``SBACam::update``); the first damping is 1e-5 times
 the largest diagonal entry of the Hessian; a step is kept when it lowers the robust chi2, the
 damping then scaled by ``max(1/3, min(2/3, 1 - (2 rho - 1)^3))``, and otherwise undone with
