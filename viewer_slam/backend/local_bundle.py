@@ -213,7 +213,7 @@ class _Evaluation:
 class _Problem:
     """The edges of one adjustment with what stays fixed across iterations: the measured
     coordinates, the fixed key frames' world-to-camera transforms and the edges sorted by
-    point (for the per-point sums)."""
+    point (which fixes the order of the per-point sums)."""
 
     def __init__(self, observations: Observations, held: dict[int, np.ndarray], link: Link | None,
                  K: np.ndarray, settings: BundleSettings, point_count: int):
@@ -226,11 +226,8 @@ class _Problem:
         frames = observations.frame[order]
         self.free_rows, self.held_rows = np.flatnonzero(self.free), np.flatnonzero(~self.free)
         held_frames, held_index = np.unique(frames[self.held_rows], return_inverse=True)
-        to_camera = np.stack([invert(held[frame]) for frame in held_frames]) if len(held_frames) else np.empty((0, 4, 4))
-        self.held_to_camera = to_camera[held_index.ravel()]
+        self.held_to_camera = np.stack([invert(held[frame]) for frame in held_frames])[held_index.ravel()]
         self.link = LinkEdge(held[link.frame], link) if link is not None else None
-        self.observed = np.bincount(self.point, minlength=point_count) > 0
-        self.first_of_point = np.searchsorted(self.point, np.flatnonzero(self.observed))
         self.free_points, self.held_points = self.point[self.free_rows], self.point[self.held_rows]
 
     def in_camera(self, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
