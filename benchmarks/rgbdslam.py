@@ -1,14 +1,15 @@
 """Speed, accuracy and memory of the rgbdslam pipeline (figures for docs/pipelines/rgbdslam.md).
 
-    python benchmarks/rgbdslam.py speed  [--sequence SPEC] [--frames N] [--detectors ORB SIFT]
-    python benchmarks/rgbdslam.py memory [--sequence SPEC] [--frames 2500]
+    python benchmarks/rgbdslam.py speed  [--sequence SPEC] [--frames N] [--detectors ORB SIFT] [--set KEY=VALUE ...]
+    python benchmarks/rgbdslam.py memory [--sequence SPEC] [--frames 2500] [--set KEY=VALUE ...]
 
 ``speed`` runs each detector over one sequence and prints frames per second (by the wall
 clock, and by the process's CPU time, which a busy shared machine does not inflate), the median
 and mean milliseconds per stage, and ATE RMSE after optimisation and of odometry alone.
 ``memory`` feeds a long stream (the sequence played forwards and backwards until
 ``--frames`` frames, so the camera keeps moving and the graph keeps growing) and prints
-the process's peak resident set size. Run each mode in its own process.
+the process's peak resident set size. ``--set`` overrides parameters (e.g.
+``backend_solver=cholmod``). Run each mode in its own process.
 """
 
 import argparse
@@ -72,7 +73,7 @@ def speed(args) -> None:
     print(header)
     print("|" + "---|" * (header.count("|") - 1))
     for detector in args.detectors:
-        params = apply_overrides(RgbdSlamParams(), {"feature_detector_type": detector}, "benchmark")
+        params = apply_overrides(RgbdSlamParams(), {**args.overrides, "feature_detector_type": detector}, "benchmark")
         stage_ms = {stage: [] for stage in STAGES}
 
         def collect(event):
@@ -96,7 +97,7 @@ def memory(args) -> None:
     sequence = PingPong(open_sequence(resolve_sequence(args.sequence)), args.frames)
     before = peak_rss_mb()
     start = time.perf_counter()
-    run = run_pipeline(sequence, "rgbdslam", RgbdSlamParams(), seed=0)
+    run = run_pipeline(sequence, "rgbdslam", apply_overrides(RgbdSlamParams(), args.overrides, "benchmark"), seed=0)
     print(f"{run.frames} frames ({sequence.name} forwards and backwards), {run.keyframes} nodes, "
           f"{run.loop_closures_accepted} loop closures accepted, {len(run.trajectory.timestamps)} poses, "
           f"{time.perf_counter() - start:.0f} s ({run.fps:.1f} fps)")
@@ -109,7 +110,9 @@ def main() -> None:
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None)
     parser.add_argument("--detectors", nargs="+", default=["ORB", "SIFT"])
+    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="parameter overrides")
     args = parser.parse_args()
+    args.overrides = dict(item.split("=", 1) for item in args.set)
     if args.mode == "speed":
         speed(args)
     else:

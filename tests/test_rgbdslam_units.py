@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from viewer_slam.backend.pose_graph import PoseGraph, information_from_sigmas
+from viewer_slam.backend.pose_graph import CHOLESKY, PCG, PoseGraph, information_from_sigmas
 from viewer_slam.errors import InputError
 from viewer_slam.frontend.features import Features
 from viewer_slam.geometry.camera import Camera
@@ -46,7 +46,15 @@ def test_registered_under_its_name_with_v2_defaults():
     assert (defaults["min_translation_meter"], defaults["min_rotation_degree"]) == (0.0, 0.0)
     assert (defaults["nn_distance_ratio"], defaults["sigma_depth"], defaults["adjuster_max_iterations"]) == (0.95, 0.01, 5)
     assert defaults["keep_all_nodes"] is False and defaults["observability_threshold"] <= 0
+    assert (defaults["optimizer_iterations"], defaults["optimizer_skip_step"], defaults["backend_solver"]) == (0.01, 1, "pcg")
     assert all(defaults[k] == 0 for k in defaults if k.startswith("viewslam_"))  # ours: off
+
+
+def test_backend_solver_picks_conjugate_gradients_or_sparse_cholesky_as_v2s_g2o_solvers():
+    assert NodeGraph("pcg").poses.linear_solver == PCG
+    assert NodeGraph("cholmod").poses.linear_solver == NodeGraph("csparse").poses.linear_solver == CHOLESKY
+    with pytest.raises(InputError, match="backend_solver"):
+        apply_overrides(RgbdSlamParams(), {"backend_solver": "dense"}, "--param")
 
 
 def test_surf_is_refused_with_the_reason():
@@ -102,7 +110,7 @@ def test_edge_information_is_inliers_over_squared_rms_error():
 
 
 def test_edges_with_large_errors_are_pruned_as_v2_does():
-    graph = NodeGraph()
+    graph = NodeGraph("pcg")
     graph.segments.add(0)
     for node_id in range(3):
         node = Node.from_frame(node_id, node_id, float(node_id), MeasuredFeatures(EMPTY), np.zeros((8, 8, 3), np.uint8),

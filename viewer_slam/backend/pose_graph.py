@@ -6,6 +6,13 @@ and optimises after each) is not rebuilt from Python for every optimisation. Tak
 back (RTAB-Map rejects a loop closure whose optimised error is too large) or changing a
 prior rebuilds it from the cached factors, priors first and edges in the order they came,
 so the factors are always in the same order for the same graph.
+
+Each Levenberg-Marquardt step solves its linear system either by sparse Cholesky
+factorisation (GTSAM's multifrontal elimination) or by conjugate gradients with a
+block-Jacobi preconditioner, g2o's ``LinearSolverPCG``. Cholesky is exact but fills in where
+loop edges join distant nodes; on a graph that closes loops across its whole history its
+factor approaches a dense 6N x 6N matrix, in memory and time. Conjugate gradients only
+multiply by the sparse system.
 """
 
 from dataclasses import dataclass
@@ -28,6 +35,15 @@ class Edge:
     robust: bool = False
 
 
+CHOLESKY = "cholesky"
+PCG = "pcg"
+LINEAR_SOLVERS = (CHOLESKY, PCG)
+# g2o's LinearSolverPCG stops once r^T M^-1 r (M the block-diagonal preconditioner) falls to
+# 1e-6 of its first value, after at most as many iterations as the system has rows. GTSAM
+# stops at epsilon_rel^2 times the first value.
+PCG_RELATIVE_TOLERANCE = 1e-6
+
+
 def information_from_sigmas(rotation_sigma: float, translation_sigma: float) -> np.ndarray:
     """Diagonal information in GTSAM's tangent order (rotation, then translation)."""
     return np.diag([rotation_sigma ** -2] * 3 + [translation_sigma ** -2] * 3)
@@ -36,7 +52,10 @@ def information_from_sigmas(rotation_sigma: float, translation_sigma: float) -> 
 class PoseGraph:
     """Nodes with initial guesses, between-edges and priors; optimised on demand."""
 
-    def __init__(self, huber_threshold: float = 1.345):
+    def __init__(self, huber_threshold: float = 1.345, linear_solver: str = CHOLESKY):
+        if linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"linear solver {linear_solver!r}: expected one of {', '.join(LINEAR_SOLVERS)}")
+        self.linear_solver = linear_solver
         self.poses: dict[int, np.ndarray] = {}
         self.edges: list[Edge] = []
         self.priors: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -103,10 +122,23 @@ class PoseGraph:
         parameters.setMaxIterations(max_iterations)
         if relative_tolerance is not None:
             parameters.setRelativeErrorTol(relative_tolerance)
+        if self.linear_solver == PCG:
+            parameters.setIterativeParams(self._pcg_parameters())
+            parameters.setLinearSolverType("ITERATIVE")
         result = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters).optimize()
         for node_id in self.poses:
             self.poses[node_id] = result.atPose3(node_id).matrix()
         return before, graph.error(result)
+
+    def _pcg_parameters(self) -> gtsam.PCGSolverParameters:
+        """g2o's stopping rule; single-threaded, as g2o's solver is, so sums keep their order."""
+        pcg = gtsam.PCGSolverParameters()
+        pcg.preconditioner = gtsam.BlockJacobiPreconditionerParameters()
+        pcg.epsilon_rel = PCG_RELATIVE_TOLERANCE ** 0.5
+        pcg.epsilon_abs = 0.0
+        pcg.maxIterations = 6 * len(self.poses)
+        pcg.parallel = False
+        return pcg
 
     def edge_chi2(self, edge: Edge) -> float:
         """Squared Mahalanobis distance ``r^T information r`` of the edge's residual

@@ -6,7 +6,7 @@ here they are one object so that the pipeline only decides what to add and compa
 
 import numpy as np
 
-from ...backend.pose_graph import Edge, PoseGraph
+from ...backend.pose_graph import CHOLESKY, PCG, Edge, PoseGraph
 from ...geometry.camera import Camera
 from ..edges import EdgeClassifier
 from ..events import MapUpdated
@@ -17,14 +17,16 @@ from .segments import Segments
 # v2 puts g2o's RobustKernelHuber (delta 1, on the Mahalanobis distance) on every edge.
 HUBER_DELTA = 1.0
 MAX_MAP_POINTS = 200_000
+# v2's backend_solver picks g2o's linear solver: PCG, or sparse Cholesky through CHOLMOD or CSparse.
+LINEAR_SOLVER_OF_BACKEND = {"pcg": PCG, "cholmod": CHOLESKY, "csparse": CHOLESKY}
 
 
 class NodeGraph:
     """Nodes in creation order (ids 0, 1, ...), each with a pose in ``poses``, its
     odometry-only pose, the segment it belongs to, and its neighbours by edge."""
 
-    def __init__(self):
-        self.poses = PoseGraph(huber_threshold=HUBER_DELTA)
+    def __init__(self, backend_solver: str):
+        self.poses = PoseGraph(huber_threshold=HUBER_DELTA, linear_solver=LINEAR_SOLVER_OF_BACKEND[backend_solver])
         self.nodes: dict[int, Node] = {}
         self.order: list[int] = []
         self.adjacency: dict[int, set[int]] = {}

@@ -50,6 +50,9 @@ class RgbdSlamParams:
     optimizer_iterations: float = param(
         0.01, gt=0, help="online optimisation: iterations if >= 1, else stop when the error improves by less than this fraction")
     optimizer_skip_step: int = param(1, ge=1, help="optimise online after every N-th new node")
+    backend_solver: str = param(
+        "pcg", help="linear solver of each optimisation step: pcg (conjugate gradients, block-Jacobi preconditioner), "
+        "or sparse Cholesky (cholmod, csparse: both GTSAM's)", choices=("pcg", "cholmod", "csparse"))
     maximum_depth: float = param(
         0.0, ge=0, help="keypoints farther than this (metres) get no 3D point (0 = no limit, v2's infinity)")
     minimum_depth: float = param(0.1, ge=0, help="keypoints nearer than this (metres) get no 3D point")

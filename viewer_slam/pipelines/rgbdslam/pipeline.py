@@ -107,7 +107,7 @@ class RgbdSlam(Pipeline):
                                           min_depth=p.minimum_depth, max_depth=p.maximum_depth or np.inf,
                                           adjuster_iterations=p.adjuster_max_iterations)
         self.rng = np.random.default_rng(seed)
-        self.graph = NodeGraph()
+        self.graph = NodeGraph(p.backend_solver)
         self.tracked: list[TrackedFrame] = []
         self.lost = False
         self.lost_chain: MeasuredFeatures | None = None
