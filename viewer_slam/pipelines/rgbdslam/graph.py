@@ -17,8 +17,6 @@ from .segments import Segments
 # v2 puts g2o's RobustKernelHuber (delta 1, on the Mahalanobis distance) on every edge.
 HUBER_DELTA = 1.0
 MAX_MAP_POINTS = 200_000
-# v2's backend_solver picks g2o's linear solver: PCG, or sparse Cholesky through CHOLMOD or CSparse.
-LINEAR_SOLVER_OF_BACKEND = {"pcg": PCG, "cholmod": CHOLESKY, "csparse": CHOLESKY}
 
 
 class NodeGraph:
@@ -26,7 +24,9 @@ class NodeGraph:
     odometry-only pose, the segment it belongs to, and its neighbours by edge."""
 
     def __init__(self, backend_solver: str):
-        self.poses = PoseGraph(huber_threshold=HUBER_DELTA, linear_solver=LINEAR_SOLVER_OF_BACKEND[backend_solver])
+        # v2's backend_solver: g2o's PCG, or sparse Cholesky (cholmod, csparse), here GTSAM's.
+        linear_solver = PCG if backend_solver == "pcg" else CHOLESKY
+        self.poses = PoseGraph(huber_threshold=HUBER_DELTA, linear_solver=linear_solver)
         self.nodes: dict[int, Node] = {}
         self.order: list[int] = []
         self.adjacency: dict[int, set[int]] = {}
