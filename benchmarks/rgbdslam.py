@@ -24,6 +24,7 @@ import numpy as np
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.frame import Frame
 from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.events import FrameTracked
 from viewer_slam.pipelines.params import apply_overrides
@@ -104,20 +105,30 @@ def memory(args) -> None:
     print(f"peak RSS {peak_rss_mb():.0f} MB (after imports and before the run: {before:.0f} MB)")
 
 
+def override(item: str) -> tuple[str, str]:
+    key, separator, value = item.partition("=")
+    if not separator or not key:
+        raise argparse.ArgumentTypeError(f"{item!r}: expected KEY=VALUE")
+    return key, value
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("mode", choices=("speed", "memory"))
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None)
     parser.add_argument("--detectors", nargs="+", default=["ORB", "SIFT"])
-    parser.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE", help="parameter overrides")
+    parser.add_argument("--set", nargs="*", type=override, default=[], metavar="KEY=VALUE", help="parameter overrides")
     args = parser.parse_args()
-    args.overrides = dict(item.split("=", 1) for item in args.set)
-    if args.mode == "speed":
-        speed(args)
-    else:
-        args.frames = args.frames or 2500
-        memory(args)
+    args.overrides = dict(args.set)
+    try:
+        if args.mode == "speed":
+            speed(args)
+        else:
+            args.frames = args.frames or 2500
+            memory(args)
+    except InputError as error:
+        parser.error(str(error))
 
 
 if __name__ == "__main__":
