@@ -4,8 +4,9 @@ import gtsam
 import numpy as np
 import pytest
 
+from viewer_slam.backend.bundle_solver import updated_pose
 from viewer_slam.backend.local_bundle import (FREE_FRAME, BundleSettings, Link, Observations, LinkEdge, adjust_frame,
-                                           edge_chi2, updated_pose)
+                                           edge_chi2)
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, transform_points
 
 FX, FY, CX, CY = 500.0, 510.0, 320.0, 240.0

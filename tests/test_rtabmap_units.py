@@ -14,7 +14,8 @@ from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, B
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
-from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, guided_matches, hamming_distances
+from viewer_slam.frontend.hamming import guided_ratio_matches
+from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
 RNG = np.random.default_rng(0)
@@ -48,7 +49,8 @@ def test_guided_matching_only_pairs_features_with_map_points_projected_nearby():
     # Feature k sits 3 px from map point k's projection, except feature 2, placed 60 px away.
     keypoints = projections + 3.0
     keypoints[2] += 60
-    query, train = guided_matches(keypoints, features, projections, map_descriptors, window=20, nndr=0.8)
+    query, train = guided_ratio_matches(keypoints, features, projections, map_descriptors, window=20, candidates=24,
+                                        ratio=0.8, lone_max_distance=64)
     assert sorted(zip(query.tolist(), train.tolist())) == [(0, 0), (1, 1), (3, 3), (4, 4), (5, 5)]
 
 
@@ -56,14 +58,9 @@ def test_guided_matching_ratio_test_drops_ambiguous_candidates():
     twin = descriptors(1)
     map_descriptors = np.vstack([twin, twin])
     projections = np.array([[50.0, 50.0], [55.0, 50.0]])
-    query, _ = guided_matches(np.array([[52.0, 50.0]]), flip_bits(twin, 4), projections, map_descriptors, 20, 0.8)
+    query, _ = guided_ratio_matches(np.array([[52.0, 50.0]]), flip_bits(twin, 4), projections, map_descriptors, 20,
+                                    24, 0.8, 64)
     assert len(query) == 0
-
-
-def test_hamming_distances_match_bit_counts():
-    a, b = descriptors(5), descriptors(5)
-    expected = [int(np.unpackbits(x ^ y).sum()) for x, y in zip(a, b)]
-    assert hamming_distances(a, b).tolist() == expected
 
 
 def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_observations():

@@ -24,8 +24,9 @@ two threads run on two cores.
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
+
+from ..compiled import jit
 
 SAMPLE_SIZE = 4
 MAX_REFINEMENTS = 19
@@ -42,7 +43,6 @@ NO_HYPOTHESIS_ERROR = 1e6
 # Jacobi sweeps at most for the 4x4 eigenproblem of the fit (it converges in about six).
 JACOBI_SWEEPS = 30
 
-jit = numba.njit(cache=True, nogil=True)
 
 
 @dataclass

@@ -21,9 +21,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ...frontend.features import Features, match_descriptors
+from ...frontend.hamming import guided_ratio_matches
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
@@ -113,41 +113,6 @@ class OdometryResult:
     map_points: np.ndarray | None = None
 
 
-def hamming_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise Hamming distances between two equally long arrays of binary descriptors
-    (counted on 64-bit words when the rows allow it: eight times fewer elements)."""
-    differing = np.ascontiguousarray(np.bitwise_xor(a, b))
-    if differing.shape[1] % 8 == 0:
-        differing = differing.view(np.uint64)
-    return np.bitwise_count(differing).sum(axis=1, dtype=np.int32)
-
-
-def guided_matches(keypoints: np.ndarray, descriptors: np.ndarray, projections: np.ndarray,
-                   map_descriptors: np.ndarray, window: float, nndr: float) -> tuple[np.ndarray, np.ndarray]:
-    """Matches (feature index, map index) between features and the map points projected
-    nearest to them, within ``window`` pixels, that pass the ratio test among those
-    candidates; each map point keeps its closest feature."""
-    if len(keypoints) == 0 or len(projections) < 2:
-        return np.zeros(0, int), np.zeros(0, int)
-    k = min(GUIDED_CANDIDATES, len(projections))
-    _, candidates = cKDTree(projections).query(keypoints, k=k, distance_upper_bound=window, p=np.inf)
-    found = candidates < len(projections)
-    query = np.broadcast_to(np.arange(len(keypoints))[:, None], candidates.shape)[found]
-    distance = np.full(candidates.shape, np.iinfo(np.int32).max, dtype=np.int64)
-    distance[found] = hamming_distances(descriptors[query], map_descriptors[candidates[found]])
-    # The two nearest by (distance, candidate rank): a partial sort of unique keys.
-    two_smallest = np.partition(distance * k + np.arange(k), 1, axis=1)[:, :2]
-    best, second, nearest = two_smallest[:, 0] // k, two_smallest[:, 1] // k, two_smallest[:, 0] % k
-    rows = np.arange(len(keypoints))
-    lone = found.sum(axis=1) == 1
-    passes = np.where(lone, best <= LONE_CANDIDATE_MAX_DISTANCE, best < nndr * second) & found.any(axis=1)
-    query, train, distance = rows[passes], candidates[passes, nearest[passes]], best[passes]
-    best_first = np.argsort(distance, kind="stable")
-    _, unique = np.unique(train[best_first], return_index=True)
-    keep = np.sort(best_first[unique])
-    return query[keep], train[keep]
-
-
 class FrameToMapOdometry:
     """Registers each frame to the local map; see the module docstring."""
 
@@ -231,9 +196,10 @@ class FrameToMapOdometry:
         near_image = ((projections[:, 0] > -margin) & (projections[:, 0] < self.camera.width + margin)
                       & (projections[:, 1] > -margin) & (projections[:, 1] < self.camera.height + margin))
         visible, projections = visible[near_image], projections[near_image]
-        feature_index, map_index = guided_matches(features.keypoints, features.descriptors, projections,
-                                                  self.map.descriptors[visible], params.guess_window,
-                                                  params.correspondence_nndr)
+        feature_index, map_index = guided_ratio_matches(features.keypoints, features.descriptors, projections,
+                                                        self.map.descriptors[visible], params.guess_window,
+                                                        GUIDED_CANDIDATES, params.correspondence_nndr,
+                                                        LONE_CANDIDATE_MAX_DISTANCE)
         return feature_index, visible[map_index]
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
