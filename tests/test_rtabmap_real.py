@@ -16,7 +16,8 @@ pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt
 
 @pytest.mark.parametrize("overrides, bound_m", [
     ({}, 0.075),                                 # measured 4.91 cm
-    ({"g2o/Baseline": 0.0}, 0.040),              # reprojection-only bundle: measured 2.90 cm
+    # reprojection-only bundle: 3.99 cm, and 2.0 to 4.2 cm with g2o/PixelVariance moved by 1e-12
+    ({"g2o/Baseline": 0.0}, 0.055),
     ({"OdomF2M/BundleAdjustment": 0}, 0.100),    # no bundle adjustment: measured 7.97 cm
 ])
 def test_every_frame_has_a_pose_and_the_ate_stays_within_its_bound(overrides, bound_m):

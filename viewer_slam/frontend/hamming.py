@@ -25,39 +25,45 @@ def _popcount(word):
 
 
 @jit
-def _two_nearest(query, train):
-    """Per query row: the nearest and second-nearest Hamming distances and the nearest
-    train row (the first one on ties)."""
-    distances = np.empty((query.shape[0], 2), dtype=np.int64)
-    nearest = np.empty(query.shape[0], dtype=np.int64)
-    for i in range(query.shape[0]):
-        first, second, best = NO_DISTANCE, NO_DISTANCE, 0
-        for j in range(train.shape[0]):
-            distance = 0
-            for k in range(query.shape[1]):
-                distance += _popcount(query[i, k] ^ train[j, k])
-            if distance < first:
-                first, second, best = distance, first, j
-            elif distance < second:
-                second = distance
-        distances[i, 0], distances[i, 1], nearest[i] = first, second, best
-    return distances, nearest
+def _two_nearest(query, i, train, rows):
+    """The nearest and second-nearest Hamming distances of query row ``i`` among the train
+    ``rows``, and the nearest row (the first one on ties)."""
+    first, second, nearest = NO_DISTANCE, NO_DISTANCE, -1
+    for j in rows:
+        distance = 0
+        for k in range(query.shape[1]):
+            distance += _popcount(query[i, k] ^ train[j, k])
+        if distance < first:
+            first, second, nearest = distance, first, j
+        elif distance < second:
+            second = distance
+    return first, second, nearest
+
+
+@jit
+def _kept_by_nearest_query(nearest, distance, train_count):
+    """The queries (ascending) that matched (``nearest`` >= 0) and are the closest to their
+    train row, the earlier query on ties: each train row is matched once."""
+    claimed = np.full(train_count, -1, dtype=np.int64)
+    for i in range(len(nearest)):
+        j = nearest[i]
+        if j >= 0 and (claimed[j] < 0 or distance[i] < distance[claimed[j]]):
+            claimed[j] = i
+    return np.array([i for i in range(len(nearest)) if nearest[i] >= 0 and claimed[nearest[i]] == i], dtype=np.int64)
 
 
 @jit
 def _ratio_matches(query, train, ratio):
     """The ratio test, then each train row kept for its nearest query."""
-    distances, nearest = _two_nearest(query, train)
-    claimed = np.full(train.shape[0], -1, dtype=np.int64)
+    rows = np.arange(train.shape[0])
+    first, second = np.empty(query.shape[0], dtype=np.int64), np.empty(query.shape[0], dtype=np.int64)
+    nearest = np.full(query.shape[0], -1, dtype=np.int64)
     for i in range(query.shape[0]):
-        if distances[i, 0] < ratio * distances[i, 1]:
-            owner = claimed[nearest[i]]
-            if owner < 0 or distances[i, 0] < distances[owner, 0]:
-                claimed[nearest[i]] = i
-    query_index = np.array([i for i in range(query.shape[0]) if claimed[nearest[i]] == i], dtype=np.int64)
-    train_index = nearest[query_index]
-    ratios = distances[query_index, 0] / distances[query_index, 1]
-    return query_index, train_index, ratios
+        first[i], second[i], best = _two_nearest(query, i, train, rows)
+        if first[i] < ratio * second[i]:
+            nearest[i] = best
+    query_index = _kept_by_nearest_query(nearest, first, train.shape[0])
+    return query_index, nearest[query_index], first[query_index] / second[query_index]
 
 
 @jit
@@ -117,32 +123,17 @@ def _guided_ratio_matches(query, train, candidates, ratio, lone_max_distance):
     """Per query, the nearest and second-nearest of its candidates by Hamming distance (the
     earlier candidate on ties); the ratio test, or for a lone candidate a distance of at most
     ``lone_max_distance``; then each train row kept for its nearest query."""
-    best_train = np.full(query.shape[0], -1, dtype=np.int64)
-    best_distance = np.full(query.shape[0], NO_DISTANCE, dtype=np.int64)
+    first = np.full(query.shape[0], NO_DISTANCE, dtype=np.int64)
+    nearest = np.full(query.shape[0], -1, dtype=np.int64)
     for i in range(query.shape[0]):
-        first, second, nearest, count = NO_DISTANCE, NO_DISTANCE, -1, 0
-        for rank in range(candidates.shape[1]):
-            j = candidates[i, rank]
-            if j < 0:
-                break
+        count = 0
+        while count < candidates.shape[1] and candidates[i, count] >= 0:
             count += 1
-            distance = 0
-            for k in range(query.shape[1]):
-                distance += _popcount(query[i, k] ^ train[j, k])
-            if distance < first:
-                first, second, nearest = distance, first, j
-            elif distance < second:
-                second = distance
-        if count == 1 and first <= lone_max_distance or count > 1 and first < ratio * second:
-            best_train[i], best_distance[i] = nearest, first
-    claimed = np.full(train.shape[0], -1, dtype=np.int64)
-    for i in range(query.shape[0]):
-        j = best_train[i]
-        if j >= 0 and (claimed[j] < 0 or best_distance[i] < best_distance[claimed[j]]):
-            claimed[j] = i
-    query_index = np.array([i for i in range(query.shape[0]) if best_train[i] >= 0 and claimed[best_train[i]] == i],
-                           dtype=np.int64)
-    return query_index, best_train[query_index]
+        distance, second, best = _two_nearest(query, i, train, candidates[i, :count])
+        if count == 1 and distance <= lone_max_distance or count > 1 and distance < ratio * second:
+            first[i], nearest[i] = distance, best
+    query_index = _kept_by_nearest_query(nearest, first, train.shape[0])
+    return query_index, nearest[query_index]
 
 
 def _words(descriptors: np.ndarray) -> np.ndarray:
