@@ -156,6 +156,7 @@ def _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, li
     hessian_points[:] = 0.0
     gradient_points[:] = 0.0
     coupling[:] = 0.0
+    pose_to_camera = np.ascontiguousarray(pose[:3, :3].T)
     projection = np.zeros((3, 3))
     point_jacobian = np.empty((3, 3))
     camera_jacobian = np.empty((3, 6))
@@ -172,13 +173,11 @@ def _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, li
         rows = 3 if stereo[m] else 2
         projection[2, 0] = fx * inverse_z
         projection[2, 2] = -fx * (x - baseline) * inverse_z ** 2
+        rotation = pose_to_camera if free[m] else held_rotation[m]
         for i in range(rows):
             for j in range(3):
-                total = 0.0
-                for k in range(3):
-                    world_to_camera = pose[j, k] if free[m] else held_rotation[m, k, j]
-                    total += projection[i, k] * world_to_camera
-                point_jacobian[i, j] = total
+                point_jacobian[i, j] = (projection[i, 0] * rotation[0, j] + projection[i, 1] * rotation[1, j]
+                                        + projection[i, 2] * rotation[2, j])
         p = point[m]
         for a in range(3):
             for b in range(3):
