@@ -329,7 +329,8 @@ def levenberg_marquardt(pose, points, kept, iterations, point, free, stereo, mea
     LAMBDA_INIT_FACTOR times the largest Hessian diagonal entry; a step is kept when it lowers
     the robust chi2, the damping then scaled by max(1/3, min(2/3, 1 - (2 rho - 1)^3)), and
     otherwise undone with the damping multiplied by 2, 4, 8, ... for at most
-    MAX_TRIALS_AFTER_FAILURE trials, after which the pass ends. Returns the pose and points."""
+    MAX_TRIALS_AFTER_FAILURE trials, after which the pass ends. Returns the pose, the points
+    and every edge's chi2 there (kept or not)."""
     edges, count = len(point), len(points)
     active = np.zeros(count, np.bool_)
     for m in range(edges):
@@ -383,4 +384,4 @@ def levenberg_marquardt(pose, points, kept, iterations, point, free, stereo, mea
             trials += 1
         if trials == MAX_TRIALS_AFTER_FAILURE or gain == 0 or not np.isfinite(damping):
             break
-    return pose, points
+    return pose, points, chi2

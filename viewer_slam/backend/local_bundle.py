@@ -99,7 +99,7 @@ def edge_chi2(pose_of: dict[int, np.ndarray], points: np.ndarray, observations: 
     ``edge->chi2()``): (u, v, u - fx b / z) for a stereo edge, (u, v) for a mono one;
     ``pose_of`` holds the pose of every frame observing, FREE_FRAME's too if it is one."""
     settings = BundleSettings(pixel_variance=pixel_variance, baseline=baseline)
-    problem = _Problem(observations, pose_of, None, K, settings, len(points))
+    problem = _Problem(observations, pose_of, None, K, settings)
     chi2 = np.empty(len(observations))
     chi2[problem.order] = problem.chi2(pose_of.get(FREE_FRAME, np.eye(4)), np.asarray(points, dtype=np.float64))
     return chi2
@@ -127,9 +127,8 @@ class _Problem:
     key frames' world-to-camera transforms, in the compiled solver's layout."""
 
     def __init__(self, observations: Observations, held: dict[int, np.ndarray], link: Link | None,
-                 K: np.ndarray, settings: BundleSettings, point_count: int):
+                 K: np.ndarray, settings: BundleSettings):
         self.order = np.argsort(observations.point, kind="stable")
-        self.settings, self.point_count = settings, point_count
         self.point = observations.point[self.order].astype(np.int64)
         self.free = observations.frame[self.order] == FREE_FRAME
         self.stereo = observations.stereo[self.order]
@@ -161,7 +160,8 @@ class _Problem:
         return chi2
 
     def adjust(self, pose: np.ndarray, points: np.ndarray, kept: np.ndarray,
-               iterations: int) -> tuple[np.ndarray, np.ndarray]:
+               iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The pose and points after one pass over the kept edges, and each edge's chi2 there."""
         return levenberg_marquardt(pose, points, kept, iterations, *self.edges())
 
 
@@ -170,17 +170,17 @@ def adjust_frame(pose: np.ndarray, points: np.ndarray, observations: Observation
     """Refine ``pose`` (``T_world_camera`` of the frame whose observations have frame
     FREE_FRAME) and the observed ``points`` (N, 3, world) with the ``held`` key-frame poses
     fixed; see the module docstring for the passes and the outlier rule."""
-    problem = _Problem(observations, held, link, K, settings, len(points))
+    problem = _Problem(observations, held, link, K, settings)
     pose = np.array(pose, dtype=np.float64)
     points = np.array(points, dtype=np.float64)
     kept = np.ones(len(observations), bool)
     outliers = np.zeros(len(points), bool)
     passes = (FIRST_PASS_ITERATIONS, settings.iterations) if settings.kernel_delta > 0 else (settings.iterations,)
     for iterations in passes:
-        pose, points = problem.adjust(pose, points, kept, iterations)
+        pose, points, chi2 = problem.adjust(pose, points, kept, iterations)
         if settings.kernel_delta <= 0:
             break
-        dropped = kept & (problem.chi2(pose, points) > settings.kernel_delta)
+        dropped = kept & (chi2 > settings.kernel_delta)
         kept &= ~dropped
         outliers[problem.point[dropped]] = True
     return BundleResult(pose, points, outliers)
