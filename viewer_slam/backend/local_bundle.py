@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.se3 import invert
-from .bundle_solver import evaluate, levenberg_marquardt, link_error
+from .bundle_solver import evaluate, levenberg_marquardt
 
 FIRST_PASS_ITERATIONS = 5        # OptimizerG2O::optimizeBA's first, robust-only pass
 FREE_FRAME = -1                  # frame id of the observations made by the adjusted frame
@@ -105,20 +105,11 @@ def edge_chi2(pose_of: dict[int, np.ndarray], points: np.ndarray, observations: 
     return chi2
 
 
-class LinkEdge:
-    """g2o's EdgeSBACam from a fixed key frame to the adjusted frame: error (translation,
-    quaternion vector part) of ``measured^-1 T_key^-1 T_adjusted``, information 1/variance."""
-
-    def __init__(self, key_pose: np.ndarray, link: Link):
-        self.to_measured = invert(link.relative) @ invert(key_pose)
-        self.information = 1.0 / max(link.variance, LINK_VARIANCE_FLOOR)
-
-    def error(self, pose: np.ndarray) -> np.ndarray:
-        return link_error(self.to_measured, np.asarray(pose, dtype=np.float64))
-
-    def chi2(self, pose: np.ndarray) -> float:
-        error = self.error(pose)
-        return float(self.information * error @ error)
+def link_terms(key_pose: np.ndarray, link: Link) -> tuple[np.ndarray, float]:
+    """g2o's EdgeSBACam from a fixed key frame to the adjusted frame, as the solver takes it:
+    ``measured^-1 T_key^-1`` (the error is the translation and quaternion vector part of it
+    times ``T_adjusted``, see ``bundle_solver.link_error``) and the information 1/variance."""
+    return invert(link.relative) @ invert(key_pose), 1.0 / max(link.variance, LINK_VARIANCE_FLOOR)
 
 
 class _Problem:
@@ -142,9 +133,8 @@ class _Problem:
             self.held_rotation[rows], self.held_translation[rows] = to_camera[:3, :3], to_camera[:3, 3]
         self.camera = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance,
                                 settings.kernel_delta], dtype=np.float64)
-        edge = LinkEdge(held[link.frame], link) if link is not None else None
-        self.link_to_measured = edge.to_measured if edge is not None else np.eye(4)
-        self.link_information = edge.information if edge is not None else 0.0
+        self.link_to_measured, self.link_information = (link_terms(held[link.frame], link) if link is not None
+                                                         else (np.eye(4), 0.0))
 
     def edges(self):
         """The edge arrays, camera and link, as the compiled solver takes them."""
