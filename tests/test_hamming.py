@@ -3,7 +3,7 @@ distances counted by hand."""
 
 import numpy as np
 
-from viewer_slam.frontend.hamming import guided_ratio_matches, hamming_ratio_matches
+from viewer_slam.frontend.hamming import hamming_ratio_matches, nearest_within_radius
 
 
 def descriptors(*bit_counts, width=32):
@@ -35,29 +35,34 @@ def test_widths_that_are_no_multiple_of_eight_bytes_count_every_bit():
     assert t.tolist() == [1] and ratios.tolist() == [1 / 488]
 
 
-def test_guided_matching_compares_only_the_candidates_nearest_in_the_image():
-    # query (0 bits) at the origin; train rows 50, 10, 3 and 0 bits at Chebyshev distances 1,
-    # 2, 5 and 30 px; window 20 px
-    positions, train_positions = np.zeros((1, 2)), np.array([[1.0, 0.0], [2.0, 2.0], [5.0, -3.0], [30.0, 0.0]])
-    query, train = descriptors(0), descriptors(50, 10, 3, 0)
-    two = guided_ratio_matches(positions, query, train_positions, train, 20.0, 2, 0.8, 64)
-    assert two[0].tolist() == [0] and two[1].tolist() == [1]        # 10 < 0.8 * 50 among the two nearest
-    three = guided_ratio_matches(positions, query, train_positions, train, 20.0, 3, 0.8, 64)
-    assert three[1].tolist() == [2]                                   # 3 < 0.8 * 10; the 0-bit row is too far
+def test_guided_matching_picks_among_the_train_rows_within_the_radius():
+    # query (0 bits) at the origin; train rows of 50, 10, 3 and 0 bits at 1, 2.8, 5.8 and
+    # 30 px; radius 20 px: the 0-bit row is outside, the 3-bit one is nearest
+    # (3 < 0.8 * 10 passes the ratio test)
+    train_positions = np.array([[1.0, 0.0], [2.0, 2.0], [5.0, -3.0], [30.0, 0.0]])
+    picked = nearest_within_radius(np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 3, 0),
+                                   20.0, 0.8)
+    assert picked.tolist() == [2]
+    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 9, 0),
+                                 20.0, 0.8).tolist() == [-1]          # 9 < 0.8 * 10 fails
 
 
-def test_the_guide_window_is_a_square_open_at_its_edge():
-    # (15, 15) is 21 px away but inside the 20 px square; (20, 0) lies on its edge, outside
-    positions, train_positions = np.zeros((1, 2)), np.array([[15.0, 15.0], [20.0, 0.0]])
-    matched = guided_ratio_matches(positions, descriptors(0), train_positions, descriptors(40, 0), 20.0, 24, 0.8, 64)
-    assert matched[1].tolist() == [0]                                 # a lone candidate at 40 <= 64 bits
+def test_the_radius_is_a_circle_open_at_its_edge():
+    # (15, 15) is 21.2 px away, outside; (20, 0) lies on the circle, outside; (12, 16) is
+    # 20 px away too; (11.9, 16) inside and alone: taken without a test, whatever its distance
+    outside = np.array([[15.0, 15.0], [20.0, 0.0], [12.0, 16.0]])
+    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), outside, descriptors(0, 0, 0),
+                                 20.0, 0.8).tolist() == [-1]
+    lone = np.vstack([outside, [[11.9, 16.0]]])
+    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), lone, descriptors(0, 0, 0, 200),
+                                 20.0, 0.8).tolist() == [3]
 
 
-def test_a_lone_guided_candidate_needs_a_small_distance_and_a_train_row_its_nearest_query():
-    train_positions = np.array([[0.0, 0.0], [500.0, 0.0]])
-    lone = guided_ratio_matches(np.zeros((1, 2)), descriptors(0), train_positions, descriptors(65, 0), 20.0, 24, 0.8, 64)
-    assert len(lone[0]) == 0                                          # 65 > 64 bits
-    # three queries all alone with train row 0: 9, 2 and 2 bits; the earlier 2-bit one keeps it
-    positions = np.array([[1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
-    q, t = guided_ratio_matches(positions, descriptors(9, 2, 2), train_positions, descriptors(0, 0), 20.0, 24, 0.8, 64)
-    assert q.tolist() == [1] and t.tolist() == [0]
+def test_equal_nearest_distances_are_ambiguous_and_every_query_picks_on_its_own():
+    train_positions = np.array([[9.0, 0.0], [3.0, 0.0], [0.0, 15.0]])
+    positions = np.array([[0.0, 0.0], [6.0, 0.0]])
+    picked = nearest_within_radius(positions, descriptors(0, 0), train_positions, descriptors(0, 0, 40), 20.0, 1.0)
+    assert picked.tolist() == [-1, -1]         # 0 < 1.0 * 0 fails
+    # both queries pick row 1 (0 bits against 1): what to do with a row picked twice is the caller's
+    picked = nearest_within_radius(positions, descriptors(0, 0), train_positions, descriptors(1, 0, 40), 20.0, 0.8)
+    assert picked.tolist() == [1, 1]

@@ -14,7 +14,6 @@ from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, B
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
-from viewer_slam.frontend.hamming import guided_ratio_matches
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
@@ -42,25 +41,51 @@ def test_parameters_carry_rtabmap_names_and_defaults():
     assert PIPELINE.name == "rtabmap" and PIPELINE.Params is RtabmapParams
 
 
-def test_guided_matching_only_pairs_features_with_map_points_projected_nearby():
-    map_descriptors = descriptors(6)
-    projections = np.array([[10, 10], [100, 100], [200, 50], [300, 200], [50, 200], [250, 120]], float)
-    features = flip_bits(map_descriptors, 8)
-    # Feature k sits 3 px from map point k's projection, except feature 2, placed 60 px away.
-    keypoints = projections + 3.0
-    keypoints[2] += 60
-    query, train = guided_ratio_matches(keypoints, features, projections, map_descriptors, window=20, candidates=24,
-                                        ratio=0.8, lone_max_distance=64)
-    assert sorted(zip(query.tolist(), train.tolist())) == [(0, 0), (1, 1), (3, 3), (4, 4), (5, 5)]
+GUIDE_CAMERA = Camera(500.0, 500.0, 320.0, 240.0, 640, 480)
 
 
-def test_guided_matching_ratio_test_drops_ambiguous_candidates():
+def guided_odometry(pixels: np.ndarray, map_descriptors: np.ndarray, **overrides) -> FrameToMapOdometry:
+    """An odometry whose local map holds points 2 m in front of the identity pose at ``pixels``."""
+    odometry = FrameToMapOdometry(GUIDE_CAMERA, apply_overrides(RtabmapParams(), overrides, "test"))
+    odometry.map.add(GUIDE_CAMERA.backproject(pixels, np.full(len(pixels), 2.0)), map_descriptors, 0,
+                     [(0, u, v, 2.0) for u, v in pixels])
+    return odometry
+
+
+def corners(pixels, corner_descriptors) -> Features:
+    pixels = np.asarray(pixels, np.float32)
+    return Features(pixels, corner_descriptors, np.ones(len(pixels)), np.full((len(pixels), 3), np.nan), True)
+
+
+def test_guided_matching_each_projected_point_in_word_order_takes_a_corner_not_yet_taken():
+    words = descriptors(4)
+    # Words 0 and 1 project 4 px apart with corner 0 alone near them. It is word 1's twin, yet
+    # word 0, first in word order, takes it: a lone candidate needs no test. Word 2 projects
+    # off the image (x = -3), next to its twin corner 1; word 3 30 px from its twin corner 2.
+    odometry = guided_odometry(np.array([[100.0, 100.0], [104.0, 100.0], [-3.0, 300.0], [400.0, 300.0]]), words)
+    frame = corners([[102.0, 100.0], [1.0, 300.0], [430.0, 300.0]],
+                    np.vstack([words[1], words[2], words[3]]))
+    feature_index, map_index = odometry.guided_matches(frame, np.eye(4))
+    assert list(zip(feature_index.tolist(), map_index.tolist())) == [(0, 0), (2, 3)]
+
+
+def test_guided_matching_to_projection_drops_a_map_point_two_corners_picked():
+    words = descriptors(2)
+    odometry = guided_odometry(np.array([[100.0, 100.0], [300.0, 200.0]]), words,
+                               **{"Vis/CorGuessMatchToProjection": True})
+    # corners 0 and 1 both have only word 0 within 40 px; corner 2 only word 1
+    frame = corners([[95.0, 100.0], [110.0, 105.0], [305.0, 190.0]], np.vstack([words[0], words[0], words[1]]))
+    feature_index, map_index = odometry.guided_matches(frame, np.eye(4))
+    assert feature_index.tolist() == [2] and map_index.tolist() == [1]
+
+
+def test_guided_matching_ratio_test_drops_ambiguous_corners():
     twin = descriptors(1)
-    map_descriptors = np.vstack([twin, twin])
-    projections = np.array([[50.0, 50.0], [55.0, 50.0]])
-    query, _ = guided_ratio_matches(np.array([[52.0, 50.0]]), flip_bits(twin, 4), projections, map_descriptors, 20,
-                                    24, 0.8, 64)
-    assert len(query) == 0
+    odometry = guided_odometry(np.array([[50.0, 50.0]]), twin)
+    # two corners 4 bits from the word, 2 and 5 px from its projection: 4 < 0.8 * 4 fails
+    frame = corners([[52.0, 50.0], [55.0, 50.0]], flip_bits(np.vstack([twin, twin]), 4))
+    frame.descriptors[1] = frame.descriptors[0]
+    assert len(odometry.guided_matches(frame, np.eye(4))[0]) == 0
 
 
 def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_observations():
@@ -324,12 +349,14 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     assert not result.match_inliers[result.feature_index < 30].any()
     # 270 inliers are over Odom/VisKeyFrameThr 150: not a key frame, the map is as it was.
     assert list(odometry.key_frames.poses) == [1] and all(len(r) == 1 for r in odometry.map.references)
-    # A view of 140 points is a key frame: the points it registered on gain its observation.
+    # A view of 140 points is a key frame: every map point it matched gains its observation
+    # (a lone corner near another point's projection is a match too, but no inlier).
     key_frame = odometry.process(view(world[100:240], moved, words[100:240]))
     registered = key_frame.map_index[key_frame.match_inliers]
     assert key_frame.inliers > 100 and set(registered) <= set(range(100, 240))
     assert list(odometry.key_frames.poses) == [1, 3]
-    assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in set(registered)) for i in range(300)]
+    matched = set(key_frame.map_index.tolist())
+    assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in matched) for i in range(300)]
 
 
 def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():

@@ -4,8 +4,8 @@ The same matches as :func:`.features.match_with_ratios` gives for binary descrip
 nearest and second-nearest Hamming distances, the ratio test, one match per train
 descriptor, the one with the smallest distance, earlier query on ties), in about a third
 of the time of OpenCV's ``batchDistance``: the distances are popcounts of 64-bit words.
-Guided matching does the same among the train descriptors whose image positions lie near
-each query's, found on a grid of window-sized cells.
+Guided matching compares a query only with the train descriptors whose image positions lie
+near its own, found on a grid of cells as large as the search window.
 """
 
 import numpy as np
@@ -67,73 +67,64 @@ def _ratio_matches(query, train, ratio):
 
 
 @jit
-def _window_candidates(positions, train_positions, window, count):
-    """Per query position, the ``count`` train positions nearest to it (Chebyshev distance,
-    lower index on ties) closer than ``window``, nearest first; -1 fills the rest. The train
-    positions are bucketed on a grid of ``window``-sized cells over the queries' bounding
-    box, so only the 3x3 cells around a query are searched."""
-    candidates = np.full((positions.shape[0], count), -1, dtype=np.int64)
-    if positions.shape[0] == 0 or not window > 0.0:
-        return candidates
-    low_x, low_y = positions[:, 0].min() - window, positions[:, 1].min() - window
-    columns = int((positions[:, 0].max() + window - low_x) // window) + 1
-    rows = int((positions[:, 1].max() + window - low_y) // window) + 1
-    cell = np.full(train_positions.shape[0], -1, dtype=np.int64)
+def _grid(positions, cell):
+    """``positions`` bucketed on a grid of ``cell``-sized squares over their bounding box:
+    (low x, low y, columns, rows, each cell's start in ``members``, the members)."""
+    low_x, low_y = positions[:, 0].min(), positions[:, 1].min()
+    columns = int((positions[:, 0].max() - low_x) // cell) + 1
+    rows = int((positions[:, 1].max() - low_y) // cell) + 1
+    index = np.empty(positions.shape[0], dtype=np.int64)
     starts = np.zeros(columns * rows + 1, dtype=np.int64)
-    for j in range(train_positions.shape[0]):
-        column = np.floor((train_positions[j, 0] - low_x) / window)
-        row = np.floor((train_positions[j, 1] - low_y) / window)
-        if 0 <= column < columns and 0 <= row < rows:
-            cell[j] = int(row) * columns + int(column)
-            starts[cell[j] + 1] += 1
+    for j in range(positions.shape[0]):
+        index[j] = int((positions[j, 1] - low_y) // cell) * columns + int((positions[j, 0] - low_x) // cell)
+        starts[index[j] + 1] += 1
     starts = np.cumsum(starts)
     members = np.empty(starts[-1], dtype=np.int64)
     filled = starts[:-1].copy()
-    for j in range(train_positions.shape[0]):       # in index order, so each cell lists its members ascending
-        if cell[j] >= 0:
-            members[filled[cell[j]]] = j
-            filled[cell[j]] += 1
-    nearest = np.empty(count)                        # distances of the candidates kept so far, ascending
-    for i in range(positions.shape[0]):
-        column = int(np.floor((positions[i, 0] - low_x) / window))
-        row = int(np.floor((positions[i, 1] - low_y) / window))
-        kept = 0
-        for r in range(max(row - 1, 0), min(row + 2, rows)):
-            for c in range(max(column - 1, 0), min(column + 2, columns)):
-                for member in members[starts[r * columns + c]:starts[r * columns + c + 1]]:
-                    d = max(abs(train_positions[member, 0] - positions[i, 0]),
-                            abs(train_positions[member, 1] - positions[i, 1]))
-                    if not d < window:
-                        continue
-                    slot = kept                      # insertion by (distance, index) into the sorted list
-                    while slot > 0 and (nearest[slot - 1] > d or nearest[slot - 1] == d
-                                        and candidates[i, slot - 1] > member):
-                        slot -= 1
-                    if slot == count:
-                        continue
-                    for moved in range(min(kept, count - 1), slot, -1):
-                        nearest[moved], candidates[i, moved] = nearest[moved - 1], candidates[i, moved - 1]
-                    nearest[slot], candidates[i, slot] = d, member
-                    kept = min(kept + 1, count)
-    return candidates
+    for j in range(positions.shape[0]):
+        members[filled[index[j]]] = j
+        filled[index[j]] += 1
+    return low_x, low_y, columns, rows, starts, members
 
 
 @jit
-def _guided_ratio_matches(query, train, candidates, ratio, lone_max_distance):
-    """Per query, the nearest and second-nearest of its candidates by Hamming distance (the
-    earlier candidate on ties); the ratio test, or for a lone candidate a distance of at most
-    ``lone_max_distance``; then each train row kept for its nearest query."""
-    first = np.full(query.shape[0], NO_DISTANCE, dtype=np.int64)
-    nearest = np.full(query.shape[0], -1, dtype=np.int64)
-    for i in range(query.shape[0]):
+def _near_cells(grid, cell, x, y, found):
+    """Fills ``found`` with the grid's members in the 3x3 cells around (x, y), so every
+    position within ``cell`` of it; returns how many."""
+    low_x, low_y, columns, rows, starts, members = grid
+    column, row = int(np.floor((x - low_x) / cell)), int(np.floor((y - low_y) / cell))
+    count = 0
+    for r in range(max(row - 1, 0), min(row + 2, rows)):
+        for c in range(max(column - 1, 0), min(column + 2, columns)):
+            for member in members[starts[r * columns + c]:starts[r * columns + c + 1]]:
+                found[count] = member
+                count += 1
+    return count
+
+
+@jit
+def _nearest_within_radius(positions, query, train_positions, train, radius, ratio):
+    """Per query, the train row it matches among those positioned closer than ``radius``
+    (Euclidean), or -1; see :func:`nearest_within_radius`."""
+    chosen = np.full(positions.shape[0], -1, dtype=np.int64)
+    if train_positions.shape[0] == 0 or not radius > 0.0:
+        return chosen
+    grid = _grid(train_positions, radius)
+    near, within = np.empty(train_positions.shape[0], dtype=np.int64), np.empty(train_positions.shape[0], dtype=np.int64)
+    for i in range(positions.shape[0]):
         count = 0
-        while count < candidates.shape[1] and candidates[i, count] >= 0:
-            count += 1
-        distance, second, best = _two_nearest(query, i, train, candidates[i, :count])
-        if count == 1 and distance <= lone_max_distance or count > 1 and distance < ratio * second:
-            first[i], nearest[i] = distance, best
-    query_index = _kept_by_nearest_query(nearest, first, train.shape[0])
-    return query_index, nearest[query_index]
+        for member in near[:_near_cells(grid, radius, positions[i, 0], positions[i, 1], near)]:
+            if (train_positions[member, 0] - positions[i, 0]) ** 2 + (train_positions[member, 1] - positions[i, 1]) ** 2 \
+                    < radius * radius:
+                within[count] = member
+                count += 1
+        if count == 1:
+            chosen[i] = within[0]
+        elif count > 1:                              # equal nearest distances fail the test, so order is moot
+            first, second, best = _two_nearest(query, i, train, within[:count])
+            if first < ratio * second:
+                chosen[i] = best
+    return chosen
 
 
 def _words(descriptors: np.ndarray) -> np.ndarray:
@@ -150,15 +141,16 @@ def hamming_ratio_matches(query: np.ndarray, train: np.ndarray, ratio: float) ->
     return _ratio_matches(_words(query), _words(train), float(ratio))
 
 
-def guided_ratio_matches(positions: np.ndarray, query: np.ndarray, train_positions: np.ndarray, train: np.ndarray,
-                         window: float, candidates: int, ratio: float,
-                         lone_max_distance: int) -> tuple[np.ndarray, np.ndarray]:
-    """Matches (query index ascending, train index) of binary descriptors among each query's
-    ``candidates`` train descriptors positioned nearest to it within ``window`` pixels
-    (Chebyshev distance): the ratio test among them, a lone candidate kept within
-    ``lone_max_distance`` bits, and each train descriptor kept for its nearest query."""
-    if len(query) == 0 or len(train) < 2:
-        return np.zeros(0, int), np.zeros(0, int)
-    nearby = _window_candidates(np.asarray(positions, np.float64), np.asarray(train_positions, np.float64),
-                                float(window), min(candidates, len(train)))
-    return _guided_ratio_matches(_words(query), _words(train), nearby, float(ratio), int(lone_max_distance))
+def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positions: np.ndarray, train: np.ndarray,
+                          radius: float, ratio: float) -> np.ndarray:
+    """Per query descriptor ``(N,)``, the index of the train descriptor it matches, or -1,
+    among the train descriptors positioned closer than ``radius`` pixels to the query's
+    position: the nearest by Hamming distance if it passes the ratio test against the
+    second-nearest (ratio at most 1, so equal distances fail it), a lone one without a
+    test. This is RTAB-Map's matching with a motion guess (RegistrationVis); what to do when
+    several queries choose the same train descriptor is the caller's rule."""
+    if len(query) == 0:
+        return np.zeros(0, int)
+    return _nearest_within_radius(np.asarray(positions, np.float64), _words(query),
+                                  np.asarray(train_positions, np.float64), _words(train), float(radius), float(ratio))
+

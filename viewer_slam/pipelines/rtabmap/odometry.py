@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from ...frontend.features import Features, match_descriptors
-from ...frontend.hamming import guided_ratio_matches
+from ...frontend.hamming import nearest_within_radius
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
@@ -32,12 +32,7 @@ from .bundle import KeyFrames, Reference, bundle_observations
 from .graph import registration_variance
 from .params import RtabmapParams
 
-# A lone candidate inside the window has no second neighbour for the ratio test; it is kept
-# only when its Hamming distance is typical of a true ORB/BRIEF match (of 256 bits).
-LONE_CANDIDATE_MAX_DISTANCE = 64
 MIN_DEPTH_OF_PROJECTION = 0.1
-# Map points projected nearest to a feature (within the window) that compete for it.
-GUIDED_CANDIDATES = 24
 # With bundle adjustment RTAB-Map scales the registration's covariance down by 10 where it
 # exceeds ten times Registration::COVARIANCE_LINEAR_EPSILON.
 BUNDLE_VARIANCE_SCALE = 0.1
@@ -177,8 +172,8 @@ class FrameToMapOdometry:
         """Registration with the motion guess, then, if that fails or there is none, against
         the whole local map (OdometryF2M::computeTransform's second try without a guess)."""
         result = None
-        if self.velocity is not None:
-            result = self._solve(features, *self._guided(features, self.pose @ self.velocity), self.pose @ self.velocity)
+        if self.velocity is not None and self.params.guess_window > 0:
+            result = self._solve(features, *self.guided_matches(features, self.pose @ self.velocity), self.pose @ self.velocity)
         if result is None or result.pose is None:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)
@@ -186,21 +181,36 @@ class FrameToMapOdometry:
             self._update_map(features, result)
         return result
 
-    def _guided(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Matches to the map points whose projection with ``predicted`` falls near a feature."""
+    def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """RegistrationVis's matching with a motion guess: the map points in front of the
+        predicted camera whose projection lies in the (rectified) image are matched with the
+        corners within Vis/CorGuessWinSize pixels. By default each projected point, in word
+        order, picks among the corners around it and a corner already taken is not matched
+        again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
+        around it, and a map point picked by several corners is dropped (their duplicate word
+        ids are removed before the motion estimation)."""
         params = self.params
         in_camera = transform_points(invert(predicted), self.map.points)
-        visible = np.flatnonzero(in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION)
-        projections = self.camera.project(in_camera[visible])
-        margin = params.guess_window
-        near_image = ((projections[:, 0] > -margin) & (projections[:, 0] < self.camera.width + margin)
-                      & (projections[:, 1] > -margin) & (projections[:, 1] < self.camera.height + margin))
-        visible, projections = visible[near_image], projections[near_image]
-        feature_index, map_index = guided_ratio_matches(features.keypoints, features.descriptors, projections,
-                                                        self.map.descriptors[visible], params.guess_window,
-                                                        GUIDED_CANDIDATES, params.correspondence_nndr,
-                                                        LONE_CANDIDATE_MAX_DISTANCE)
-        return feature_index, visible[map_index]
+        in_front = np.flatnonzero(in_camera[:, 2] > 0)
+        projections = self.camera.project(in_camera[in_front])
+        inside = ((projections >= 0).all(axis=1) & (projections[:, 0] <= self.camera.width - 1)
+                  & (projections[:, 1] <= self.camera.height - 1))
+        visible, projections = in_front[inside], projections[inside]
+        corners = self._undistorted(features.keypoints)
+        descriptors = self.map.descriptors[visible]
+        if params.guess_match_to_projection:
+            picked = nearest_within_radius(corners, features.descriptors, projections, descriptors,
+                                           params.guess_window, params.correspondence_nndr)
+            claims = np.bincount(picked[picked >= 0], minlength=len(visible))
+            feature_index = np.flatnonzero(picked >= 0)
+            feature_index = feature_index[claims[picked[feature_index]] == 1]
+            return feature_index, visible[picked[feature_index]]
+        picked = nearest_within_radius(projections, descriptors, corners, features.descriptors,
+                                       params.guess_window, params.correspondence_nndr)
+        matched = np.flatnonzero(picked >= 0)
+        _, first_claim = np.unique(picked[matched], return_index=True)
+        map_rows = np.sort(matched[first_claim])
+        return picked[map_rows], visible[map_rows]
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
                shown_without_pose: np.ndarray) -> OdometryResult:

@@ -15,7 +15,11 @@ class RtabmapParams:
     odometry_max_features: int = param(1000, gt=0, key="Vis/MaxFeatures", help="features extracted per frame for odometry")
     correspondence_nndr: float = param(0.8, gt=0, le=1, key="Vis/CorNNDR", help="nearest-neighbour distance ratio of a match")
     guess_window: int = param(40, ge=0, key="Vis/CorGuessWinSize",
-                              help="pixels around a map point's predicted projection searched for its match")
+                              help="radius (px) around a map point's predicted projection searched for its match "
+                                   "(0: no guided matching)")
+    guess_match_to_projection: bool = param(False, key="Vis/CorGuessMatchToProjection",
+                                            help="with a motion guess, match each corner to the projected map points "
+                                                 "instead of each projected map point to the corners")
     pnp_reprojection_error: float = param(2.0, gt=0, key="Vis/PnPReprojError", help="PnP RANSAC inlier threshold (px)")
     min_inliers: int = param(20, ge=4, key="Vis/MinInliers", help="inliers needed to accept a registration")
     ransac_iterations: int = param(300, ge=1, key="Vis/Iterations", help="PnP RANSAC iterations")
@@ -28,7 +32,7 @@ class RtabmapParams:
     max_depth: float = param(0.0, ge=0, key="Vis/MaxDepth", help="farthest depth (m) a feature may have (0: no limit)")
     depth_as_mask: bool = param(True, key="Vis/DepthAsMask", help="detect features only where the depth is valid")
     bundle_adjustment: int = param(1, key="OdomF2M/BundleAdjustment", choices=(0, 1),
-                                   help="local bundle adjustment of each registration (0: off, 1: on, GTSAM)")
+                                   help="local bundle adjustment of each registration (0: off, 1: g2o's algorithm)")
     bundle_max_frames: int = param(10, ge=0, key="OdomF2M/BundleAdjustmentMaxFrames",
                                    help="key frames a map point's observations are sampled from (0: all)")
     bundle_pixel_variance: float = param(1.0, gt=0, key="g2o/PixelVariance",
