@@ -306,6 +306,17 @@ def scene(count: int = 300, rng=None) -> np.ndarray:
     return np.c_[rng.uniform(-1.5, 1.5, count), rng.uniform(-1.0, 1.0, count), rng.uniform(2.0, 4.0, count)]
 
 
+def test_a_guess_window_of_zero_registers_every_frame_against_the_whole_local_map(monkeypatch):
+    """Vis/CorGuessWinSize 0 disables guided matching (RegistrationVis: only a window over 0
+    uses the guess)."""
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Vis/CorGuessWinSize": 0}, "test"))
+    monkeypatch.setattr(odometry, "guided_matches", lambda *_: pytest.fail("guided matching with a window of 0"))
+    for step in range(3):
+        pose = make_pose(exp_so3([0, np.radians(step), 0]), [0.01 * step, 0, 0])
+        assert np.allclose(odometry.process(view(world, pose, words)).pose, pose, atol=1e-3)
+
+
 def test_after_a_loss_odometry_registers_against_the_whole_local_map():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
