@@ -94,11 +94,15 @@ def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_
         local_map.add(np.full((10, 3), frame, float), descriptors(10), frame,
                       [(frame, float(i), 0.0, 1.0) for i in range(10)])
     local_map.observe(np.arange(5), 9)          # five points of frame 0 seen again last
+    # key frame 7 observes point 0 (frame 0's, seen last) and point 10 (frame 1's)
+    local_map.refer(np.array([0, 10]), [(7, 0.0, 0.0, 1.0), (7, 1.0, 0.0, 1.0)])
     local_map.cap(25)
     assert len(local_map) == 25
     assert sorted(set(local_map.points[:, 0].tolist())) == [0.0, 3.0, 4.0]
     assert (local_map.last_seen == 9).sum() == 5
     assert [references[0][0] for references in local_map.references] == local_map.points[:, 0].astype(int).tolist()
+    # observations left per key frame: frames 1 and 2 and point 10's of frame 7 left with their points
+    assert dict(local_map.referenced) == {0: 5, 3: 10, 4: 10, 7: 1}
 
 
 def test_vocabulary_reuses_words_and_creates_new_ones():

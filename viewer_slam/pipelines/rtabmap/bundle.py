@@ -7,6 +7,8 @@ against the key frames that saw its inlier points, a point's references thinned 
 OdomF2M/BundleAdjustmentMaxFrames of them (every k-th, and always the newest).
 """
 
+from collections.abc import Container
+
 import numpy as np
 
 from ...backend.local_bundle import FREE_FRAME, Observations
@@ -26,9 +28,9 @@ class KeyFrames:
         self.poses[frame] = pose
         self.last = frame
 
-    def keep_referenced(self, references: list[list[Reference]]) -> None:
-        """Forget the key frames no point refers to any more (the newest stays)."""
-        referenced = {reference[0] for point in references for reference in point}
+    def keep_referenced(self, referenced: Container[int]) -> None:
+        """Forget the key frames not in ``referenced``, those no point refers to any more (the
+        newest stays)."""
         self.poses = {frame: pose for frame, pose in self.poses.items() if frame in referenced or frame == self.last}
 
 

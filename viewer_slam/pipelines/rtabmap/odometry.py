@@ -17,6 +17,7 @@ the last good pose; the first frame of a map carries no link to what came before
 is what makes RTAB-Map start a new graph session there.
 """
 
+from collections import Counter
 from dataclasses import dataclass
 
 import cv2
@@ -41,7 +42,9 @@ BUNDLE_VARIANCE_FLOOR = 1e-7
 
 class LocalMap:
     """3D features in the odometry frame with their descriptors, observation history and,
-    per point, the key frames' observations of it (for the bundle adjustment)."""
+    per point, the key frames' observations of it (for the bundle adjustment).
+    ``referenced`` counts the observations per key frame, so that the key frames no point
+    refers to any more are found without reading every point's observations."""
 
     def __init__(self):
         self.points = np.zeros((0, 3))
@@ -49,6 +52,7 @@ class LocalMap:
         self.times_seen = np.zeros(0, int)
         self.last_seen = np.zeros(0, int)
         self.references: list[list[Reference]] = []
+        self.referenced: Counter[int] = Counter()
 
     def __len__(self) -> int:
         return len(self.points)
@@ -59,10 +63,12 @@ class LocalMap:
         self.times_seen = np.concatenate([self.times_seen, np.ones(len(points), int)])
         self.last_seen = np.concatenate([self.last_seen, np.full(len(points), frame)])
         self.references += [[reference] for reference in references]
+        self.referenced.update(reference[0] for reference in references)
 
     def refer(self, indices: np.ndarray, references: list[Reference]) -> None:
         for index, reference in zip(indices, references):
             self.references[index].append(reference)
+        self.referenced.update(reference[0] for reference in references)
 
     def observe(self, indices: np.ndarray, frame: int) -> None:
         self.times_seen[indices] += 1
@@ -72,7 +78,11 @@ class LocalMap:
         """Keep the ``max_size`` most recently seen points, the most often seen first among equals."""
         if len(self) <= max_size:
             return
-        keep = np.sort(np.lexsort((-self.times_seen, -self.last_seen))[:max_size])
+        order = np.lexsort((-self.times_seen, -self.last_seen))
+        for removed in order[max_size:]:
+            self.referenced.subtract(reference[0] for reference in self.references[removed])
+        self.referenced = +self.referenced               # drop the key frames counted down to 0
+        keep = np.sort(order[:max_size])
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.times_seen, self.last_seen = self.times_seen[keep], self.last_seen[keep]
         self.references = [self.references[i] for i in keep]
@@ -298,4 +308,4 @@ class FrameToMapOdometry:
         self.map.add(transform_points(pose, features.points[new]), features.descriptors[new], self.frame_count,
                      self._references(features, new))
         self.map.cap(self.params.local_map_size)
-        self.key_frames.keep_referenced(self.map.references)
+        self.key_frames.keep_referenced(self.map.referenced)
