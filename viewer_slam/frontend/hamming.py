@@ -153,4 +153,3 @@ def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positi
         return np.zeros(0, int)
     return _nearest_within_radius(np.asarray(positions, np.float64), _words(query),
                                   np.asarray(train_positions, np.float64), _words(train), float(radius), float(ratio))
-
