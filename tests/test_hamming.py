@@ -1,9 +1,9 @@
-"""Compiled ratio-test matching of binary descriptors, whole and guided by image position, against
-distances counted by hand."""
+"""Compiled matching of binary descriptors (ratio test, nearest neighbour under a bound, guided
+by image position) against distances counted by hand."""
 
 import numpy as np
 
-from viewer_slam.frontend.hamming import hamming_ratio_matches, nearest_within_radius
+from viewer_slam.frontend.hamming import hamming_nearest_matches, hamming_ratio_matches, nearest_within_radius
 
 
 def descriptors(*bit_counts, width=32):
@@ -33,6 +33,16 @@ def test_widths_that_are_no_multiple_of_eight_bytes_count_every_bit():
     query, train = descriptors(488, width=61), descriptors(0, 487, width=61)
     q, t, ratios = hamming_ratio_matches(query, train, 0.95)
     assert t.tolist() == [1] and ratios.tolist() == [1 / 488]
+
+
+def test_nearest_matches_keep_every_query_below_the_bound_without_a_ratio_test():
+    # train rows at 0 and 7 bits; queries at 6 (nearest 7: 1 bit), 3 (0 and 7: 3 and 4 bits),
+    # 40 (33 bits to 7) and 6 again; bound 33 bits: the 40-bit query is out
+    q, t, distance = hamming_nearest_matches(descriptors(6, 3, 40, 6), descriptors(0, 7), 33)
+    assert q.tolist() == [0, 1, 3] and t.tolist() == [1, 0, 1] and distance.tolist() == [1, 3, 1]
+    # equal distances: the first train row; 34 bits lets the 40-bit query in
+    assert hamming_nearest_matches(descriptors(2), descriptors(0, 4), 34)[1].tolist() == [0]
+    assert hamming_nearest_matches(descriptors(40), descriptors(0, 7), 34)[2].tolist() == [33]
 
 
 def test_guided_matching_picks_among_the_train_rows_within_the_radius():

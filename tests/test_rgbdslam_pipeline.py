@@ -43,6 +43,16 @@ def textured_loop():
     return run(textured_loop_path())
 
 
+@pytest.mark.slow
+def test_with_the_ratio_test_the_loop_closures_beat_odometry():
+    # v2's BRUTEFORCE_OPENCV matcher: the ratio test turns away most matches between look-alike
+    # parts of the plane, which v2's default nearest-neighbour matcher turns into loop edges up
+    # to 2 m off (docs/pipelines/rgbdslam.md), so the loop edges lower the error.
+    sequence, result, _ = run(textured_loop_path(), params=RgbdSlamParams(matcher_type="BRUTEFORCE_OPENCV"))
+    final = evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"]
+    assert final < evaluate(sequence.groundtruth, result.odometry).ate.stats()["rmse"]
+
+
 def kidnap_run(name, params=None, frames=None):
     path = cached_scenario(name, frames=FRAMES, resolution=RESOLUTION)
     return (*run(path, frames=frames, params=params), json.loads((path / "scenario.json").read_text()))
@@ -63,13 +73,10 @@ def frame_mask(sequence, result, intervals):
 
 
 @pytest.mark.slow
-def test_textured_loop_is_closed_and_more_accurate_than_odometry(textured_loop):
+def test_textured_loop_is_closed(textured_loop):
     sequence, result, events = textured_loop
     assert len(result.trajectory.timestamps) == result.frames == FRAMES
-    final = evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"]
-    odometry = evaluate(sequence.groundtruth, result.odometry).ate.stats()["rmse"]
-    assert final <= 0.03
-    assert final < odometry
+    assert evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"] <= 0.03
     assert result.loop_closures_accepted >= 1
     accepted = [e for e in events if isinstance(e, GraphEdge) and e.accepted]
     assert all(e.inliers >= RgbdSlamParams().min_matches for e in accepted)
@@ -132,8 +139,12 @@ def test_kidnapped_camera_relocalises_against_the_first_map_when_its_view_return
 def test_without_a_revisit_no_pose_follows_the_first_covering_and_keep_all_nodes_keeps_them_all():
     # Half the scenario: the first covering (frames 61-78), 70 frames of a view never mapped and
     # the start of the second covering.
+    # With v2's ratio-test matcher (BRUTEFORCE_OPENCV). Its default nearest-neighbour matcher
+    # registers the first frame after the covering with the last node before it (23 inliers)
+    # and tracks on from there, a metre off (docs/pipelines/rgbdslam.md).
     frames = FRAMES // 2
-    sequence, result, _, scenario = kidnap_run("360_kidnap_norevisit", frames=frames)
+    sequence, result, _, scenario = kidnap_run("360_kidnap_norevisit", RgbdSlamParams(matcher_type="BRUTEFORCE_OPENCV"),
+                                               frames)
     has_pose, _, stamps = frame_mask(sequence, result, scenario["covered_intervals"])
     first_cover = scenario["covered_intervals"][0][0]
     assert has_pose[stamps < first_cover].all() and not has_pose[stamps >= first_cover].any()

@@ -14,7 +14,7 @@ from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
 from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, PREDECESSOR, SAMPLED, edge_targets,
                                                        graph_neighbourhood, neighbour_weights, weighted_sample)
 from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
-from viewer_slam.pipelines.rgbdslam.motion import edge_information
+from viewer_slam.pipelines.rgbdslam.motion import edge_information, match
 from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
 from viewer_slam.pipelines.rgbdslam.emm import observability
 from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures
@@ -45,6 +45,7 @@ def test_registered_under_its_name_with_v2_defaults():
             defaults["min_sampled_candidates"], defaults["geodesic_depth"]) == (4, 4, 4, 3)
     assert (defaults["min_translation_meter"], defaults["min_rotation_degree"]) == (0.0, 0.0)
     assert (defaults["nn_distance_ratio"], defaults["sigma_depth"], defaults["adjuster_max_iterations"]) == (0.95, 0.01, 5)
+    assert defaults["matcher_type"] == "FLANN"
     assert defaults["keep_all_nodes"] is False and defaults["observability_threshold"] <= 0
     assert (defaults["optimizer_iterations"], defaults["optimizer_skip_step"], defaults["backend_solver"]) == (0.01, 1, "pcg")
     assert all(defaults[k] == 0 for k in defaults if k.startswith("viewslam_"))  # ours: off
@@ -174,6 +175,43 @@ def measured(points):
     features = Features(np.zeros((count, 2), np.float32), np.zeros((count, 32), np.uint8), np.ones(count, np.float32),
                         points, True)
     return MeasuredFeatures.from_features(features)
+
+
+def bit_rows(*bit_counts):
+    """32-byte descriptors, one per count, with that many low bits set."""
+    return np.stack([np.packbits(np.arange(256) < count, bitorder="little") for count in bit_counts])
+
+
+def with_descriptors(descriptors):
+    count = len(descriptors)
+    return MeasuredFeatures(Features(np.zeros((count, 2), np.float32), descriptors, np.ones(count, np.float32),
+                                     np.ones((count, 3)), True))
+
+
+def test_v2s_default_orb_matching_takes_each_nearest_neighbour_within_half_the_bits_nearest_first():
+    # node keypoints at 0, 100 and 250 bits; frame keypoints at 90 (nearest: 100, 10 bits),
+    # 30 (0, 30 bits), 5 (0, 5 bits), 170 (100, 70 bits) and 127 (100, 27 bits). No ratio
+    # test, a node keypoint matched by several, ordered by distance: 5, 10, 27, 30, 70.
+    frame, node = with_descriptors(bit_rows(90, 30, 5, 170, 127)), with_descriptors(bit_rows(0, 100, 250))
+    frame_index, node_index = match(frame, node, RgbdSlamParams(), np.random.default_rng(0))
+    assert frame_index.tolist() == [2, 0, 4, 1, 3] and node_index.tolist() == [0, 1, 1, 0, 1]
+    # half of the 256 bits or more apart is no match: 227 bits is 127 from 100, 228 is 128
+    pair = with_descriptors(bit_rows(0, 100))
+    assert match(with_descriptors(bit_rows(227)), pair, RgbdSlamParams(), np.random.default_rng(0))[1].tolist() == [1]
+    assert match(with_descriptors(bit_rows(228)), pair, RgbdSlamParams(), np.random.default_rng(0))[0].size == 0
+    capped = apply_overrides(RgbdSlamParams(), {"max_matches": 4, "min_matches": 3}, "--param")
+    assert match(frame, node, capped, np.random.default_rng(0))[0].tolist() == [2, 0, 4, 1]
+
+
+def test_equal_distances_sort_in_random_order_and_the_ratio_test_on_request():
+    # six frame keypoints all 3 bits from node keypoint 0: every order is as likely
+    frame, node = with_descriptors(bit_rows(*[3] * 6)), with_descriptors(bit_rows(0, 200))
+    firsts = {int(match(frame, node, RgbdSlamParams(), np.random.default_rng(seed))[0][0]) for seed in range(40)}
+    assert firsts == set(range(6))
+    # BRUTEFORCE_OPENCV: the ratio test (3 against 197 bits passes), node keypoint 0 matched once
+    ratio = apply_overrides(RgbdSlamParams(), {"matcher_type": "BRUTEFORCE_OPENCV"}, "--param")
+    frame_index, node_index = match(frame, node, ratio, np.random.default_rng(0))
+    assert frame_index.tolist() == [0] and node_index.tolist() == [0]
 
 
 def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_when_asked():

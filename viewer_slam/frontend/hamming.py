@@ -1,9 +1,12 @@
-"""Ratio-test matching of binary descriptors in compiled code (numba, GIL released).
+"""Matching of binary descriptors in compiled code (numba, GIL released).
 
-The same matches as :func:`.features.match_with_ratios` gives for binary descriptors (the
-nearest and second-nearest Hamming distances, the ratio test, one match per train
-descriptor, the one with the smallest distance, earlier query on ties), in about a third
-of the time of OpenCV's ``batchDistance``: the distances are popcounts of 64-bit words.
+Ratio-test matching gives the same matches as :func:`.features.match_with_ratios` gives for
+binary descriptors (the nearest and second-nearest Hamming distances, the ratio test, one
+match per train descriptor, the one with the smallest distance, earlier query on ties), in
+about a third of the time of OpenCV's ``batchDistance``: the distances are popcounts of
+64-bit words.
+Nearest-neighbour matching keeps each query's nearest train descriptor under a distance
+bound, with no ratio test and no claim on the train side (RGB-D SLAM v2's ORB matching).
 Guided matching compares a query only with the train descriptors whose image positions lie
 near its own, found on a grid of cells as large as the search window.
 """
@@ -64,6 +67,18 @@ def _ratio_matches(query, train, ratio):
             nearest[i] = best
     query_index = _kept_by_nearest_query(nearest, first, train.shape[0])
     return query_index, nearest[query_index], first[query_index] / second[query_index]
+
+
+@jit
+def _nearest_matches(query, train, max_distance):
+    """Each query's nearest train row (the first on ties) and its distance, for the queries
+    whose nearest distance is below ``max_distance``."""
+    rows = np.arange(train.shape[0])
+    nearest, distance = np.empty(query.shape[0], dtype=np.int64), np.empty(query.shape[0], dtype=np.int64)
+    for i in range(query.shape[0]):
+        distance[i], _, nearest[i] = _two_nearest(query, i, train, rows)
+    query_index = np.flatnonzero(distance < max_distance)
+    return query_index, nearest[query_index], distance[query_index]
 
 
 @jit
@@ -139,6 +154,16 @@ def hamming_ratio_matches(query: np.ndarray, train: np.ndarray, ratio: float) ->
     if len(query) == 0 or len(train) < 2:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
     return _ratio_matches(_words(query), _words(train), float(ratio))
+
+
+def hamming_nearest_matches(query: np.ndarray, train: np.ndarray,
+                            max_distance: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each query descriptor's nearest train descriptor (``(N, B)`` uint8), the first on ties,
+    when fewer than ``max_distance`` bits apart: query indices (ascending), train indices
+    (a train descriptor may be matched by several queries) and Hamming distances."""
+    if len(query) == 0 or len(train) == 0:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0, int)
+    return _nearest_matches(_words(query), _words(train), int(max_distance))
 
 
 def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positions: np.ndarray, train: np.ndarray,

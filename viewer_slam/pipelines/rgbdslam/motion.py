@@ -1,18 +1,22 @@
-"""Node-to-node motion as v2's ``Node::matchNodePair``: ratio-test matches, the best
-``max_matches`` of them, 3D-3D RANSAC under the Kinect noise model, and the edge's information."""
+"""Node-to-node motion as v2's ``Node::matchNodePair``: descriptor matches (``featureMatching``),
+the best ``max_matches`` of them, 3D-3D RANSAC under the Kinect noise model, and the edge's
+information."""
 
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...frontend.features import Features, match_with_ratios
-from ...frontend.hamming import hamming_ratio_matches
+from ...frontend.hamming import hamming_nearest_matches, hamming_ratio_matches
 from ...frontend.ransac import ransac_rigid
 from .params import RgbdSlamParams
 
 # Floor on the RMS Mahalanobis distance in the edge information: exact synthetic data would
 # otherwise give edges so certain that the optimiser could not move them at all.
 MIN_RMS_MAHALANOBIS = 0.1
+# v2 adds a uniform random offset below this to each match's distance (or ratio) before the
+# matches are sorted, so that equal distances, frequent with ORB, sort at random.
+SORT_JITTER = 1e-3
 
 
 @dataclass
@@ -56,14 +60,26 @@ def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
     return np.diag([weight / 4] * 3 + [weight] * 3)
 
 
-def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams) -> tuple[np.ndarray, np.ndarray]:
-    """Ratio-test matches, best (lowest ratio) first, at most ``max_matches`` (``keepStrongestMatches``)."""
+def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams,
+          rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """v2's ``featureMatching``: the matches best first, at most ``max_matches`` of them
+    (``keepStrongestMatches``), equal scores in random order.
+
+    With ``matcher_type`` FLANN (v2's default), ORB descriptors are matched by v2's own brute
+    force: each frame keypoint to its nearest node keypoint when they differ in fewer than
+    half the bits, scored by that distance over the descriptor's bits. Otherwise, and for
+    every other descriptor, by the ratio test (a node keypoint matched once), scored by the ratio.
+    """
     query, train = frame.features.descriptors, node.features.descriptors
-    if frame.features.binary:
-        frame_index, node_index, ratios = hamming_ratio_matches(query, train, params.nn_distance_ratio)
+    if params.matcher_type == "FLANN" and params.feature_detector_type == "ORB":
+        bits = 8 * query.shape[1]
+        frame_index, node_index, distance = hamming_nearest_matches(query, train, bits // 2)
+        score = distance / bits
+    elif frame.features.binary:
+        frame_index, node_index, score = hamming_ratio_matches(query, train, params.nn_distance_ratio)
     else:
-        frame_index, node_index, ratios = match_with_ratios(query, train, False, params.nn_distance_ratio)
-    order = np.argsort(ratios, kind="stable")[:params.max_matches]
+        frame_index, node_index, score = match_with_ratios(query, train, False, params.nn_distance_ratio)
+    order = np.argsort(score + SORT_JITTER * rng.random(len(score)), kind="stable")[:params.max_matches]
     return frame_index[order], node_index[order]
 
 

@@ -24,9 +24,13 @@ class RgbdSlamParams:
         3, ge=1, help="the image is split into NxN cells, each detected with its own adjusted threshold (1 = no grid)")
     adjuster_max_iterations: int = param(
         5, ge=0, help="times a cell's detector threshold may be adapted when its keypoints are out of bounds (ORB, SIFT; 0 = fixed)")
+    matcher_type: str = param(
+        "FLANN", choices=("FLANN", "BRUTEFORCE_OPENCV"),
+        help="descriptor matching: FLANN matches ORB by nearest neighbour within half the bits (v2's own brute "
+        "force) and other descriptors by the ratio test; BRUTEFORCE_OPENCV matches ORB by the ratio test too")
     nn_distance_ratio: float = param(
         0.95, gt=0, le=1, help="ratio test: nearest descriptor distance must be below this times the second nearest")
-    max_matches: int = param(300, ge=4, help="only the best (lowest ratio) matches are kept for RANSAC")
+    max_matches: int = param(300, ge=4, help="only the best matches (lowest distance or ratio) are kept for RANSAC")
     ransac_iterations: int = param(200, ge=1, help="four-point hypotheses per RANSAC run")
     max_dist_for_inliers: float = param(
         3.0, gt=0, help="Mahalanobis distance below which a correspondence is an inlier (sensor noise model)")

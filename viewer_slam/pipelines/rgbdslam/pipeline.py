@@ -187,10 +187,10 @@ class RgbdSlam(Pipeline):
     def _register(self, frame: Frame, measured: MeasuredFeatures, reference_id: int, reference: MeasuredFeatures,
                   watch: Stopwatch, min_inlier_ratio: float = 0.0) -> tuple[int, Motion | None, str]:
         """Match two keypoint sets and estimate their motion: (matches, motion or None, reason)."""
+        rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
         with watch("matching"):
-            matches = match(measured, reference, self.params)
+            matches = match(measured, reference, self.params, rng)
         with watch("ransac"):
-            rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
             motion, reason = estimate_motion(measured, reference, matches, self.params, rng, min_inlier_ratio)
         return len(matches[0]), motion, reason
 
