@@ -13,7 +13,7 @@ from viewer_slam.pipelines.edges import EdgeKind
 from viewer_slam.pipelines.events import (FrameTracked, KeyframeAdded, GraphEdge, TrackingLost, TrackingStatus,
                                           TrajectoryFinal)
 from viewer_slam.pipelines.params import param
-from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.pipelines.run import drive, run_pipeline
 
 CAMERA = Camera(fx=100, fy=100, cx=16, cy=12, width=32, height=24)
 
@@ -111,6 +111,33 @@ def test_interrupt_keeps_what_was_processed():
     assert run.interrupted
     assert run.frames == 12
     assert len(run.trajectory) == 12
+
+
+class PrefetchingPipeline(CountingPipeline):
+    """Records the order of the calls it gets."""
+
+    def __init__(self, camera, params=None, seed=0):
+        super().__init__(camera, params, seed)
+        self.calls = []
+
+    def prefetch(self, frame):
+        self.calls.append(("prefetch", frame.index))
+
+    def process(self, frame):
+        self.calls.append(("process", frame.index))
+        return super().process(frame)
+
+
+@pytest.mark.parametrize("interrupt_at", [None, 3])
+def test_each_frame_is_shown_one_frame_ahead_and_every_frame_read_is_processed(interrupt_at):
+    pipeline = PrefetchingPipeline(CAMERA)
+    run = drive(pipeline, "counting", FakeSequence(4, interrupt_at=interrupt_at))
+    expected = [("prefetch", 0), ("prefetch", 1), ("process", 0), ("prefetch", 2), ("process", 1)]
+    if interrupt_at is None:
+        expected += [("prefetch", 3), ("process", 2), ("process", 3)]
+    else:   # Ctrl-C while frame 3 is read: frame 2, already read, is still processed
+        expected += [("process", 2)]
+    assert pipeline.calls == expected and run.interrupted == (interrupt_at is not None)
 
 
 def test_should_stop_ends_the_loop():

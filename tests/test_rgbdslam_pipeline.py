@@ -165,6 +165,17 @@ def test_same_sequence_and_seed_give_identical_trajectory_files(tmp_path):
 
 
 @pytest.mark.slow
+def test_features_extracted_ahead_on_their_own_thread_give_the_same_run():
+    # v2's concurrent_node_construction: the detector thresholds adapt from frame to frame,
+    # so the extraction ahead must keep the frames' order exactly.
+    runs = [run(textured_loop_path(), frames=40, params=RgbdSlamParams(concurrent_node_construction=concurrent))
+            for concurrent in (True, False)]
+    assert np.array_equal(runs[0][1].trajectory.poses, runs[1][1].trajectory.poses)
+    timed = [e for e in runs[0][2] if isinstance(e, FrameTracked)]
+    assert len(timed) == 40 and all(e.timings_ms["features"] > 0 for e in timed)
+
+
+@pytest.mark.slow
 def test_environment_measurement_model_keeps_the_true_edges():
     params = RgbdSlamParams(observability_threshold=0.6)
     _, result, events = run(textured_loop_path(), frames=40, params=params)

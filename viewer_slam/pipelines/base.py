@@ -42,6 +42,10 @@ class Pipeline(ABC):
         self.params = params if params is not None else self.Params()
         self.seed = seed
 
+    def prefetch(self, frame: Frame) -> None:
+        """Shown each frame, in order, before :meth:`process` gets it (one frame ahead), so that
+        work which does not depend on the map can start early; by default nothing is done."""
+
     @abstractmethod
     def process(self, frame: Frame) -> list[Event]:
         """Track one frame; the list always holds exactly one FrameTracked."""

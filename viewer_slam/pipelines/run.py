@@ -1,7 +1,7 @@
 """Feed a sequence through a pipeline, fan its events out to sinks, and summarise the run."""
 
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,6 +90,24 @@ def run_pipeline(
                  frame_sinks=frame_sinks, should_stop=should_stop)
 
 
+def _shown_ahead(frames: Iterator[Frame], pipeline: Pipeline) -> Iterator[Frame]:
+    """``frames`` in order, each shown to ``pipeline.prefetch`` one frame before it is yielded.
+    A Ctrl-C while the next frame is read still yields the frame already read, then goes on."""
+    current = next(frames, None)
+    if current is not None:
+        pipeline.prefetch(current)
+    while current is not None:
+        try:
+            upcoming = next(frames, None)
+        except KeyboardInterrupt:
+            yield current
+            raise
+        if upcoming is not None:
+            pipeline.prefetch(upcoming)
+        yield current
+        current = upcoming
+
+
 def drive(
     pipeline: Pipeline,
     name: str,
@@ -103,7 +121,9 @@ def drive(
 ) -> PipelineRun:
     """Feed ``sequence``'s frames through ``pipeline`` as the run called ``name``; its summary.
 
-    ``frame_sinks`` see each frame just before the pipeline does (signal measurements).
+    ``frame_sinks`` see each frame just before the pipeline does (signal measurements). The
+    pipeline is shown each frame (:meth:`Pipeline.prefetch`) one frame ahead: the first two
+    before it processes the first, then the next one before it processes each.
 
     Ctrl-C (KeyboardInterrupt) or ``should_stop()`` ends the frame loop early; the
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
@@ -120,7 +140,7 @@ def drive(
 
     start = time.perf_counter()
     try:
-        for frame in sequence.frames(max_frames=max_frames, stride=stride):
+        for frame in _shown_ahead(sequence.frames(max_frames=max_frames, stride=stride), pipeline):
             for frame_sink in frame_sinks:
                 frame_sink(frame)
             emit(pipeline.process(frame))

@@ -149,17 +149,15 @@ def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]
     return out.with_suffix(".json"), {name: out.with_name(f"{out.stem}.{name}.txt") for name in pipelines}
 
 
-class TappedSequence:
-    """A sequence that calls ``on_frame`` with each frame just before the pipeline gets it.
+class GuardedSequence:
+    """A sequence whose first unreadable frame ends the frames there, as a stop request would.
 
-    An unreadable frame ends the frames there, as a stop request would, and is kept in
-    ``error``: the pipeline finishes on what it saw, and the caller saves it before failing.
-    ``read`` counts the frames handed out.
+    The error is kept in ``error``: the pipeline finishes on what it saw, and the caller saves
+    it before failing. ``read`` counts the frames handed out.
     """
 
-    def __init__(self, sequence: Sequence, on_frame: Callable[[Frame], None]):
+    def __init__(self, sequence: Sequence):
         self._sequence = sequence
-        self._on_frame = on_frame
         self.name, self.path = sequence.name, sequence.path
         self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
         self.error: InputError | None = None
@@ -171,7 +169,6 @@ class TappedSequence:
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
         try:
             for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
-                self._on_frame(frame)
                 self.read += 1
                 yield frame
         except InputError as error:
@@ -241,18 +238,18 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                         if first:  # one copy of each image serves every pipeline's view
                             log_frame_image(stream, frame)
 
-                    tapped = TappedSequence(sequence, on_frame)
+                    guarded = GuardedSequence(sequence)
                     signals = SignalRecorder()
                     try:
-                        run = drive(runs[name], name, tapped, max_frames=options.max_frames, stride=options.stride,
-                                    sinks=[recorder, progress.sink(name), signals], frame_sinks=[signals.frame],
-                                    should_stop=stop)
+                        run = drive(runs[name], name, guarded, max_frames=options.max_frames, stride=options.stride,
+                                    sinks=[recorder, progress.sink(name), signals],
+                                    frame_sinks=[on_frame, signals.frame], should_stop=stop)
                     except Exception as error:  # an unexpected failure: keep what was recorded before it
-                        if not blocks and not tapped.read:
+                        if not blocks and not guarded.read:
                             raise
                         failure = error
                         break
-                    failure = tapped.error
+                    failure = guarded.error
                     if failure is not None and not run.frames:
                         raise failure  # not one frame was read: there is nothing to keep
                     interrupted = interrupted or run.interrupted or failure is not None

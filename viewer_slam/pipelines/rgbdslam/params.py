@@ -20,6 +20,8 @@ class RgbdSlamParams:
         "ORB", help="keypoint detector and descriptor (SURF is named for v2 compatibility and refused)",
         choices=(*DETECTORS, "SURF"))
     max_keypoints: int = param(600, gt=0, help="keypoints kept per frame")
+    concurrent_node_construction: bool = param(
+        True, help="extract the next frame's features on a thread of their own while this frame is compared and inserted")
     detector_grid_resolution: int = param(
         3, ge=1, help="the image is split into NxN cells, each detected with its own adjusted threshold (1 = no grid)")
     adjuster_max_iterations: int = param(

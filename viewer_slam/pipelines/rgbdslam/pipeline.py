@@ -12,6 +12,9 @@ frame within 0.1 s of the newest node that did not match it. The graph is optimi
 after every ``optimizer_skip_step`` nodes; at the end, edges whose error stays above
 v2's pruning threshold are dropped and the graph optimised again.
 
+As v2's ``concurrent_node_construction``, the next frame's features are extracted on a
+thread of their own while the current frame is compared and inserted; extraction depends
+only on the frames before (the adjusted detector thresholds), so the result is the same.
 The comparisons of one frame are independent, so they run on the process's two worker
 threads (the compiled matcher and RANSAC release the GIL); each draws its RANSAC samples
 from a generator seeded by (seed, frame, node), so the result does not depend on the
@@ -20,6 +23,7 @@ scheduling. The online optimisation runs on the calling thread: on a worker thre
 raised the peak memory of an 800-frame run from 555 to 706 MB.
 """
 
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -114,15 +118,33 @@ class RgbdSlam(Pipeline):
         self.lost_chain_length = 0
         self.nodes_since_optimisation = 0
         self.loop_closed_since_optimisation = False
+        self.node_builder: ThreadPoolExecutor | None = None
+        self.prefetched: dict[int, Future] = {}
 
     # ------------------------------------------------------------------ frames
+    def prefetch(self, frame: Frame) -> None:
+        """v2's concurrent_node_construction: the frame's features start now, after those of
+        the frames shown before it (one thread, so the detector thresholds adapt in order)."""
+        if self.params.concurrent_node_construction:
+            if self.node_builder is None:
+                self.node_builder = ThreadPoolExecutor(1, thread_name_prefix="rgbdslam-node")
+            self.prefetched[frame.index] = self.node_builder.submit(self._extract, frame)
+
+    def _extract(self, frame: Frame) -> tuple[Features, MeasuredFeatures, float]:
+        """The frame's features, those with a 3D point, and the milliseconds they took."""
+        watch = Stopwatch()
+        with watch("features"):
+            features = self.extractor.extract(frame.rgb, frame.depth)
+            measured = MeasuredFeatures.from_features(features)
+        return features, measured, watch.ms["features"]
+
     def process(self, frame: Frame) -> list[Event]:
         watch = Stopwatch()
         events: list[Event] = []
         p = self.params
-        with watch("features"):
-            features = self.extractor.extract(frame.rgb, frame.depth)
-            measured = MeasuredFeatures.from_features(features)
+        prefetched = self.prefetched.pop(frame.index, None)
+        features, measured, extraction_ms = prefetched.result() if prefetched else self._extract(frame)
+        watch.add("features", extraction_ms)
         if len(measured) < p.min_matches and not (p.keep_all_nodes and len(self.graph)):
             reason = f"only {len(measured)} keypoints with depth (< {p.min_matches})"
             return self._lose(frame, features, [], events, watch, reason)
@@ -380,6 +402,9 @@ class RgbdSlam(Pipeline):
 
     # ------------------------------------------------------------------ end of run
     def finish(self) -> list[Event]:
+        if self.node_builder is not None:
+            self.node_builder.shutdown(cancel_futures=True)
+            self.node_builder, self.prefetched = None, {}
         events: list[Event] = []
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
         if len(self.graph):
