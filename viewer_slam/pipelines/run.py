@@ -92,7 +92,7 @@ def run_pipeline(
 
 def _shown_ahead(frames: Iterator[Frame], pipeline: Pipeline) -> Iterator[Frame]:
     """``frames`` in order, each shown to ``pipeline.prefetch`` one frame before it is yielded.
-    A Ctrl-C while the next frame is read still yields the frame already read, then goes on."""
+    A Ctrl-C while the next frame is read still yields the frame already read, then raises."""
     current = next(frames, None)
     if current is not None:
         pipeline.prefetch(current)
