@@ -3,15 +3,8 @@ by image position) against distances counted by hand."""
 
 import numpy as np
 
+from binary_descriptors import descriptors
 from viewer_slam.frontend.hamming import hamming_nearest_matches, hamming_ratio_matches, nearest_within_radius
-
-
-def descriptors(*bit_counts, width=32):
-    """One row per count: that many low bits set, the rest zero."""
-    rows = np.zeros((len(bit_counts), width), np.uint8)
-    for row, count in zip(rows, bit_counts):
-        row[:] = np.packbits(np.arange(width * 8) < count, bitorder="little")
-    return rows
 
 
 def test_nearest_over_second_nearest_distance_is_the_ratio():

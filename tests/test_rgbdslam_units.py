@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from binary_descriptors import descriptors
 from viewer_slam.backend.pose_graph import CHOLESKY, PCG, PoseGraph, information_from_sigmas
 from viewer_slam.errors import InputError
 from viewer_slam.frontend.features import Features
@@ -170,42 +171,35 @@ def test_environment_model_accepts_the_true_motion_and_rejects_a_contradiction()
     assert observability(near, far, np.eye(4), CAMERA, 0.05) < 0.1
 
 
-def measured(points):
-    count = len(points)
-    features = Features(np.zeros((count, 2), np.float32), np.zeros((count, 32), np.uint8), np.ones(count, np.float32),
-                        points, True)
-    return MeasuredFeatures.from_features(features)
-
-
-def bit_rows(*bit_counts):
-    """32-byte descriptors, one per count, with that many low bits set."""
-    return np.stack([np.packbits(np.arange(256) < count, bitorder="little") for count in bit_counts])
-
-
-def with_descriptors(descriptors):
-    count = len(descriptors)
-    return MeasuredFeatures(Features(np.zeros((count, 2), np.float32), descriptors, np.ones(count, np.float32),
-                                     np.ones((count, 3)), True))
+def measured(points=None, descriptor_rows=None):
+    """Features with these 3D points (default: all at (1, 1, 1)) and 32-byte descriptors
+    (default: all zero), every one with depth."""
+    count = len(points if points is not None else descriptor_rows)
+    points = np.ones((count, 3)) if points is None else points
+    descriptor_rows = np.zeros((count, 32), np.uint8) if descriptor_rows is None else descriptor_rows
+    return MeasuredFeatures.from_features(Features(np.zeros((count, 2), np.float32), descriptor_rows,
+                                                   np.ones(count, np.float32), points, True))
 
 
 def test_v2s_default_orb_matching_takes_each_nearest_neighbour_within_half_the_bits_nearest_first():
     # node keypoints at 0, 100 and 250 bits; frame keypoints at 90 (nearest: 100, 10 bits),
     # 30 (0, 30 bits), 5 (0, 5 bits), 170 (100, 70 bits) and 127 (100, 27 bits). No ratio
     # test, a node keypoint matched by several, ordered by distance: 5, 10, 27, 30, 70.
-    frame, node = with_descriptors(bit_rows(90, 30, 5, 170, 127)), with_descriptors(bit_rows(0, 100, 250))
+    frame = measured(descriptor_rows=descriptors(90, 30, 5, 170, 127))
+    node = measured(descriptor_rows=descriptors(0, 100, 250))
     frame_index, node_index = match(frame, node, RgbdSlamParams(), np.random.default_rng(0))
     assert frame_index.tolist() == [2, 0, 4, 1, 3] and node_index.tolist() == [0, 1, 1, 0, 1]
     # half of the 256 bits or more apart is no match: 227 bits is 127 from 100, 228 is 128
-    pair = with_descriptors(bit_rows(0, 100))
-    assert match(with_descriptors(bit_rows(227)), pair, RgbdSlamParams(), np.random.default_rng(0))[1].tolist() == [1]
-    assert match(with_descriptors(bit_rows(228)), pair, RgbdSlamParams(), np.random.default_rng(0))[0].size == 0
+    pair, defaults = measured(descriptor_rows=descriptors(0, 100)), RgbdSlamParams()
+    assert match(measured(descriptor_rows=descriptors(227)), pair, defaults, np.random.default_rng(0))[1].tolist() == [1]
+    assert match(measured(descriptor_rows=descriptors(228)), pair, defaults, np.random.default_rng(0))[0].size == 0
     capped = apply_overrides(RgbdSlamParams(), {"max_matches": 4, "min_matches": 3}, "--param")
     assert match(frame, node, capped, np.random.default_rng(0))[0].tolist() == [2, 0, 4, 1]
 
 
 def test_equal_distances_sort_in_random_order_and_the_ratio_test_on_request():
     # six frame keypoints all 3 bits from node keypoint 0: every order is as likely
-    frame, node = with_descriptors(bit_rows(*[3] * 6)), with_descriptors(bit_rows(0, 200))
+    frame, node = measured(descriptor_rows=descriptors(*[3] * 6)), measured(descriptor_rows=descriptors(0, 200))
     firsts = {int(match(frame, node, RgbdSlamParams(), np.random.default_rng(seed))[0][0]) for seed in range(40)}
     assert firsts == set(range(6))
     # BRUTEFORCE_OPENCV: the ratio test (3 against 197 bits passes), node keypoint 0 matched once
