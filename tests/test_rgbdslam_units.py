@@ -10,6 +10,7 @@ from viewer_slam.frontend.features import Features
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 from viewer_slam.pipelines.base import pipeline_class
+from viewer_slam.pipelines.events import GraphOptimized
 from viewer_slam.pipelines.params import apply_overrides, params_to_dict
 from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
 from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, PREDECESSOR, SAMPLED, edge_targets,
@@ -111,13 +112,18 @@ def test_edge_information_is_inliers_over_squared_rms_error():
     np.testing.assert_allclose(no_motion_information(0.05), np.diag([5.0] * 3 + [20.0] * 3))  # I / dt
 
 
-def test_edges_with_large_errors_are_pruned_as_v2_does():
-    graph = NodeGraph("pcg")
+def chain_of_nodes(graph: NodeGraph, count: int) -> None:
+    """``count`` featureless nodes 0.1 m apart along x, in one segment, without edges."""
     graph.segments.add(0)
-    for node_id in range(3):
+    for node_id in range(count):
         node = Node.from_frame(node_id, node_id, float(node_id), MeasuredFeatures(EMPTY), np.zeros((8, 8, 3), np.uint8),
                                np.zeros((8, 8), np.float32), 0)
         graph.add(node, make_pose(np.eye(3), [0.1 * node_id, 0, 0]), np.eye(4))
+
+
+def test_edges_with_large_errors_are_pruned_as_v2_does():
+    graph = NodeGraph("pcg")
+    chain_of_nodes(graph, 3)
     information = np.diag([1e6] * 3 + [1000.0] * 3)
     step = make_pose(np.eye(3), [0.1, 0, 0])
     graph.connect(0, 1, step, information)                                  # exact: chi2 0
@@ -127,6 +133,28 @@ def test_edges_with_large_errors_are_pruned_as_v2_does():
     assert graph.prune_edges_with_error_above(5.0) == 2
     kept = {(e.from_id, e.to_id, round(float(e.relative[0, 3]), 3)) for e in graph.poses.edges}
     assert kept == {(0, 1, 0.1), (0, 2, 0.25), (1, 2, 0.0)}  # the consecutive one became no motion
+    no_motion = next(e for e in graph.poses.edges if (e.from_id, e.to_id) == (1, 2))
+    # v2 sets its information to I on g2o's (translation, quaternion vector ≈ half the angle)
+    np.testing.assert_allclose(no_motion.information, np.diag([0.25] * 3 + [1.0] * 3))
+
+
+def test_the_final_optimisation_prunes_above_5_then_1_then_a_quarter_as_v2s_batch_run():
+    slam = RgbdSlam(CAMERA)
+    chain_of_nodes(slam.graph, 3)
+    step = make_pose(np.eye(3), [0.1, 0, 0])
+    strong = np.diag([1e8] * 3 + [1e6] * 3)
+    slam.graph.poses.add_prior(0, np.eye(4), information_from_sigmas(1e-6, 1e-6))
+    slam.graph.connect(0, 1, step, strong)
+    slam.graph.connect(1, 2, step, strong)
+    # the consecutive edges hold the nodes where they are; each edge 0 -> 2 is off by d along
+    # x, squared Mahalanobis error 1000 d^2: 10, 2.5, 0.625 and 0.1
+    for offset in (0.1, 0.05, 0.025, 0.01):
+        slam.graph.connect(0, 2, make_pose(np.eye(3), [0.2 + offset, 0, 0]), np.diag([1e6] * 3 + [1000.0] * 3))
+    events = slam.finish()
+    # one final optimisation, then one after each of the three rounds, each of which pruned one edge
+    assert sum(isinstance(event, GraphOptimized) for event in events) == 4
+    kept = sorted(round(float(e.relative[0, 3]), 3) for e in slam.graph.poses.edges if e.from_id == 0 and e.to_id == 2)
+    assert kept == [0.21]
 
 
 def test_joining_segments_moves_the_newer_one_onto_the_older():

@@ -11,6 +11,7 @@ from ...geometry.camera import Camera
 from ..edges import EdgeClassifier
 from ..events import MapUpdated
 from ..maps import rebuilt_map
+from .motion import g2o_information
 from .node import Node
 from .segments import Segments
 
@@ -62,14 +63,14 @@ class NodeGraph:
 
     def prune_edges_with_error_above(self, threshold: float) -> int:
         """v2's ``pruneEdgesWithErrorAbove``: every edge whose squared Mahalanobis error
-        exceeds ``threshold`` is set to no motion; between consecutive nodes it keeps its
-        information (a zero-motion assumption), otherwise it is dropped (v2 leaves it with
+        exceeds ``threshold`` is set to no motion; between consecutive nodes it gets the
+        information I (a zero-motion assumption), otherwise it is dropped (v2 leaves it with
         information 1e-100). Returns how many edges were pruned."""
         pruned = [edge for edge in self.poses.edges if self.poses.edge_chi2(edge) > threshold]
         for edge in pruned:
             self.poses.remove_edge(edge)
             if abs(edge.from_id - edge.to_id) == 1:
-                self.poses.add_edge(Edge(edge.from_id, edge.to_id, np.eye(4), edge.information, robust=True))
+                self.poses.add_edge(Edge(edge.from_id, edge.to_id, np.eye(4), g2o_information(1.0), robust=True))
             else:
                 self.adjacency[edge.from_id].discard(edge.to_id)
                 self.adjacency[edge.to_id].discard(edge.from_id)

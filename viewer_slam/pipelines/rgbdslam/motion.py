@@ -53,11 +53,16 @@ class Motion:
         return int(self.inliers.sum())
 
 
-def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
-    """v2's information ``I * inliers / rmse²`` on g2o's error (translation, quaternion
-    vector part ≈ half the rotation angle), in GTSAM's tangent order: rotation then translation."""
-    weight = inliers / max(rms_mahalanobis, MIN_RMS_MAHALANOBIS) ** 2
+def g2o_information(weight: float) -> np.ndarray:
+    """The information ``weight * I`` that v2 sets on g2o's EdgeSE3 error (translation,
+    quaternion vector part ≈ half the rotation angle), in GTSAM's tangent order: rotation
+    then translation."""
     return np.diag([weight / 4] * 3 + [weight] * 3)
+
+
+def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
+    """v2's information ``I * inliers / rmse²``."""
+    return g2o_information(inliers / max(rms_mahalanobis, MIN_RMS_MAHALANOBIS) ** 2)
 
 
 def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams,

@@ -9,8 +9,9 @@ a frame that matches none is dropped and the next frame is compared again, with 
 sampled keyframes, until one matches (how v2 relocalises). With ``keep_all_nodes`` it is
 kept instead, tied to the newest node by a no-motion edge, and v2 does the same for a
 frame within 0.1 s of the newest node that did not match it. The graph is optimised
-after every ``optimizer_skip_step`` nodes; at the end, edges whose error stays above
-v2's pruning threshold are dropped and the graph optimised again.
+after every ``optimizer_skip_step`` nodes; at the end, as v2's batch run, edges whose error
+stays above each of v2's three pruning thresholds in turn are dropped and the graph
+optimised again.
 
 As v2's ``concurrent_node_construction``, the next frame's features are extracted on a
 thread of their own while the current frame is compared and inserted; extraction depends
@@ -43,7 +44,7 @@ from ..thumbnails import thumbnail
 from .candidates import PREDECESSOR, edge_targets
 from .emm import observability
 from .graph import NodeGraph
-from .motion import MeasuredFeatures, Motion, estimate_motion, match
+from .motion import MeasuredFeatures, Motion, estimate_motion, g2o_information, match
 from .node import Node
 from .params import RgbdSlamParams
 
@@ -55,9 +56,10 @@ FINAL_OPTIMIZER_ITERATIONS = 100
 # v2's no-motion edge: only for a frame this close in time to the newest node, unless
 # keep_all_nodes; information I / dt (nodeComparisons).
 NO_MOTION_MAX_GAP_S = 0.1
-# v2's batch run prunes edges whose squared Mahalanobis error exceeds this after the final
-# optimisation and optimises again (pruneEdgesWithErrorAbove(5)).
-PRUNE_CHI2 = 5.0
+# v2's batch run (OpenNIListener::evaluation), after the final optimisation, prunes the edges
+# whose squared Mahalanobis error exceeds each of these in turn, optimising again after each
+# round that pruned any (pruneEdgesWithErrorAbove(5), (1), (0.25)).
+PRUNE_CHI2_ROUNDS = (5.0, 1.0, 0.25)
 # Stands for the lost chain's frame in the seed of a comparison (node ids are >= 0).
 LOST_CHAIN = -1
 
@@ -90,10 +92,8 @@ def best_attempt(attempts: list[Attempt]) -> Attempt | None:
 
 
 def no_motion_information(gap_s: float) -> np.ndarray:
-    """v2's no-motion edge information ``I / dt`` on g2o's error (translation, quaternion
-    vector part ≈ half the angle), in GTSAM's order: rotation then translation."""
-    weight = 1.0 / max(gap_s, 1e-3)
-    return np.diag([weight / 4] * 3 + [weight] * 3)
+    """v2's no-motion edge information ``I / dt``."""
+    return g2o_information(1.0 / max(gap_s, 1e-3))
 
 
 class RgbdSlam(Pipeline):
@@ -409,8 +409,9 @@ class RgbdSlam(Pipeline):
         last_frame = self.tracked[-1].frame_index if self.tracked else -1
         if len(self.graph):
             events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
-            if self.graph.prune_edges_with_error_above(PRUNE_CHI2):
-                events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
+            for threshold in PRUNE_CHI2_ROUNDS:
+                if self.graph.prune_edges_with_error_above(threshold):
+                    events.append(self._optimise(last_frame, FINAL_OPTIMIZER_ITERATIONS))
             events.append(self.graph.map(last_frame, self.camera))
         if self.tracked:
             poses = np.stack([self.graph.poses.poses[t.node_id] @ t.relative for t in self.tracked])
