@@ -14,7 +14,7 @@ from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, B
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
-from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap
+from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
 RNG = np.random.default_rng(0)
@@ -318,19 +318,44 @@ def test_a_guess_window_of_zero_registers_every_frame_against_the_whole_local_ma
     monkeypatch.setattr(odometry, "guided_matches", lambda *_: pytest.fail("guided matching with a window of 0"))
     for step in range(3):
         pose = make_pose(exp_so3([0, np.radians(step), 0]), [0.01 * step, 0, 0])
-        assert np.allclose(odometry.process(view(world, pose, words)).pose, pose, atol=1e-3)
+        assert np.allclose(odometry.process(view(world, pose, words), step / 30).pose, pose, atol=1e-3)
+
+
+def z_y_x(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """R = Rz(yaw) Ry(pitch) Rx(roll), the convention of RTAB-Map's Euler angles."""
+    return exp_so3([0, 0, yaw]) @ exp_so3([0, pitch, 0]) @ exp_so3([roll, 0, 0])
+
+
+def test_the_motion_guess_is_the_last_velocity_times_the_time_since_the_last_frame(monkeypatch):
+    """Odometry::process: the last motion's translation and Euler angles over the time it
+    took, times the time since; none before two frames were registered in a row."""
+    angles = np.radians([1.0, -0.5, 0.25])
+    motion = make_pose(z_y_x(*angles), [0.01, -0.004, 0.002])
+    # over 0.04 s, then 0.06 s later: 1.5 times each translation and angle
+    expected = make_pose(z_y_x(*1.5 * angles), [0.015, -0.006, 0.003])
+    np.testing.assert_allclose(motion_over(velocity_of(motion, 0.04), 0.06), expected, atol=1e-12)
+
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
+    predicted, guided = [], odometry.guided_matches
+    monkeypatch.setattr(odometry, "guided_matches", lambda features, pose: predicted.append(pose) or guided(features, pose))
+    odometry.process(view(world, np.eye(4), words), 0.0)
+    assert np.allclose(odometry.process(view(world, motion, words), 0.04).pose, motion, atol=1e-6)
+    assert predicted == []                                      # no velocity yet, no guess
+    odometry.process(view(world, motion @ expected, words), 0.10)
+    np.testing.assert_allclose(predicted, [motion @ expected], atol=1e-6)
 
 
 def test_after_a_loss_odometry_registers_against_the_whole_local_map():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
-    assert odometry.process(view(world, np.eye(4), words)).new_session
-    blocked = odometry.process(view(world, np.eye(4), descriptors(300, np.random.default_rng(3))))
+    assert odometry.process(view(world, np.eye(4), words), 0 / 30).new_session
+    blocked = odometry.process(view(world, np.eye(4), descriptors(300, np.random.default_rng(3))), 1 / 30)
     assert blocked.pose is None and odometry.velocity is None
     # The camera comes back 0.4 m and 15 degrees away: far outside the 40-pixel window
     # around the last pose, found by matching the whole map.
     moved = make_pose(exp_so3([0, np.radians(15), 0]), [0.4, 0.1, 0.2])
-    back = odometry.process(view(world, moved, words))
+    back = odometry.process(view(world, moved, words), 2 / 30)
     assert back.pose is not None and np.allclose(back.pose, moved, atol=1e-3) and not back.new_session
 
 
@@ -338,18 +363,18 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"))
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
-    odometry.process(view(world, np.eye(4), words))
-    assert np.allclose(odometry.process(view(world, moved, words)).pose, moved, atol=1e-3)
+    odometry.process(view(world, np.eye(4), words), 0 / 30)
+    assert np.allclose(odometry.process(view(world, moved, words), 1 / 30).pose, moved, atol=1e-3)
     other = np.random.default_rng(4)
-    assert odometry.process(view(scene(rng=other), moved, descriptors(300, other))).pose is None
-    restart = odometry.process(view(scene(rng=other), moved, descriptors(300, other)))
+    assert odometry.process(view(scene(rng=other), moved, descriptors(300, other)), 2 / 30).pose is None
+    restart = odometry.process(view(scene(rng=other), moved, descriptors(300, other)), 3 / 30)
     assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
 
 
 def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
-    odometry.process(view(world, np.eye(4), words))
+    odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
     features = view(world, moved, words)
     # 30 depths moved along their rays by 8 px of disparity on the fake g2o/Baseline of
@@ -358,7 +383,7 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     baseline_px = CAMERA.fx * 0.075
     depth = features.points[:30, 2]
     features.points[:30] *= (baseline_px / (baseline_px / depth + 8.0) / depth)[:, None]
-    result = odometry.process(features)
+    result = odometry.process(features, 1 / 30)
     assert np.allclose(result.pose, moved, atol=1e-3)
     assert result.inliers == 270
     assert not result.match_inliers[result.feature_index < 30].any()
@@ -366,7 +391,7 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     assert list(odometry.key_frames.poses) == [1] and all(len(r) == 1 for r in odometry.map.references)
     # A view of 140 points is a key frame: every map point it matched gains its observation
     # (a lone corner near another point's projection is a match too, but no inlier).
-    key_frame = odometry.process(view(world[100:240], moved, words[100:240]))
+    key_frame = odometry.process(view(world[100:240], moved, words[100:240]), 2 / 30)
     registered = key_frame.map_index[key_frame.match_inliers]
     assert key_frame.inliers > 100 and set(registered) <= set(range(100, 240))
     assert list(odometry.key_frames.poses) == [1, 3]
@@ -378,12 +403,12 @@ def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features
     """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
-    odometry.process(view(world, np.eye(4), words))
+    odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
     new_rng = np.random.default_rng(5)
     seen = view(np.r_[world[100:240], scene(30, new_rng)], moved, np.r_[words[100:240], descriptors(30, new_rng)])
     seen.keypoints[:20, 0] += 12.0           # map points 100..119 matched 12 px off: outliers of PnP
-    result = odometry.process(seen)
+    result = odometry.process(seen, 1 / 30)
     matched = dict(zip(result.feature_index.tolist(), result.match_inliers.tolist()))
     assert all(i in matched and not matched[i] for i in range(20)) and result.inliers <= 150   # a key frame
     assert [len(r) for r in odometry.map.references[:300]] == [1 + (100 <= i < 240) for i in range(300)]

@@ -1,7 +1,8 @@
 """Frame-to-map visual odometry (RTAB-Map's Odom/Strategy 0, OdometryF2M).
 
 Each frame's features are matched to a local map of 3D features. With a motion guess
-(the last inter-frame motion, Odom/GuessMotion), map points are projected with it and a
+(Odom/GuessMotion: the last inter-frame motion as a velocity, translation and Euler angles
+per second, times the time since the last frame), map points are projected with it and a
 feature may only match a map point predicted within Vis/CorGuessWinSize pixels, the ratio
 test applied among those candidates; if that registration fails, or when there is no
 guess (the frame after a loss: odometry clears its velocity when lost), the frame is
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ...frontend.features import Features, match_descriptors
 from ...frontend.hamming import nearest_within_radius
@@ -118,6 +120,21 @@ class OdometryResult:
     map_points: np.ndarray | None = None
 
 
+def velocity_of(motion: np.ndarray, elapsed: float) -> np.ndarray:
+    """Odometry::process's velocity: the motion's translation and Euler angles (yaw, pitch,
+    roll of R = Rz Ry Rx) over the time it took, per second."""
+    return np.r_[motion[:3, 3], Rotation.from_matrix(motion[:3, :3]).as_euler("ZYX")] / elapsed
+
+
+def motion_over(velocity: np.ndarray, elapsed: float) -> np.ndarray:
+    """The motion guess: each of the velocity's six components times ``elapsed`` seconds."""
+    scaled = velocity * elapsed
+    motion = np.eye(4)
+    motion[:3, :3] = Rotation.from_euler("ZYX", scaled[3:]).as_matrix()
+    motion[:3, 3] = scaled[:3]
+    return motion
+
+
 class FrameToMapOdometry:
     """Registers each frame to the local map; see the module docstring."""
 
@@ -129,7 +146,8 @@ class FrameToMapOdometry:
         self.bundle_settings = BundleSettings(params.bundle_pixel_variance, params.bundle_kernel_delta,
                                               params.bundle_baseline, params.optimizer_iterations)
         self.pose: np.ndarray | None = None      # last registered pose
-        self.velocity: np.ndarray | None = None  # last inter-frame motion T_prev_current; None: no guess
+        self.stamp: float | None = None          # its time; None after a loss
+        self.velocity: np.ndarray | None = None  # see velocity_of; None: no guess
         self.lost_frames = 0
         self.frame_count = 0
         self.was_reset = False
@@ -138,18 +156,25 @@ class FrameToMapOdometry:
     def initialised(self) -> bool:
         return len(self.map) > 0
 
-    def process(self, features: Features) -> OdometryResult:
+    def process(self, features: Features, timestamp: float) -> OdometryResult:
+        """Register the frame taken at ``timestamp`` (seconds). As Odometry::process, the
+        velocity is only known after two registered frames in a row, so the first frame
+        of a map and the first after a loss are followed by one without a guess."""
         self.frame_count += 1
         if not self.initialised:
-            return self._start_map(features)
-        result = self._register(features)
+            result = self._start_map(features)
+            self.stamp = timestamp if result.pose is not None else None
+            return result
+        elapsed = timestamp - self.stamp if self.stamp is not None else 0.0
+        guess = motion_over(self.velocity, elapsed) if self.velocity is not None and elapsed > 0 else None
+        result = self._register(features, guess)
         if result.pose is not None:
-            self.velocity = invert(self.pose) @ result.pose if self.lost_frames == 0 else None
-            self.pose = result.pose
+            self.velocity = velocity_of(invert(self.pose) @ result.pose, elapsed) if elapsed > 0 else None
+            self.pose, self.stamp = result.pose, timestamp
             self.lost_frames = 0
             return result
         self.lost_frames += 1
-        self.velocity = None
+        self.velocity, self.stamp = None, None
         if self.params.reset_countdown > 0 and self.lost_frames >= self.params.reset_countdown:
             self.reset()
             return self._start_map(features)
@@ -178,12 +203,13 @@ class FrameToMapOdometry:
         reset, self.was_reset = self.was_reset, False
         return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset)
 
-    def _register(self, features: Features) -> OdometryResult:
+    def _register(self, features: Features, guess: np.ndarray | None) -> OdometryResult:
         """Registration with the motion guess, then, if that fails or there is none, against
         the whole local map (OdometryF2M::computeTransform's second try without a guess)."""
         result = None
-        if self.velocity is not None and self.params.guess_window > 0:
-            result = self._solve(features, *self.guided_matches(features, self.pose @ self.velocity), self.pose @ self.velocity)
+        if guess is not None and self.params.guess_window > 0:
+            predicted = self.pose @ guess
+            result = self._solve(features, *self.guided_matches(features, predicted), predicted)
         if result is None or result.pose is None:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)

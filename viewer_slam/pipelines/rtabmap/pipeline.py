@@ -80,7 +80,7 @@ class Rtabmap(Pipeline):
     def process(self, frame: Frame) -> list[Event]:
         watch = Stopwatch(STAGES)
         features = watch("features", self.extractor.extract, frame.rgb, frame.depth)
-        odometry = watch("odometry", self.odometry.process, features)
+        odometry = watch("odometry", self.odometry.process, features, frame.timestamp)
         events: list[Event] = []
         if odometry.matched_pixels is not None and len(odometry.matched_pixels):
             events.append(FeatureMatches(frame.index, "local map", None, odometry.matched_pixels,
