@@ -60,7 +60,7 @@ def test_adjustment_brings_a_perturbed_pose_back_to_the_truth():
     rng, world, held, truth, observations = scene(pixel_noise=0.5)
     guess = truth @ make_pose(exp_so3([0.005, -0.005, 0.003]), [0.02, -0.01, 0.015])
     noisy_points = world + rng.normal(0, 0.01, world.shape)
-    result = adjust_frame(guess, noisy_points, observations, held, Link(3, invert(held[3]) @ guess, 1e-3), K,
+    result = adjust_frame(guess, noisy_points, observations, held, Link(3, invert(held[3]) @ guess, 1e-3, 1e-3), K,
                           BundleSettings())
     # 200 points at 0.5 px: the pose is known to about a millimetre; the guess was 2.7 cm off.
     assert np.linalg.norm(result.pose[:3, 3] - truth[:3, 3]) < 0.005
@@ -104,6 +104,6 @@ def test_the_link_error_is_the_relative_translation_and_quaternion_vector_part_a
     key = make_pose(exp_so3([0.1, 0.0, 0.2]), [0.5, 0.0, 0.0])
     measured = make_pose(np.eye(3), [0.1, 0.0, 0.0])
     adjusted = key @ measured @ make_pose(exp_so3([0.0, 0.3, 0.0]), [0.0, 0.02, 0.0])
-    to_measured, information = link_terms(key, Link(0, measured, variance=0.01))
+    to_measured, information = link_terms(key, Link(0, measured, translation_variance=0.01, rotation_variance=0.04))
     np.testing.assert_allclose(link_error(to_measured, adjusted), [0.0, 0.02, 0.0, 0.0, np.sin(0.15), 0.0], atol=1e-12)
-    assert information == pytest.approx(1 / 0.01)
+    np.testing.assert_allclose(information, [100.0] * 3 + [25.0] * 3)

@@ -11,7 +11,7 @@ from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_d
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
                                                  highest_hypothesis, prediction_matrix)
-from viewer_slam.pipelines.rtabmap.graph import LocationGraph, registration_variance
+from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
@@ -421,7 +421,7 @@ def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
     for i in range(10):
         angle = 2 * np.pi * i / 10
         truth = make_pose(exp_so3([0, angle, 0]), [np.sin(angle), 0, np.cos(angle)])
-        graph.add_location(i, 0, truth @ make_pose(np.eye(3), [drift * i, 0, 0]), variance=1e-4)
+        graph.add_location(i, 0, truth @ make_pose(np.eye(3), [drift * i, 0, 0]), variance=Variance(1e-4, 1e-4))
     return graph
 
 
@@ -430,7 +430,7 @@ def test_a_consistent_loop_closure_is_accepted_and_pulls_the_chain_together():
     truth_9 = make_pose(exp_so3([0, 2 * np.pi * 0.9, 0]), [np.sin(2 * np.pi * 0.9), 0, np.cos(2 * np.pi * 0.9)])
     truth_0 = make_pose(np.eye(3), [0, 0, 1])
     before = np.linalg.norm(graph.poses[9][:3, 3] - truth_9[:3, 3])
-    outcome = graph.close_loop(0, 9, invert(truth_0) @ truth_9, variance=1e-4)
+    outcome = graph.close_loop(0, 9, invert(truth_0) @ truth_9, variance=Variance(1e-4, 1e-4))
     assert outcome.accepted and outcome.error_after < outcome.error_before
     assert np.linalg.norm(graph.poses[9][:3, 3] - truth_9[:3, 3]) < before / 2
 
@@ -439,7 +439,7 @@ def test_a_loop_closure_the_graph_cannot_absorb_is_rejected_and_undone():
     graph = chain_graph(drift=0.0)
     poses = {i: p.copy() for i, p in graph.poses.items()}
     wrong = make_pose(np.eye(3), [1.0, 0, 0])
-    outcome = graph.close_loop(0, 5, wrong, variance=1e-4)
+    outcome = graph.close_loop(0, 5, wrong, variance=Variance(1e-4, 1e-4))
     assert not outcome.accepted and outcome.reason.startswith("optimisation error")
     assert float(outcome.reason.split()[2]) > 3.0
     assert len(graph.pose_graph.edges) == 9
@@ -448,12 +448,12 @@ def test_a_loop_closure_the_graph_cannot_absorb_is_rejected_and_undone():
 
 def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     graph = LocationGraph(iterations=20, max_error=3.0)
-    graph.add_location(0, 0, np.eye(4), 1e-4)
-    graph.add_location(1, 0, make_pose(np.eye(3), [1.0, 0, 0]), 1e-4)
-    graph.add_location(2, 1, np.eye(4), 0.0)            # odometry reset: a new session at its own origin
-    graph.add_location(3, 1, make_pose(np.eye(3), [0, 0, 0.5]), 1e-4)
+    graph.add_location(0, 0, np.eye(4), Variance(1e-4, 1e-4))
+    graph.add_location(1, 0, make_pose(np.eye(3), [1.0, 0, 0]), Variance(1e-4, 1e-4))
+    graph.add_location(2, 1, np.eye(4), Variance())            # odometry reset: a new session at its own origin
+    graph.add_location(3, 1, make_pose(np.eye(3), [0, 0, 0.5]), Variance(1e-4, 1e-4))
     assert graph.map_of(2) != graph.map_of(0)
-    outcome = graph.close_loop(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), 1e-4)
+    outcome = graph.close_loop(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), Variance(1e-4, 1e-4))
     assert outcome.accepted and graph.map_of(3) == graph.map_of(0)
     assert np.allclose(graph.poses[3][:3, 3], [1.2, 0, 0.5])
     assert set(graph.pose_graph.priors) == {0}
@@ -503,11 +503,16 @@ def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_val
     assert (~unmasked.has_depth).sum() > 50
 
 
-def test_registration_variance_is_2_1981_times_the_median_squared_residual_ignoring_missing_depth():
-    """util3d::estimateMotion3DTo2D: 2.1981 x the squared distance at index n/2 of the sorted ones."""
-    reference = np.zeros((5, 3))
-    registered = np.array([[0.01, 0, 0], [0, 0.02, 0], [0, 0, 0.03], [0.04, 0, 0], [np.nan, 0, 0]])
-    assert registration_variance(reference, registered) == pytest.approx(2.1981 * 0.03 ** 2)
+def test_registration_variance_is_2_1981_times_the_quarter_point_of_the_distances_and_angles():
+    """util3d::estimateMotion3DTo2D (Vis/PnPVarianceMedianRatio 4): 2.1981 x the squared distance,
+    and 2.1981 x the angle seen from the camera, at index n/4 of the sorted ones; pairs
+    without depth left out."""
+    reference = np.tile([0.0, 0.0, 2.0], (9, 1))
+    measured = reference + np.c_[[0.08, 0.01, 0.07, 0.02, 0.06, 0.03, 0.05, 0.04, np.nan], np.zeros((9, 2))]
+    # eight valid pairs: index 2 of the sorted ones is the 3 cm offset, seen 2 m away
+    variance = registration_variance(reference, measured)
+    assert variance.translation == pytest.approx(2.1981 * 0.03 ** 2)
+    assert variance.rotation == pytest.approx(2.1981 * np.arctan(0.03 / 2.0))
 
 
 @pytest.mark.parametrize("assignment, message", [

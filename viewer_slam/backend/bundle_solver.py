@@ -104,8 +104,9 @@ def _add_link(to_measured, information, pose, hessian_camera, gradient_camera):
     jacobian[3, 3], jacobian[3, 4], jacobian[3, 5] = w, -a[2], a[1]
     jacobian[4, 3], jacobian[4, 4], jacobian[4, 5] = a[2], w, -a[0]
     jacobian[5, 3], jacobian[5, 4], jacobian[5, 5] = -a[1], a[0], w
-    hessian_camera += information * (jacobian.T @ jacobian)
-    gradient_camera -= information * (jacobian.T @ error)
+    weighted = jacobian.T * information           # J^T diag(information)
+    hessian_camera += weighted @ jacobian
+    gradient_camera -= weighted @ error
 
 
 @jit
@@ -135,9 +136,9 @@ def evaluate(pose, points, kept, point, free, stereo, measured, held_rotation, h
         chi2[m] = (error[m, 0] ** 2 + error[m, 1] ** 2 + error[m, 2] ** 2) / pixel_variance
         if kept[m]:
             cost += huber(chi2[m], delta)[0]
-    if link_information > 0.0:
+    if link_information.any():
         link = link_error(link_to_measured, pose)
-        cost += link_information * (link @ link)
+        cost += np.sum(link_information * link * link)
     return cost
 
 
@@ -212,7 +213,7 @@ def _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, li
                 for i in range(rows):
                     total += camera_jacobian[i, a] * point_jacobian[i, b]
                 coupling[p, a, b] += w * total
-    if link_information > 0.0:
+    if link_information.any():
         _add_link(link_to_measured, link_information, pose, hessian_camera, gradient_camera)
 
 

@@ -57,11 +57,13 @@ class Observations:
 @dataclass
 class Link:
     """The adjusted frame's registration against key frame ``frame``: ``relative`` is
-    ``T_frame^-1 T_adjusted`` and ``variance`` that of every axis (m², rad²)."""
+    ``T_frame^-1 T_adjusted``, with the variance of each translation axis (m²) and of each
+    rotation axis."""
 
     frame: int
     relative: np.ndarray
-    variance: float
+    translation_variance: float
+    rotation_variance: float
 
 
 @dataclass
@@ -105,11 +107,14 @@ def edge_chi2(pose_of: dict[int, np.ndarray], points: np.ndarray, observations: 
     return chi2
 
 
-def link_terms(key_pose: np.ndarray, link: Link) -> tuple[np.ndarray, float]:
+def link_terms(key_pose: np.ndarray, link: Link) -> tuple[np.ndarray, np.ndarray]:
     """g2o's EdgeSBACam from a fixed key frame to the adjusted frame, as the solver takes it:
     ``measured^-1 T_key^-1`` (the error is the translation and quaternion vector part of it
-    times ``T_adjusted``, see ``bundle_solver.link_error``) and the information 1/variance."""
-    return invert(link.relative) @ invert(key_pose), 1.0 / max(link.variance, LINK_VARIANCE_FLOOR)
+    times ``T_adjusted``, see ``bundle_solver.link_error``) and the information of each error
+    component, 1/variance: RTAB-Map copies the covariance's inverse onto that error as it is."""
+    translation, rotation = (1.0 / max(variance, LINK_VARIANCE_FLOOR)
+                             for variance in (link.translation_variance, link.rotation_variance))
+    return invert(link.relative) @ invert(key_pose), np.array([translation] * 3 + [rotation] * 3)
 
 
 class _Problem:
@@ -134,7 +139,7 @@ class _Problem:
         self.camera = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance,
                                 settings.kernel_delta], dtype=np.float64)
         self.link_to_measured, self.link_information = (link_terms(held[link.frame], link) if link is not None
-                                                         else (np.eye(4), 0.0))
+                                                         else (np.eye(4), np.zeros(6)))
 
     def edges(self):
         """The edge arrays, camera and link, as the compiled solver takes them."""

@@ -16,24 +16,49 @@ from ...geometry.se3 import invert
 
 # PCL's computeVariance: a Gaussian's variance from the median of squared distances.
 MEDIAN_TO_VARIANCE = 2.1981
+# Vis/PnPVarianceMedianRatio: the element at n / 4 of the sorted errors stands for the median,
+# "to ignore very very far features" (util3d::estimateMotion3DTo2D).
+VARIANCE_MEDIAN_RATIO = 4
 MIN_LINK_SIGMA = 0.001          # floor of a link's standard deviation (m, and rad)
 ANCHOR_SIGMA = 1e-4
 ANCHOR_INFORMATION = information_from_sigmas(ANCHOR_SIGMA, ANCHOR_SIGMA)
 
 
-def registration_variance(reference: np.ndarray, registered: np.ndarray) -> float:
+@dataclass(frozen=True)
+class Variance:
+    """The diagonal of RTAB-Map's registration covariance: each translation axis (m²) and each
+    rotation axis. Variances of successive registrations add up."""
+
+    translation: float = 0.0
+    rotation: float = 0.0
+
+    def __add__(self, other: "Variance") -> "Variance":
+        return Variance(self.translation + other.translation, self.rotation + other.rotation)
+
+
+def registration_variance(reference: np.ndarray, measured: np.ndarray) -> Variance:
     """Variance of a registration as RTAB-Map estimates it (``util3d::estimateMotion3DTo2D``,
-    after PCL's ``computeVariance``): MEDIAN_TO_VARIANCE times the median squared distance
-    between the inliers' 3D points and their registered counterparts (NaN pairs skipped)."""
-    squared = np.sum((reference - registered) ** 2, axis=1)
-    squared = np.sort(squared[~np.isnan(squared)])
-    return MEDIAN_TO_VARIANCE * float(squared[len(squared) // 2]) if len(squared) else 0.0
+    after PCL's ``computeVariance``), from the inliers' reference 3D points and the registered
+    camera's own 3D points, both in that camera's frame (NaN pairs skipped): MEDIAN_TO_VARIANCE
+    times the squared distance between the two, for translation, and times the angle between
+    them seen from the camera (in radians, not squared, as there), for rotation, each the
+    element at n / VARIANCE_MEDIAN_RATIO of its sorted values."""
+    valid = ~np.isnan(reference).any(axis=1) & ~np.isnan(measured).any(axis=1)
+    reference, measured = reference[valid], measured[valid]
+    if not len(reference):
+        return Variance()
+    squared = np.sort(np.sum((reference - measured) ** 2, axis=1))
+    cosine = np.sum(reference * measured, axis=1) / (np.linalg.norm(reference, axis=1) * np.linalg.norm(measured, axis=1))
+    angles = np.sort(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    at = len(reference) // VARIANCE_MEDIAN_RATIO
+    return Variance(MEDIAN_TO_VARIANCE * float(squared[at]), MEDIAN_TO_VARIANCE * float(angles[at]))
 
 
-def link_information(variance: float) -> np.ndarray:
-    """Information of a link; like RTAB-Map, one variance serves rotation (rad²) and translation (m²)."""
-    sigma = max(np.sqrt(variance), MIN_LINK_SIGMA)
-    return information_from_sigmas(sigma, sigma)
+def link_information(variance: Variance) -> np.ndarray:
+    """Information of a link: the inverse of its variances, each standard deviation at least
+    MIN_LINK_SIGMA."""
+    return information_from_sigmas(max(np.sqrt(variance.rotation), MIN_LINK_SIGMA),
+                                   max(np.sqrt(variance.translation), MIN_LINK_SIGMA))
 
 
 @dataclass
@@ -69,7 +94,7 @@ class LocationGraph:
     def map_of(self, location: int) -> int:
         return self.map_of_session[self.session[location]]
 
-    def add_location(self, location: int, session: int, odometry_pose: np.ndarray, variance: float) -> None:
+    def add_location(self, location: int, session: int, odometry_pose: np.ndarray, variance: Variance) -> None:
         """Chain a location to the previous one of its session (or anchor a new session);
         ``variance`` is the odometry's accumulated since the previous location."""
         previous = self.last_of_session.get(session)
@@ -85,7 +110,7 @@ class LocationGraph:
         self.pose_graph.add_edge(Edge(previous, location, invert(self.odometry[previous]) @ odometry_pose,
                                       link_information(variance)))
 
-    def close_loop(self, old: int, new: int, relative: np.ndarray, variance: float) -> ClosureOutcome:
+    def close_loop(self, old: int, new: int, relative: np.ndarray, variance: Variance) -> ClosureOutcome:
         """Add the link ``relative = T_old^-1 T_new``, optimise, and keep it if consistent."""
         edge = Edge(old, new, relative, link_information(variance))
         if self.map_of(old) != self.map_of(new):

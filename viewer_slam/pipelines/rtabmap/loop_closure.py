@@ -9,9 +9,9 @@ from scipy.spatial.transform import Rotation
 from ...frontend.features import match_descriptors
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
-from ...geometry.se3 import transform_points
+from ...geometry.se3 import invert, transform_points
 from .bayes import PREDICTION_MARGINS, BayesFilter, Hypothesis, adjusted_likelihood, highest_hypothesis
-from .graph import registration_variance
+from .graph import Variance, registration_variance
 from .memory import Link, Location, Memory
 from .params import RtabmapParams
 
@@ -33,7 +33,7 @@ class Registration:
     relative: np.ndarray | None
     matches: int
     inliers: int
-    variance: float = 0.0
+    variance: Variance = Variance()
     rejected: str = ""
 
 
@@ -62,9 +62,9 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
                             rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")
     if too_large_rotation(solution.pose):
         return Registration(None, len(query), solution.inlier_count, rejected="rotation over 90 degrees")
-    old_points = old.points[with_depth[train[solution.inliers]]]
-    new_points = transform_points(solution.pose, new.points[query[solution.inliers]])
-    return Registration(solution.pose, len(query), solution.inlier_count, registration_variance(old_points, new_points))
+    old_points = transform_points(invert(solution.pose), old.points[with_depth[train[solution.inliers]]])
+    variance = registration_variance(old_points, new.points[query[solution.inliers]])
+    return Registration(solution.pose, len(query), solution.inlier_count, variance)
 
 
 class AppearanceDetector:

@@ -32,14 +32,16 @@ from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
 from .bundle import KeyFrames, Reference, bundle_observations
-from .graph import registration_variance
+from .graph import Variance, registration_variance
 from .params import RtabmapParams
 
 MIN_DEPTH_OF_PROJECTION = 0.1
-# With bundle adjustment RTAB-Map scales the registration's covariance down by 10 where it
-# exceeds ten times Registration::COVARIANCE_LINEAR_EPSILON.
+# With bundle adjustment RTAB-Map scales each variance of the registration down by 10 where
+# it exceeds ten times Registration::COVARIANCE_LINEAR_EPSILON (1e-8) or, for rotation,
+# COVARIANCE_ANGULAR_EPSILON (3e-8).
 BUNDLE_VARIANCE_SCALE = 0.1
-BUNDLE_VARIANCE_FLOOR = 1e-7
+BUNDLE_TRANSLATION_VARIANCE_FLOOR = 1e-7
+BUNDLE_ROTATION_VARIANCE_FLOOR = 3e-7
 
 
 class LocalMap:
@@ -99,7 +101,7 @@ class OdometryResult:
     ``projected_pixels`` are the current keypoints of the matches and their map points
     projected with the estimated (or, when lost, the last) pose, for the map points in
     front of that camera, ``inlier_mask`` which of those are inliers; ``variance`` that of
-    the registration (m², see :func:`registration_variance`); ``feature_index``,
+    the registration (see :func:`registration_variance`); ``feature_index``,
     ``map_index`` and ``match_inliers`` all the matches (indices in the frame's features and
     in the local map) and which are inliers; ``map_points`` the inliers' map points after
     bundle adjustment (as they were without it).
@@ -113,7 +115,7 @@ class OdometryResult:
     matched_pixels: np.ndarray | None = None
     projected_pixels: np.ndarray | None = None
     inlier_mask: np.ndarray | None = None
-    variance: float = 0.0
+    variance: Variance = Variance()
     feature_index: np.ndarray | None = None
     map_index: np.ndarray | None = None
     match_inliers: np.ndarray | None = None
@@ -259,10 +261,10 @@ class FrameToMapOdometry:
                                     iterations=params.ransac_iterations, min_inliers=params.min_inliers)
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
-        variance, map_points = 0.0, None
+        variance, map_points = Variance(), None
         if pose is not None:
-            variance = registration_variance(self.map.points[map_index[inliers]],
-                                             transform_points(pose, features.points[feature_index[inliers]]))
+            variance = registration_variance(transform_points(invert(pose), self.map.points[map_index[inliers]]),
+                                             features.points[feature_index[inliers]])
             map_points = self.map.points[map_index[inliers]]
             if params.bundle_adjustment:
                 pose, inliers, map_points, variance = self._bundle_adjust(features, feature_index, map_index, inliers,
@@ -276,7 +278,7 @@ class FrameToMapOdometry:
                               match_inliers=inliers, map_points=map_points)
 
     def _bundle_adjust(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
-                       inliers: np.ndarray, pose: np.ndarray, variance: float):
+                       inliers: np.ndarray, pose: np.ndarray, variance: Variance):
         """The registration refined against the key frames that saw its inliers: the
         adjusted pose, the inliers without the bundle's outliers (no pose when fewer than
         Vis/MinInliers remain), their adjusted map points and the variance scaled down."""
@@ -286,7 +288,7 @@ class FrameToMapOdometry:
                                            self._undistorted(features.keypoints[features_used]),
                                            features.points[features_used, 2], self.params.bundle_max_frames)
         last = self.key_frames.last
-        link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance)
+        link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance.translation, variance.rotation)
         seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
         held = {frame: self.key_frames.poses[frame] for frame in seen_by}
         adjusted = adjust_frame(pose, self.map.points[points], observations, held, link, self.camera.K,
@@ -294,10 +296,11 @@ class FrameToMapOdometry:
         inliers = inliers.copy()
         inliers[inlier_rows[adjusted.outliers]] = False
         if inliers.sum() < self.params.min_inliers:
-            return None, np.zeros(len(map_index), bool), None, 0.0
-        if variance > BUNDLE_VARIANCE_FLOOR:
-            variance *= BUNDLE_VARIANCE_SCALE
-        return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], variance
+            return None, np.zeros(len(map_index), bool), None, Variance()
+        scaled = Variance(*(value * BUNDLE_VARIANCE_SCALE if value > floor else value for value, floor in
+                            ((variance.translation, BUNDLE_TRANSLATION_VARIANCE_FLOOR),
+                             (variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR))))
+        return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], scaled
 
     def _undistorted(self, keypoints: np.ndarray) -> np.ndarray:
         """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""

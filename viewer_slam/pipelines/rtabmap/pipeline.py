@@ -17,7 +17,7 @@ from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
                       MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
-from .graph import LocationGraph
+from .graph import LocationGraph, Variance
 from .bayes import Hypothesis
 from .loop_closure import AppearanceDetector, proximity_candidates, register
 from .memory import Link, Location, Memory, similarity
@@ -71,7 +71,7 @@ class Rtabmap(Pipeline):
         self.last_hypothesis = 0.0       # the previous update's hypothesis value (Rtabmap/LoopRatio)
         self.posterior_max = 0.0
         self.lost = False
-        self.odometry_variance = 0.0     # accumulated since the last location
+        self.odometry_variance = Variance()    # accumulated since the last location
         self.records: list[_FrameRecord] = []
         self.cloud_step = max(1, camera.width // CLOUD_POINTS_ACROSS)
 
@@ -183,7 +183,7 @@ class Rtabmap(Pipeline):
             self.memory.link(previous, location_id, Link.NEIGHBOUR)
         self.edges.add_node(location_id, frame.timestamp)
         self.graph.add_location(location_id, self.session, odometry_pose, self.odometry_variance)
-        self.odometry_variance = 0.0
+        self.odometry_variance = Variance()
         self.current_location = location_id
         pose = self.graph.poses[location_id]
         events: list[Event] = [
