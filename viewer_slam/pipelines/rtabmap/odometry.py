@@ -122,6 +122,11 @@ class OdometryResult:
     map_points: np.ndarray | None = None
 
 
+def scaled_down(variance: float, floor: float) -> float:
+    """A variance after the bundle adjustment: BUNDLE_VARIANCE_SCALE times it where it exceeds ``floor``."""
+    return variance * BUNDLE_VARIANCE_SCALE if variance > floor else variance
+
+
 def velocity_of(motion: np.ndarray, elapsed: float) -> np.ndarray:
     """Odometry::process's velocity: the motion's translation and Euler angles (yaw, pitch,
     roll of R = Rz Ry Rx) over the time it took, per second."""
@@ -297,9 +302,8 @@ class FrameToMapOdometry:
         inliers[inlier_rows[adjusted.outliers]] = False
         if inliers.sum() < self.params.min_inliers:
             return None, np.zeros(len(map_index), bool), None, Variance()
-        scaled = Variance(*(value * BUNDLE_VARIANCE_SCALE if value > floor else value for value, floor in
-                            ((variance.translation, BUNDLE_TRANSLATION_VARIANCE_FLOOR),
-                             (variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR))))
+        scaled = Variance(scaled_down(variance.translation, BUNDLE_TRANSLATION_VARIANCE_FLOOR),
+                          scaled_down(variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR))
         return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], scaled
 
     def _undistorted(self, keypoints: np.ndarray) -> np.ndarray:
