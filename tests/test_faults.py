@@ -173,6 +173,23 @@ def test_ctrl_c_while_importing_is_one_line_and_exit_130(excerpt, tmp_path):
     assert child.returncode == 130 and "Traceback" not in error and error.count("\n") <= 2, error
 
 
+def test_ctrl_c_inside_a_compiled_extensions_import_is_one_line_and_exit_130(tmp_path, monkeypatch, capsys):
+    import viewer_slam.recording.session as session
+    from viewer_slam.errors import Interrupted
+
+    def extension_interrupted_while_loading(*arguments, **options):
+        try:
+            raise Interrupted("SIGINT")
+        except Interrupted as interrupt:  # what pybind11's module initialisation does with it
+            raise ImportError("initialization failed") from interrupt
+
+    monkeypatch.setattr(session, "resolve_params", extension_interrupted_while_loading)
+    monkeypatch.setenv("VIEWSLAM_LOG_DIR", str(tmp_path))
+    assert main(["record", str(TUM_RPY), "--out", str(tmp_path / "run.rrd"), "--quiet"]) == 130
+    assert capsys.readouterr().err == "viewslam: interrupted\n"
+    assert list(tmp_path.iterdir()) == []  # no crash log
+
+
 def test_an_unexpected_error_is_one_line_with_a_log_and_keeps_what_was_recorded(excerpt, tmp_path, monkeypatch,
                                                                                 capsys):
     from viewer_slam.pipelines.rtabmap import PIPELINE as RtabMap

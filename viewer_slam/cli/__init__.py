@@ -70,7 +70,11 @@ def _run(argv: list[str] | None) -> int:
     except BrokenPipeError:  # `viewslam ... | head`: the reader left
         sys.stderr.close()
         return 0
-    except Exception as error:  # a bug: one line, and the traceback where it can be sent to us
+    except Exception as error:
+        if _raised_by_an_interrupt(error):
+            print("viewslam: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        # a bug: one line, and the traceback where it can be sent to us
         print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
               f"{_traceback_note(error)}", file=sys.stderr)
         return 1
@@ -86,6 +90,18 @@ def _typer_exception(name: str) -> type[BaseException]:
 
 class _Never(Exception):
     pass
+
+
+def _raised_by_an_interrupt(error: BaseException) -> bool:
+    """Whether ``error`` wraps a Ctrl-C or stop signal: a compiled extension that is interrupted while
+    it loads re-raises the signal's exception as ``ImportError: initialization failed`` (pybind11)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, (Interrupted, KeyboardInterrupt)):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def _traceback_note(error: Exception) -> str:
