@@ -55,8 +55,7 @@ def _run(argv: list[str] | None) -> int:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except _typer_exception("Abort"):
-        print("viewslam: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted()
     except _typer_exception("TyperException") as error:  # usage errors: unknown option, missing argument
         if not error.format_message():  # bare `viewslam`: help was printed
             return 0
@@ -65,20 +64,23 @@ def _run(argv: list[str] | None) -> int:
         print(f"{command}: error: {error.format_message()}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except (Interrupted, KeyboardInterrupt):
-        print("viewslam: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted()
     except BrokenPipeError:  # `viewslam ... | head`: the reader left
         sys.stderr.close()
         return 0
     except Exception as error:
         if _raised_by_an_interrupt(error):
-            print("viewslam: interrupted", file=sys.stderr)
-            return EXIT_INTERRUPTED
+            return _interrupted()
         # a bug: one line, and the traceback where it can be sent to us
         print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
               f"{_traceback_note(error)}", file=sys.stderr)
         return 1
     return result if isinstance(result, int) else 0
+
+
+def _interrupted() -> int:
+    print("viewslam: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 def _typer_exception(name: str) -> type[BaseException]:
