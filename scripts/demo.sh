@@ -3,5 +3,5 @@
 # both pipelines) into recordings/demo.rrd, with its report and trajectories beside it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-source scripts/setup.sh ""
+source scripts/setup.sh run
 viewslam record "$@"

@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Installs what viewslam needs on a fresh Debian machine with Python 3.11 into ./.venv.
-# Usage: source scripts/setup.sh [EXTRAS] [DEBIAN_PACKAGES...]
-#   EXTRAS: pip extras of viewer-slam, e.g. "dev,ray" (empty for none)
+# Usage: source scripts/setup.sh LOCK [DEBIAN_PACKAGES...]
+#   LOCK: which export of uv.lock to install: "run" (the tool) or "test" (with the test and ray
+#   extras); both are written by scripts/lock.sh
 #   DEBIAN_PACKAGES: system packages wanted beyond libusb-1.0-0 (e.g. xvfb)
 # Missing Debian packages are installed with apt-get when running as root; otherwise the exact
 # command is printed (open3d then falls back to the libusb shipped by PyPI's libusb-package).
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-extras="${1:-}"
+lock="${1:?usage: source scripts/setup.sh run|test [DEBIAN_PACKAGES...]}"
 shift || true
 wanted=(libusb-1.0-0 "$@")
 
@@ -41,8 +42,8 @@ fi
 if [ ! -x "$repo/.venv/bin/python" ]; then
   "$python" -m venv "$repo/.venv"
 fi
-"$repo/.venv/bin/python" -m pip install --quiet --upgrade pip
-spec="$repo"
-[ -n "$extras" ] && spec="$repo[$extras]"
-"$repo/.venv/bin/python" -m pip install --quiet -e "$spec"
+# Every dependency comes from the lock (exact versions, checked by hash); the project itself is
+# then installed on top without resolving anything.
+"$repo/.venv/bin/python" -m pip install --quiet --require-hashes --no-deps -r "$repo/requirements/$lock.txt"
+"$repo/.venv/bin/python" -m pip install --quiet --no-deps --no-build-isolation -e "$repo"
 export PATH="$repo/.venv/bin:$PATH"
