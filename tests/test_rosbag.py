@@ -91,9 +91,9 @@ def test_recording_the_bag_writes_the_folder_trajectory_byte_for_byte(excerpt, t
 
 
 def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
-                  more=lambda bag: None) -> tuple[np.ndarray, np.ndarray]:
+                  more=lambda bag: None, tf: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """A 32x24 bag with a bgr8 topic and a 16UC1 millimetre topic (where ``topics`` names them),
-    and what ``more(bag)`` writes."""
+    a /tf topic that never moves (unless ``tf`` is false), and what ``more(bag)`` writes."""
     rng = np.random.default_rng(0)
     bgr = rng.integers(0, 256, (frames, 24, 32, 3), dtype=np.uint8)
     millimetres = rng.integers(0, 6000, (frames, 24, 32), dtype=np.uint16)
@@ -106,7 +106,8 @@ def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
                                 (0.1, -0.2, 0.0, 0.0, 0.05))
             if "depth" in topics:
                 bag.image(topics["depth"], stamp + 1000, "cam", millimetres[k], "16UC1")
-            bag.transform(stamp, "/map", "/base", np.eye(4))  # tf that never moves: no groundtruth
+            if tf:
+                bag.transform(stamp, "/map", "/base", np.eye(4))  # tf that never moves: no groundtruth
         more(bag)
     return bgr, millimetres
 
@@ -121,6 +122,21 @@ def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_pa
     for k, frame in enumerate(sequence.frames()):
         np.testing.assert_array_equal(frame.rgb, bgr[k][:, :, ::-1])
         np.testing.assert_array_equal(frame.depth, (millimetres[k] / 1000.0).astype(np.float32))
+
+
+@pytest.mark.parametrize("ros", [1, 2])
+def test_a_plain_bag_with_no_tf_topic_records_without_groundtruth(tmp_path, capsys, ros):
+    path = tmp_path / ("plain.bag" if ros == 1 else "plain")
+    synthetic_bag(path, ros, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, tf=False)
+    assert open_sequence(path).groundtruth is None
+    out = tmp_path / "run.rrd"
+    assert main(["record", str(path), "--pipeline", "rgbdslam", "--out", str(out), "--quiet"]) == 0
+    assert json.loads(out.with_suffix(".json").read_text())["pipelines"]["rgbdslam"]["ate"] is None
+    estimate = tmp_path / "estimate.txt"
+    estimate.write_text("5.0 0 0 0 0 0 0 1\n")
+    assert main(["evaluate", str(path), str(estimate)]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"viewslam: error: {path}: no pose topic and no moving tf chain") and error.count("\n") == 1
 
 
 def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, step_ns: int = 10**8) -> None:

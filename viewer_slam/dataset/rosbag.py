@@ -241,6 +241,9 @@ def _open_reader(path: Path) -> Iterator[AnyReader]:
 
 
 def _messages(path: Path, reader: AnyReader, connections, start: int | None = None, stop: int | None = None):
+    """The messages of ``connections`` (none for an empty list: rosbags reads every topic then)."""
+    if not connections:
+        return
     try:
         yield from reader.messages(connections=connections, start=start, stop=stop)
     except Exception as error:  # rosbags raises its readers' own errors on corrupt chunks
