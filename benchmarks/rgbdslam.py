@@ -74,7 +74,8 @@ def speed(args) -> None:
     print(header)
     print("|" + "---|" * (header.count("|") - 1))
     for detector in args.detectors:
-        params = apply_overrides(RgbdSlamParams(), {**args.overrides, "feature_detector_type": detector}, "benchmark")
+        params = apply_overrides(RgbdSlamParams(), {**args.overrides, "feature_detector_type": detector}, "benchmark",
+                                text=True)
         stage_ms = {stage: [] for stage in STAGES}
 
         def collect(event):
@@ -98,7 +99,8 @@ def memory(args) -> None:
     sequence = PingPong(open_sequence(resolve_sequence(args.sequence)), args.frames)
     before = peak_rss_mb()
     start = time.perf_counter()
-    run = run_pipeline(sequence, "rgbdslam", apply_overrides(RgbdSlamParams(), args.overrides, "benchmark"), seed=0)
+    run = run_pipeline(sequence, "rgbdslam", apply_overrides(RgbdSlamParams(), args.overrides, "benchmark", text=True),
+                       seed=0)
     print(f"{run.frames} frames ({sequence.name} forwards and backwards), {run.keyframes} nodes, "
           f"{run.loop_closures_accepted} loop closures accepted, {len(run.trajectory.timestamps)} poses, "
           f"{time.perf_counter() - start:.0f} s ({run.fps:.1f} fps)")

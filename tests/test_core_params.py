@@ -25,7 +25,7 @@ TYPES = {"odometry": OdometryParams, "graph": GraphParams}
 
 def test_keys_and_conversion():
     params = apply_overrides(OdometryParams(), {"Odom/ResetCountdown": "5", "Vis/CorNNDR": "0.7",
-                                                "RGBD/ProximityBySpace": "false"}, "--param")
+                                                "RGBD/ProximityBySpace": "false"}, "--param", text=True)
     assert params_to_dict(params) == {"Odom/ResetCountdown": 5, "Vis/CorNNDR": 0.7,
                                       "RGBD/ProximityBySpace": False, "Kp/Detector": "GFTT_ORB"}
 
@@ -38,7 +38,7 @@ def test_keys_and_conversion():
 ])
 def test_wrong_types_are_rejected(key, value, message):
     with pytest.raises(InputError, match=message):
-        apply_overrides(OdometryParams(), {key: value}, "--param")
+        apply_overrides(OdometryParams(), {key: value}, "--param", text=True)
 
 
 def test_resolve_routes_keys_to_their_pipeline_and_config_tables(tmp_path):
@@ -83,3 +83,133 @@ def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
         resolve_params(types, ["min_matches=400"])
     with pytest.raises(InputError, match="maximum_depth must be above minimum_depth"):
         apply_overrides(RgbdSlamParams(), {"minimum_depth": 1.0, "maximum_depth": 1.0}, "benchmark")
+
+
+# --param and --config accept exactly the same values, for every parameter of every pipeline.
+
+import dataclasses  # noqa: E402
+import json  # noqa: E402
+import math  # noqa: E402
+import tempfile  # noqa: E402
+import typing  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from viewer_slam.pipelines.params import INT_MAX, param_fields  # noqa: E402
+from viewer_slam.pipelines.rgbdslam.params import RgbdSlamParams  # noqa: E402
+from viewer_slam.pipelines.rtabmap.params import RtabmapParams  # noqa: E402
+
+PIPELINES = {"rgbdslam": RgbdSlamParams, "rtabmap": RtabmapParams}
+DECLARED = [(pipeline, key, typing.get_type_hints(kind)[field.name], field.metadata)
+            for pipeline, kind in PIPELINES.items() for key, field in param_fields(kind).items()]
+
+
+def as_text(value) -> str:
+    """How a user types ``value`` after ``--param KEY=``."""
+    return str(value).lower() if isinstance(value, bool) else repr(value) if isinstance(value, float) else str(value)
+
+
+def as_toml(value) -> str:
+    return str(value).lower() if isinstance(value, bool) else json.dumps(value) if isinstance(value, str) else repr(value)
+
+
+def limits(kind: type, metadata) -> tuple[float, float, bool, bool]:
+    """(low, high, low included, high included) of a number parameter, the C int range included."""
+    bounds = metadata["bounds"]
+    low, low_in = (bounds["ge"], True) if "ge" in bounds else (bounds["gt"], False) if "gt" in bounds else \
+        ((-INT_MAX, True) if kind is int else (-math.inf, False))
+    high, high_in = (bounds["le"], True) if "le" in bounds else (bounds["lt"], False) if "lt" in bounds else \
+        ((INT_MAX, True) if kind is int else (math.inf, False))
+    return low, high, low_in, high_in
+
+
+def allowed_values(kind: type, metadata) -> list:
+    """Every choice, both bools, and each bound's edge (the last allowed value on each side)."""
+    if metadata["choices"]:
+        return list(metadata["choices"])
+    if kind is bool:
+        return [True, False]
+    if kind is str:
+        return []
+    low, high, low_in, high_in = limits(kind, metadata)
+    step = (lambda x, towards: x + (1 if towards > x else -1)) if kind is int else math.nextafter
+    edges = [low if low_in else step(low, high), high if high_in else step(high, low)]
+    return [kind(edge) for edge in edges if math.isfinite(edge)]
+
+
+def refused_values(kind: type, metadata) -> list:
+    """The first value past each bound, a value outside the choices, a bool for a number."""
+    refused = [True] if kind in (int, float) else []
+    if metadata["choices"]:
+        return refused + [max(metadata["choices"]) + 1 if kind is int else "NOT_A_CHOICE"]
+    if kind in (int, float):
+        low, high, low_in, high_in = limits(kind, metadata)
+        step = (lambda x, towards: x + (1 if towards > x else -1)) if kind is int else math.nextafter
+        refused += [kind(step(low, -math.inf) if low_in else low) if math.isfinite(low) else None,
+                    kind(step(high, math.inf) if high_in else high) if math.isfinite(high) else None]
+    return [value for value in refused if value is not None]
+
+
+_CONFIG_FOLDER = tempfile.TemporaryDirectory()
+
+
+def both_ways(pipeline: str, key: str, value) -> tuple:
+    """What ``--param KEY=VALUE`` and a config ``"KEY" = VALUE`` give: the parameters, or the
+    problem (the message between its source and the value as typed)."""
+    config = Path(_CONFIG_FOLDER.name) / "params.toml"
+    config.write_text(f"{json.dumps(key)} = {as_toml(value)}\n")
+    outcomes = []
+    for assignments, path in (([f"{key}={as_text(value)}"], None), ([], config)):
+        try:
+            outcomes.append(resolve_params({pipeline: PIPELINES[pipeline]}, assignments, path)[pipeline])
+        except InputError as error:
+            outcomes.append(str(error).split(": ", 1)[1].rsplit(", got ", 1)[0])
+    return tuple(outcomes)
+
+
+@pytest.mark.parametrize("pipeline, key, value",
+                         [(p, key, value) for p, key, kind, metadata in DECLARED for value in allowed_values(kind, metadata)])
+def test_every_allowed_value_and_bound_edge_is_accepted_alike_by_param_and_config(pipeline, key, value):
+    by_param, by_config = both_ways(pipeline, key, value)
+    assert by_param == by_config
+    if dataclasses.is_dataclass(by_param):  # else a relation with another parameter's default refuses it
+        assert type(params_to_dict(by_param)[key]) is type(value) and params_to_dict(by_param)[key] == value
+
+
+@pytest.mark.parametrize("pipeline, key, value",
+                         [(p, key, value) for p, key, kind, metadata in DECLARED for value in refused_values(kind, metadata)])
+def test_every_value_past_a_bound_or_choice_is_refused_alike_by_param_and_config(pipeline, key, value):
+    by_param, by_config = both_ways(pipeline, key, value)
+    assert isinstance(by_param, str) and by_param == by_config and by_param.startswith(f"parameter {key} ")
+
+
+def values_of(kind: type, metadata):
+    if metadata["choices"]:
+        return st.sampled_from(metadata["choices"])
+    if kind is bool:
+        return st.booleans()
+    if kind is str:
+        return st.text(alphabet="abcdefgh_", min_size=1)
+    low, high, low_in, high_in = limits(kind, metadata)
+    if kind is int:
+        return st.integers(-INT_MAX - 10, INT_MAX + 10)
+    return st.floats(allow_nan=False, allow_infinity=False) | st.floats(min_value=max(low, -1e6),
+                                                                       max_value=min(high, 1e6))
+
+
+@st.composite
+def declared_values(draw):
+    pipeline, key, kind, metadata = draw(st.sampled_from(DECLARED))
+    return pipeline, key, draw(values_of(kind, metadata) | st.booleans())
+
+
+@settings(max_examples=120, deadline=None)
+@given(declared_values())
+def test_param_and_config_agree_on_any_value(drawn):
+    pipeline, key, value = drawn
+    by_param, by_config = both_ways(pipeline, key, value)
+    if isinstance(by_param, str) or isinstance(by_config, str):  # refused both ways (``false`` is text on the
+        assert isinstance(by_param, str) and isinstance(by_config, str)  # command line, a bool in TOML)
+    else:
+        assert by_param == by_config

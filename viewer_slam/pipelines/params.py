@@ -81,8 +81,18 @@ INT_MAX = 2**31 - 1
 @cache
 def schema(params_type: type):
     """A pydantic model of ``params_type``'s fields under their external keys, with the declared
-    choices and bounds; every number must be finite, every integer fit a C int."""
+    choices and bounds; every number must be finite, every integer fit a C int. It validates
+    strictly (no ``true`` for a number, no text for a number): command-line text is converted
+    by :func:`from_text` first."""
     import pydantic  # only where parameters are checked: it adds to every command's start-up
+    from pydantic_core import PydanticCustomError
+
+    def one_of(choices: tuple):
+        def check(value):
+            if value not in choices:
+                raise PydanticCustomError("literal_error", "not one of the choices")
+            return value
+        return pydantic.AfterValidator(check)
 
     hints = typing.get_type_hints(params_type)
     fields = {}
@@ -94,11 +104,29 @@ def schema(params_type: type):
             bounds["le"] = INT_MAX
         if kind is int and "ge" not in bounds and "gt" not in bounds:
             bounds["ge"] = -INT_MAX
-        annotation = typing.Literal[tuple(choices)] if choices else kind
+        # The type first (strict: a bool is no int), then the choices.
+        annotation = typing.Annotated[kind, one_of(tuple(choices))] if choices else kind
         numeric = {"allow_inf_nan": False} if kind is float else {}
         fields[field.name] = (annotation, pydantic.Field(field.default, alias=_key(field), **bounds, **numeric))
-    config = pydantic.ConfigDict(extra="forbid", populate_by_name=False)
+    config = pydantic.ConfigDict(extra="forbid", populate_by_name=False, strict=True)
     return pydantic.create_model(f"{params_type.__name__}Schema", __config__=config, **fields)
+
+
+def from_text(params_type: type, key: str, text: str) -> Any:
+    """Command-line text as the value of parameter ``key``, read as the same value in a TOML
+    config would be: ``5`` an integer, ``0.5``/``1e-3``/``inf`` a number, ``true``/``false``
+    (any case) a bool. Text that does not read as the field's type is returned as it is, for
+    validation to refuse with the parameter's own message."""
+    kind = typing.get_type_hints(params_type)[param_fields(params_type)[key].name]
+    text = text.strip()
+    if kind is bool:
+        return {"true": True, "false": False}.get(text.lower(), text)
+    if kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            return text
+    return text
 
 
 _EXPECTED = {"int": "expects an integer", "float": "expects a number", "bool": "expects true or false",
@@ -119,12 +147,14 @@ def _problem(error, params_type: type) -> str:
     return f"{key} {problem}, got {detail['input']!r}"
 
 
-def apply_overrides(params: Any, overrides: dict[str, Any], source: str, relations: bool = True) -> Any:
-    """A copy of ``params`` with ``overrides`` (external key -> raw value) applied and checked.
+def apply_overrides(params: Any, overrides: dict[str, Any], source: str, relations: bool = True, *,
+                    text: bool = False) -> Any:
+    """A copy of ``params`` with ``overrides`` (external key -> value) applied and checked.
 
-    Unknown keys and values of the wrong type or outside the declared choices and bounds
-    raise :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys);
-    so does a broken ``RELATIONS`` rule, unless ``relations`` is False (more layers to come).
+    Values are of the field's type (a float field takes an int too), as a TOML config gives
+    them; with ``text``, they are command-line text, read by :func:`from_text` first. Unknown
+    keys and values of the wrong type or outside the declared choices and bounds raise
+    :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys); so does a broken ``RELATIONS`` rule, unless ``relations`` is False (more layers to come).
     """
     fields = param_fields(type(params))
     for key in overrides:
@@ -132,6 +162,8 @@ def apply_overrides(params: Any, overrides: dict[str, Any], source: str, relatio
             raise InputError(f"{source}: unknown parameter {key!r}; valid: {', '.join(fields)}")
     import pydantic
 
+    if text:
+        overrides = {key: from_text(type(params), key, value) for key, value in overrides.items()}
     values = params_to_dict(params) | dict(overrides)
     try:
         checked = schema(type(params)).model_validate(values)
@@ -177,7 +209,7 @@ def resolve_params(params_types: dict[str, type], assignments: list[str] = (), c
     is an error listing the valid keys.
     """
     resolved = {name: kind() for name, kind in params_types.items()}
-    layers: list[tuple[str, dict[str, Any]]] = []
+    layers: list[tuple[str, dict[str, Any], bool]] = []  # (source, values, command-line text)
     if config is not None:
         data = load_config(config)
         for table in (key for key, value in data.items() if isinstance(value, dict) and key not in params_types):
@@ -190,16 +222,17 @@ def resolve_params(params_types: dict[str, type], assignments: list[str] = (), c
             if isinstance(table, dict):
                 resolved[name] = apply_overrides(resolved[name], table, str(config), relations=False)
         flat = {k: v for k, v in data.items() if not isinstance(v, dict)}
-        layers.append((str(config), flat))
-    layers.append(("--param", parse_assignments(list(assignments))))
-    for source, values in layers:
+        layers.append((str(config), flat, False))
+    layers.append(("--param", parse_assignments(list(assignments)), True))
+    for source, values, text in layers:
         for key, value in values.items():
             owners = [name for name, kind in params_types.items() if key in param_fields(kind)]
             if not owners:
                 valid = sorted({k for kind in params_types.values() for k in param_fields(kind)})
                 raise InputError(f"{source}: unknown parameter {key!r} for {', '.join(params_types)}; valid: {', '.join(valid)}")
             for name in owners:
-                resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False)
+                resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False,
+                                                 text=text)
     sources = [str(config)] * (config is not None) + ["--param"] * bool(assignments)
     for params in resolved.values():  # on the final values: one layer may set what another relies on
         check_relations(params, " and ".join(sources) or "the defaults")
