@@ -39,7 +39,7 @@ def test_prints_the_table_and_writes_json_and_plot(capsys, tmp_path):
     expected = evaluate(read_tum(GROUNDTRUTH), read_tum(ESTIMATE), delta=1, delta_unit="frames").to_dict()
     assert blocks == json.loads(json.dumps(expected))
     assert set(blocks) == {"alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate"}
-    assert set(blocks["rpe"]) == {"trans", "rot", "delta", "delta_unit"}
+    assert set(blocks["rpe"]) == {"trans", "rot", "delta", "delta_unit", "mode"}
     assert set(blocks["ate"]) == set(blocks["ate_segments"]) == {"rmse", "mean", "median", "std", "min", "max", "n"}
     assert (blocks["rpe"]["delta"], blocks["rpe"]["delta_unit"]) == (1, "frames")
     assert blocks["alignment"] == "rigid"

@@ -50,6 +50,11 @@ class DeltaUnit(str, Enum):
     seconds = "seconds"
 
 
+class RpeMode(str, Enum):
+    delta = "delta"
+    tum = "tum"
+
+
 class Format(str, Enum):
     tum = "tum"
     kitti = "kitti"
@@ -119,6 +124,10 @@ def evaluate_command(
     delta: float = typer.Option(1.0, callback=_positive, help="RPE distance between poses."),
     delta_unit: DeltaUnit = typer.Option(DeltaUnit.seconds, help="Unit of --delta."),
     all_deltas: bool = typer.Option(False, "--all-deltas", help="RPE averaged over all distances (sampled)."),
+    rpe_mode: RpeMode = typer.Option(RpeMode.delta, "--rpe-mode",
+                                     help="RPE pairs: delta (--delta/--delta-unit, or --all-deltas) or tum (TUM "
+                                          "evaluate_rpe.py's default as published figures ran it: all pose pairs "
+                                          "under 100 poses, else 10,000 pairs drawn by Python 2.7's random seeded 0)."),
     span: str | None = typer.Option(None, "--span", metavar="START,END", callback=parse_span,
                                     help="Coverage span in groundtruth seconds (default: a sequence's frames, "
                                          "else from the estimate's first pose to the groundtruth's last)."),
@@ -136,6 +145,9 @@ def evaluate_command(
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
     if delta_unit is DeltaUnit.frames and delta != int(delta):
         raise typer.BadParameter(f"a delta in frames must be a whole number, got {delta}", param_hint="--delta")
+    if rpe_mode is RpeMode.tum and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.seconds):
+        raise InputError("--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, "
+                         "--delta-unit or --all-deltas")
     if scale and align not in (Alignment.rigid, Alignment.sim3):
         raise InputError(f"--scale means --align sim3 and cannot be combined with --align {align.value}")
     if plot is not None:
@@ -157,7 +169,8 @@ def evaluate_command(
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
                               align="sim3" if scale else align.value, delta=delta, delta_unit=delta_unit.value,
-                              all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period)
+                              all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period,
+                              rpe_mode=rpe_mode.value)
         if evaluation.ate is None:
             raise InputError.at(path, _why_no_pairs(reference, trajectory, offset, max_difference))
         evaluations.append(evaluation)
@@ -250,7 +263,11 @@ def _print_results(groundtruth: Path, labels: list[str], formats: list[str], eva
     """The legend of the columns (which alignment each uses), the table, and for each estimate the
     format it was read as and its coverage span."""
     first = evaluations[0]
-    if first.delta is None:
+    if first.rpe_mode == RpeMode.tum.value:
+        from ..evaluation.tum_rpe import MODE_TEXT
+
+        rpe_pairs = MODE_TEXT
+    elif first.delta is None:
         rpe_pairs = "all Δ (sampled)"
     elif first.delta_unit == "seconds":
         rpe_pairs = f"Δ = {first.delta:g} s"

@@ -11,8 +11,10 @@ from .ate import absolute_errors
 from .coverage import Coverage, Span, coverage, file_span, held_pose_errors, tracked_segments
 from .rpe import DELTA_UNITS, pairs_by_frames, pairs_by_seconds, relative_errors, sampled_pairs
 from .statistics import ErrorSeries, stats_or_none
+from .tum_rpe import tum_rpe
 
 ALL_DELTAS_SAMPLES = 10_000
+RPE_MODES = ("delta", "tum")
 
 
 @dataclass
@@ -24,7 +26,9 @@ class Evaluation:
     estimate's frame onto the groundtruth's (None with "segments"), and ``pose_alignment``
     the transform each estimate pose was scored under. ``segment_ate`` aligns every
     tracked segment on its own. ``pairs`` holds the associated indices
-    ``(groundtruth, estimate)``. ``delta`` is None for all-Δ RPE. Error series are stamped
+    ``(groundtruth, estimate)``. ``delta`` is None for all-Δ RPE. ``rpe_mode`` is "delta"
+    (pairs Δ apart, or viewslam's all-Δ sample) or "tum" (TUM evaluate_rpe.py's default pairs
+    and error, :mod:`.tum_rpe`). Error series are stamped
     on the estimate's clock; coverage intervals on the groundtruth's (estimate stamp + ``offset``).
     """
 
@@ -41,6 +45,7 @@ class Evaluation:
     delta: float | None
     delta_unit: str
     offset: float = 0.0
+    rpe_mode: str = "delta"
 
     def to_dict(self) -> dict:
         """The report blocks ``alignment``, ``ate``, ``ate_segments``, ``rpe``, ``coverage`` and ``penalized_ate``."""
@@ -49,7 +54,7 @@ class Evaluation:
             "ate": stats_or_none(self.ate),
             "ate_segments": stats_or_none(self.segment_ate),
             "rpe": {"trans": stats_or_none(self.rpe_trans), "rot": stats_or_none(self.rpe_rot),
-                    "delta": self.delta, "delta_unit": self.delta_unit},
+                    "delta": self.delta, "delta_unit": self.delta_unit, "mode": self.rpe_mode},
             "coverage": self.coverage.to_dict(),
             "penalized_ate": stats_or_none(self.penalized_ate),
         }
@@ -76,6 +81,7 @@ def evaluate(
     seed: int = 0,
     span: Span | tuple[float, float] | None = None,
     frame_period: float | None = None,
+    rpe_mode: str = "delta",
 ) -> Evaluation:
     """Score ``estimate`` against ``groundtruth``, both in time order (definitions in docs/metrics.md).
 
@@ -88,7 +94,13 @@ def evaluate(
     first stamps to the groundtruth's end; a sequence's first and last frame stamps when
     the caller knows them). ``frame_period`` is the sequence's frame period, the unit of
     the lost-gap threshold and of the penalty sampling (default: the estimate's median spacing).
+    ``rpe_mode="tum"`` scores RPE as TUM's evaluate_rpe.py does by default (``delta`` and
+    ``all_deltas`` then do not apply), so published figures can be replayed digit for digit.
     """
+    if rpe_mode not in RPE_MODES:
+        raise ValueError(f"rpe_mode must be one of {RPE_MODES}, got {rpe_mode!r}")
+    if rpe_mode == "tum" and all_deltas:
+        raise ValueError("rpe_mode 'tum' draws its own pairs and cannot be combined with all_deltas")
     if delta_unit not in DELTA_UNITS:
         raise ValueError(f"delta_unit must be one of {DELTA_UNITS}, got {delta_unit!r}")
     if not (np.isfinite(delta) and delta > 0) or (delta_unit == "frames" and delta != int(delta)):
@@ -100,14 +112,16 @@ def evaluate(
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
     covered = coverage(span, on_groundtruth_clock.timestamps, frame_period)
-    reported_delta = None if all_deltas else (int(delta) if delta_unit == "frames" else float(delta))
-    reported_unit = "all" if all_deltas else delta_unit
+    every_delta = all_deltas or rpe_mode == "tum"
+    reported_delta = None if every_delta else (int(delta) if delta_unit == "frames" else float(delta))
+    reported_unit = "all" if every_delta else delta_unit
 
     gt_index, est_index = associate(groundtruth.timestamps, estimate.timestamps, offset, max_difference)
     if len(gt_index) == 0:
         return Evaluation(ate=None, segment_ate=None, rpe_trans=None, rpe_rot=None, coverage=covered,
                           penalized_ate=None, alignment_name=align, alignment=None, pose_alignment=None,
-                          pairs=(gt_index, est_index), delta=reported_delta, delta_unit=reported_unit, offset=offset)
+                          pairs=(gt_index, est_index), delta=reported_delta, delta_unit=reported_unit, offset=offset,
+                          rpe_mode=rpe_mode)
 
     reference, matched = groundtruth.poses[gt_index], estimate.poses[est_index]
     stamps = estimate.timestamps[est_index]
@@ -127,6 +141,11 @@ def evaluate(
         metric_scale[:, :3, 3] *= np.linalg.norm(fitted.transform[:3, 0])
     rpe_trans, rpe_rot = relative_errors(reference, metric_scale, first, second)
     has_pairs = len(first) > 0
+    rpe_stamps = stamps[second]
+    if rpe_mode == "tum":
+        rpe_stamps, rpe_trans, rpe_rot = _tum_rpe(groundtruth, estimate, offset,
+                                                  np.linalg.norm(fitted.transform[:3, 0]) if align == "sim3" else 1.0)
+        has_pairs = len(rpe_stamps) > 0
 
     penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, fitted.per_pose,
                                                       covered.lost_intervals, frame_period)
@@ -136,8 +155,8 @@ def evaluate(
     return Evaluation(
         ate=ErrorSeries(stamps, ate_errors),
         segment_ate=ErrorSeries(stamps, segment_errors),
-        rpe_trans=ErrorSeries(stamps[second], rpe_trans) if has_pairs else None,
-        rpe_rot=ErrorSeries(stamps[second], rpe_rot) if has_pairs else None,
+        rpe_trans=ErrorSeries(rpe_stamps, rpe_trans) if has_pairs else None,
+        rpe_rot=ErrorSeries(rpe_stamps, rpe_rot) if has_pairs else None,
         coverage=covered,
         penalized_ate=penalized,
         alignment_name=align,
@@ -147,4 +166,19 @@ def evaluate(
         delta=reported_delta,
         delta_unit=reported_unit,
         offset=offset,
+        rpe_mode=rpe_mode,
     )
+
+
+def _tum_rpe(groundtruth: Trajectory, estimate: Trajectory, offset: float,
+             scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stamps (the second pose of each pair), translation [m] and rotation [deg] of TUM's default
+    RPE; empty where the script would give up (fewer than two comparable pairs)."""
+    try:
+        result = tum_rpe(groundtruth.timestamps, groundtruth.poses, estimate.timestamps, estimate.poses,
+                         offset=offset, scale=scale)
+    except ValueError:
+        empty = np.zeros(0)
+        return empty, empty, empty
+    order = np.argsort(result.second_stamps, kind="stable")  # in time, for plots and timelines
+    return result.second_stamps[order], result.translation[order], np.degrees(result.rotation[order])
