@@ -115,6 +115,20 @@ def camera(**changes) -> Callable[[Path, Path], None]:
     return write("camera.json", json.dumps(CAMERA | changes).replace("Infinity", "1e999"))
 
 
+def copy(relative: str, target: str) -> Callable[[Path, Path], None]:
+    """Copy the sequence's file ``relative`` to ``tmp/target``."""
+    def prepare(seq: Path, tmp: Path) -> None:
+        shutil.copyfile(seq / relative, tmp / target)
+    return prepare
+
+
+def hard_link(relative: str, target: str) -> Callable[[Path, Path], None]:
+    """The sequence's file ``relative`` also under the name ``tmp/target`` (the same inode)."""
+    def prepare(seq: Path, tmp: Path) -> None:
+        os.link(seq / relative, tmp / target)
+    return prepare
+
+
 RECORD = ["record", "{seq}", "--out", "{out}", "--quiet"]
 RGBDSLAM = [*RECORD, "--pipeline", "rgbdslam"]
 
@@ -176,6 +190,13 @@ RECORD_CASES = {
     "report-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.json", mkdir("out/other.json")),
     "trajectory-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.rtabmap.txt",
                                  mkdir("out/other.rtabmap.txt")),
+    # inputs are never outputs
+    "trajectory-is-the-estimate": Case([*RECORD, "--estimate", "mine={tmp}/out/run.mine.txt"],
+                                       "run.mine.txt", copy("groundtruth.txt", "out/run.mine.txt")),
+    "trajectory-is-the-estimate-by-inode": Case([*RECORD, "--estimate", "mine={seq}/groundtruth.txt"],
+                                                "run.mine.txt", hard_link("groundtruth.txt", "out/run.mine.txt")),
+    "report-is-the-config": Case([*RECORD, "--config", "{tmp}/out/run.json"], "run.json",
+                                 write("tmp/out/run.json", "max_keypoints = 100\n")),
     # the sequence
     "estimate-missing": Case([*RECORD, "--estimate", "mine={tmp}/nope.txt"], "nope.txt"),
     "estimate-unknown-format": Case([*RECORD, "--estimate", "mine={tmp}/e.txt"], "e.txt",
@@ -262,6 +283,17 @@ OTHER_CASES = {
                                        write("tmp/e.txt", "1.0 2.0\n")),
     "evaluate-no-overlap": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt",
                                 write("tmp/e.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")),
+    "evaluate-json-is-the-estimate": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--json",
+                                           "{tmp}/out/e.txt"], "--json", copy("groundtruth.txt", "out/e.txt")),
+    "evaluate-json-is-the-groundtruth": Case(["evaluate", "{tmp}/out/gt.txt", "{seq}/groundtruth.txt", "--json",
+                                              "{tmp}/out/gt.txt"], "--json", copy("groundtruth.txt", "out/gt.txt")),
+    "evaluate-plot-is-the-estimate": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--plot",
+                                           "{tmp}/out/e.txt"], "--plot", copy("groundtruth.txt", "out/e.txt")),
+    "evaluate-json-is-the-estimate-by-inode": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt",
+                                                    "--json", "{tmp}/out/e.json"], "--json",
+                                                   hard_link("groundtruth.txt", "out/e.json")),
+    "evaluate-json-is-the-plot": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--json",
+                                       "{tmp}/out/e.json", "--plot", "{tmp}/out/e.json"], "--plot"),
     "evaluate-folder-without-groundtruth": Case(["evaluate", "{seq}", "{tmp}/gt.txt"], "groundtruth.txt",
                                                 lambda seq, tmp: (seq / "groundtruth.txt").rename(tmp / "gt.txt")),
     "synth-unknown-scenario": Case(["synth", "nowhere", "--out", "{tmp}/s"], "nowhere"),

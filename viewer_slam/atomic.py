@@ -33,6 +33,35 @@ def check_writable(target: Path) -> None:
         raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
 
 
+# The files of a TUM folder given as an input that a command reads.
+_FOLDER_INPUTS = ("rgb.txt", "depth.txt", "groundtruth.txt", "accelerometer.txt", "camera.json")
+
+
+def refuse_inputs_as_outputs(outputs: dict[Path, str], inputs: dict[Path, str]) -> None:
+    """Fail now, before anything is written, if an output would replace an input of the same
+    command: the same file (by inode, so a hard link or another spelling counts), or the same
+    path when neither exists yet. ``outputs`` maps each path to the option that names it,
+    ``inputs`` each input (a file, or a TUM folder whose listings count) to how it was given."""
+    files = {}
+    for path, given in inputs.items():
+        path = Path(path)
+        files[path] = given
+        if path.is_dir():
+            files |= {path / name: f"{given} ({name})" for name in _FOLDER_INPUTS}
+    for output, option in outputs.items():
+        for path, given in files.items():
+            if _same_file(Path(output), path):
+                raise InputError(f"{option}: {output} is the input {given}; choose another name, "
+                                 f"an input is never overwritten")
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet): the same path is the same file
+        return a.resolve() == b.resolve()
+
+
 class StagedFiles:
     """Temporary files beside their targets, renamed into place together by :meth:`commit`.
 

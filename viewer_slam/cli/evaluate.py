@@ -13,7 +13,7 @@ from rich import box
 from rich.markup import escape
 from rich.table import Table
 
-from ..atomic import StagedFiles, check_writable
+from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
@@ -154,9 +154,12 @@ def evaluate_command(
         from ..evaluation.plot import check_plot_path  # matplotlib only when a plot is wanted
 
         check_plot_path(plot)
-    for output in (json_path, plot):
-        if output is not None:
-            check_writable(output)
+    outputs = {path: option for path, option in ((json_path, "--json"), (plot, "--plot")) if path is not None}
+    refuse_inputs_as_outputs(outputs, {path: f"{what} {path}" for path, what in ((groundtruth, "GROUNDTRUTH"),
+                             *((estimate, "ESTIMATE") for estimate in estimates), (sequence, "--sequence"))
+                             if path is not None})
+    for output in outputs:
+        check_writable(output)
     reference, clock = _groundtruth_and_clock(groundtruth, groundtruth_topic)
     if sequence is not None:
         clock = _sequence_clock(sequence)

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from .. import palette
-from ..atomic import StagedFiles, check_writable, exclusive
+from ..atomic import StagedFiles, check_writable, exclusive, refuse_inputs_as_outputs
 from ..dataset.catalog import resolve_sequence
 from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
@@ -108,13 +108,16 @@ def output_path(sequence: str | None, out: Path | None) -> Path:
     return Path("recordings") / f"{path.stem if path.suffix == '.bag' else path.name}.rrd"
 
 
-def check_outputs(out: Path, pipelines: list[str]) -> None:
-    """Fail now, not after an hour of processing, if the recording or a file beside it cannot be written."""
+def check_outputs(out: Path, pipelines: list[str], inputs: dict[Path, str] | None = None) -> None:
+    """Fail now, not after an hour of processing, if the recording or a file beside it cannot be
+    written, or would replace one of the ``inputs`` (path -> how it was given)."""
     if out.suffix != ".rrd":
         raise InputError.at(out, "the recording must have the .rrd extension")
     if out.is_dir():
         raise InputError.at(out, "is a folder; --out takes a file name ending in .rrd")
     report, trajectories = report_paths(out, pipelines)
+    refuse_inputs_as_outputs({path: "--out" for path in (out, report, *trajectories.values())},
+                             inputs or {})
     for path in (out, report, *trajectories.values()):
         check_writable(path)
 
@@ -186,7 +189,12 @@ def record(options: RecordOptions) -> RecordResult:
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)
-    check_outputs(out, [*pipelines, *(name for name, _ in estimates)])
+    inputs = {Path(file): f"--estimate {name}={file}" for name, file in estimates}
+    if options.config is not None:
+        inputs[Path(options.config)] = f"--config {options.config}"
+    if options.sequence is not None and Path(options.sequence).exists():
+        inputs[Path(options.sequence)] = f"the sequence {options.sequence}"
+    check_outputs(out, [*pipelines, *(name for name, _ in estimates)], inputs)
     with exclusive([out]):
         sequence = open_input(options.sequence, options.bag)
         runs: dict[str, Pipeline] = {name: make_pipeline(name, sequence.camera, params[name], options.seed)
