@@ -3,6 +3,19 @@
 ATE and RPE only look at the poses a method produced, so a method that gives up early
 can look better than one that keeps going. Coverage measures the time without a pose,
 and the penalised ATE charges that time with the error of the pose the method last had.
+
+Not every gap is a loss: RTAB-Map exports one node a second, keyframe systems a pose only
+when the view has changed enough (and cull redundant keyframes later). The gap rule
+(docs/metrics.md): a gap is lost when it is longer than max(0.1 s, 3 frame periods, 3 of
+the estimate's own pose intervals), the estimate's interval being its median one when it
+has a pose per frame, and its 90th-percentile one when it is *sparse* (median interval above
+max(0.1 s, 3 frame periods): nodes or keyframes, whose spacing varies with the motion).
+A sparse estimate's gap scored against groundtruth is lost only if the groundtruth camera
+also moved during it more than 3 times what it typically moves between two of the
+estimate's consecutive poses (in translation or rotation, a step counting at least 5 cm /
+0.05 rad), so a system that adds no node while the camera rests is not lost. An estimate's own rhythm
+counts only from 4 poses on when the frame period is known: two or three poses say
+nothing about a rate, and are judged at the frame rate.
 """
 
 from dataclasses import dataclass
@@ -16,6 +29,11 @@ from .ate import absolute_errors
 
 MIN_LOST_GAP_S = 0.1
 LOST_GAP_PERIODS = 3.0
+SPARSE_INTERVAL_PERCENTILE = 90.0
+MIN_POSES_FOR_RHYTHM = 4
+LOST_GAP_MOTIONS = 3.0  # a sparse estimate's gap is lost when the camera moved this many typical steps
+MIN_STEP_M = 0.05
+MIN_STEP_RAD = 0.05
 
 
 class Span(NamedTuple):
@@ -64,22 +82,62 @@ def median_period(stamps: np.ndarray) -> float | None:
 
 
 def lost_gap_threshold(stamps: np.ndarray, frame_period: float | None = None) -> float:
-    """A stretch without poses longer than this is lost: max(0.1 s, 3 frame periods).
+    """A stretch without poses longer than this is lost: max(0.1 s, 3 frame periods, 3 of the
+    estimate's own pose intervals: the median one, or the 90th-percentile one of a sparse estimate).
 
     Three periods tolerate a dropped frame or two; the 0.1 s floor keeps the jitter of
-    fast cameras from counting as tracking loss. The period is the sequence's own when the
-    caller knows it, else the estimate's median spacing (a bare trajectory file).
+    fast cameras from counting as tracking loss. The frame period is the sequence's own when
+    the caller knows it; the estimate's own spacing keeps a trajectory of one node a second
+    (RTAB-Map's export) from being lost between every two nodes, and the percentile a
+    keyframe trajectory from being lost wherever the camera moved slowly.
     """
-    period = frame_period or median_period(stamps)
-    return MIN_LOST_GAP_S if period is None else max(MIN_LOST_GAP_S, LOST_GAP_PERIODS * period)
+    own = _own_period(stamps, frame_period)
+    if own is not None and is_sparse(stamps, frame_period):
+        own = float(np.percentile(np.diff(stamps), SPARSE_INTERVAL_PERCENTILE))
+    periods = [period for period in (frame_period, own) if period]
+    return max([MIN_LOST_GAP_S] + [LOST_GAP_PERIODS * period for period in periods])
 
 
-def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period: float | None = None) -> Coverage:
+def _own_period(stamps: np.ndarray, frame_period: float | None) -> float | None:
+    """The estimate's median pose interval where its rhythm counts (module docstring), else None."""
+    if frame_period and len(stamps) < MIN_POSES_FOR_RHYTHM:
+        return None
+    return median_period(stamps)
+
+
+def is_sparse(stamps: np.ndarray, frame_period: float | None = None) -> bool:
+    """Whether the estimate holds nodes or keyframes rather than a pose per frame: its median pose
+    interval is longer than max(0.1 s, 3 frame periods) (and its rhythm counts)."""
+    own = _own_period(stamps, frame_period)
+    return own is not None and own > max(MIN_LOST_GAP_S, LOST_GAP_PERIODS * (frame_period or 0.0))
+
+
+class _CameraMotion:
+    """The groundtruth camera's travelled path and turned angle up to any instant (interpolated)."""
+
+    def __init__(self, groundtruth: Trajectory):
+        poses = groundtruth.poses
+        steps = np.linalg.norm(np.diff(poses[:, :3, 3], axis=0), axis=1)
+        relative = np.swapaxes(poses[:-1, :3, :3], 1, 2) @ poses[1:, :3, :3]
+        cosine = np.clip((np.trace(relative, axis1=1, axis2=2) - 1) / 2, -1.0, 1.0)
+        self.stamps = groundtruth.timestamps
+        self.path = np.concatenate([[0.0], np.cumsum(steps)])
+        self.turn = np.concatenate([[0.0], np.cumsum(np.arccos(cosine))])
+
+    def between(self, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Metres travelled and radians turned from each start to its end."""
+        return (np.interp(ends, self.stamps, self.path) - np.interp(starts, self.stamps, self.path),
+                np.interp(ends, self.stamps, self.turn) - np.interp(starts, self.stamps, self.turn))
+
+
+def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period: float | None = None,
+             groundtruth: Trajectory | None = None) -> Coverage:
     """Coverage of ``span`` (start, end[, rule]) by pose ``stamps`` (sorted, on the span's clock).
 
     The span's ends and the stamps inside it form a chain of instants; every gap in that
-    chain longer than :func:`lost_gap_threshold` is a lost interval, and the ratio is one
-    minus their total length over the span's length.
+    chain longer than :func:`lost_gap_threshold` is a lost interval (for a sparse estimate
+    with ``groundtruth``, only if the camera moved enough during it: the module's rule), and
+    the ratio is one minus their total length over the span's length.
     """
     span = Span(*span)
     start, end = span.start, span.end
@@ -89,10 +147,21 @@ def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period:
     instants = np.concatenate([[start], inside, [end]])
     gaps = np.diff(instants)
     lost = np.flatnonzero(gaps > lost_gap_threshold(stamps, frame_period))
+    if groundtruth is not None and len(groundtruth) > 1 and len(inside) > 1 and is_sparse(stamps, frame_period):
+        lost = lost[_moved_enough(_CameraMotion(groundtruth), inside, instants[lost], instants[lost + 1])]
     intervals = [(float(instants[k]), float(instants[k + 1])) for k in lost]
     duration = end - start
     ratio = 1.0 - float(gaps[lost].sum() / duration) if duration > 0 else 1.0
     return Coverage(ratio, intervals, span)
+
+
+def _moved_enough(motion: _CameraMotion, stamps: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Which gaps saw the camera move more than LOST_GAP_MOTIONS typical steps between consecutive poses."""
+    step_path, step_turn = motion.between(stamps[:-1], stamps[1:])
+    typical_path = max(float(np.median(step_path)), MIN_STEP_M)
+    typical_turn = max(float(np.median(step_turn)), MIN_STEP_RAD)
+    path, turn = motion.between(starts, ends)
+    return (path > LOST_GAP_MOTIONS * typical_path) | (turn > LOST_GAP_MOTIONS * typical_turn)
 
 
 def tracked_segments(stamps: np.ndarray, frame_period: float | None = None) -> np.ndarray:

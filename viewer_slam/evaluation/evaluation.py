@@ -111,7 +111,7 @@ def evaluate(
     on_groundtruth_clock = Trajectory(estimate.timestamps + offset, estimate.poses)
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
-    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period)
+    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth)
     every_delta = all_deltas or rpe_mode == "tum"
     reported_delta = None if every_delta else (int(delta) if delta_unit == "frames" else float(delta))
     reported_unit = "all" if every_delta else delta_unit
