@@ -56,3 +56,23 @@ def test_distorted_pixels_give_the_true_pose():
     assert np.abs(result.pose - pose).max() < 1e-6
     ignored = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20)
     assert ignored is None or np.abs(ignored.pose - pose).max() > 1e-3
+
+
+def test_points_on_one_plane_give_the_true_pose():
+    """A texture-less floor at 320x240: every point on one plane, seen obliquely. OpenCV's
+    own final fit on RANSAC's inliers (EPnP) lands so far off on about 4 of 10 of these
+    scenes that refining it still leaves fewer than 20 points agreeing; the pose must come
+    out right on every one."""
+    rng = np.random.default_rng(0)
+    small = np.array([[267.7, 0, 160], [0, 267.7, 120], [0, 0, 1]])
+    normal = np.array([0.0, 0.3, 0.785]) / np.linalg.norm([0.0, 0.3, 0.785])
+    for _ in range(20):
+        pixels = rng.uniform([0, 0], [320, 240], (120, 2))
+        rays = np.c_[(pixels - [160, 120]) / 267.7, np.ones(len(pixels))]
+        points = rays * (0.95 / (rays @ normal))[:, None]              # in the first camera
+        pose = make_pose(exp_so3(rng.normal(0, 0.01, 3)), rng.normal(0, 0.01, 3))
+        in_camera = transform_points(invert(pose), points)
+        seen = in_camera[:, :2] / in_camera[:, 2:] * 267.7 + [160, 120] + rng.normal(0, 0.3, (len(points), 2))
+        result = solve_pnp_ransac(points, seen, small, reprojection_error=2.0, iterations=300, min_inliers=20)
+        assert result is not None and result.inlier_count >= 115
+        assert np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) < 0.005
