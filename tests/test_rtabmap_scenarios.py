@@ -168,16 +168,22 @@ def test_texture_less_plane_loses_tracking_without_wrong_poses_and_the_report_sh
     assert report["tracking_lost"][0]["frame"] == of_type(events, TrackingLost)[0].frame_index
     # As the texture runs out the registrations weaken: the last one before the loss keeps
     # fewer than twice Vis/MinInliers inliers (RTAB-Map's guided matching takes a lone corner
-    # near a projected map point without a test, so weak matches still pass PnP), and is the
-    # one that may land off. Until it, the motion between consecutive poses agrees with the
-    # groundtruth's to within 8 cm, about three frames of this run's motion (2.2 cm per frame).
+    # near a projected map point without a test, so weak matches still pass PnP), and the
+    # weak ones may land off. The motion between consecutive poses agrees with the
+    # groundtruth's (2.2 cm per frame here) to within 8 cm wherever the registration kept at
+    # least three times Vis/MinInliers inliers (measured over scene seeds 0-3: at most 2.4 to
+    # 4.7 cm), and no step is a wild pose: at most 15 cm anywhere (measured: 7.3 to 11.4 cm).
     registered = [e for e in of_type(events, FrameTracked) if e.pose is not None]
     assert registered[-1].frame_index < of_type(events, TrackingLost)[0].frame_index     # lost for good
-    assert registered[-1].inliers < 2 * RtabmapParams().min_inliers
+    min_inliers = RtabmapParams().min_inliers
+    assert registered[-1].inliers < 2 * min_inliers
     truth, _ = sequence.groundtruth_at(result.trajectory.timestamps)
     estimated = np.linalg.inv(result.trajectory.poses[:-1]) @ result.trajectory.poses[1:]
     true = np.linalg.inv(truth[:-1]) @ truth[1:]
-    assert np.linalg.norm(estimated[:-1, :3, 3] - true[:-1, :3, 3], axis=1).max() < 0.08
+    step_error = np.linalg.norm(estimated[:, :3, 3] - true[:, :3, 3], axis=1)
+    strong = np.array([event.inliers >= 3 * min_inliers for event in registered[1:]])
+    assert strong.sum() > len(strong) // 2
+    assert step_error[strong].max() < 0.08 and step_error.max() < 0.15
 
 
 def test_with_a_memory_threshold_the_weighted_first_place_stays_and_the_loop_is_still_closed(textured_loop):
