@@ -47,7 +47,7 @@ def _run(argv: list[str] | None) -> int:
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer
 
-        from . import benchmark, datasets, diff, evaluate, pipelines, record, synth, view  # noqa: F401  (register commands)
+        from . import benchmark, datasets, diff, evaluate, pipelines, record, study, synth, view  # noqa: F401  (register commands)
         from .app import app
 
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
@@ -71,6 +71,10 @@ def _run(argv: list[str] | None) -> int:
     except Exception as error:
         if _raised_by_an_interrupt(error):
             return _interrupted()
+        if isinstance(error, OSError) and error.filename is not None:
+            # a path the system refuses (a name too long, a folder under a file, no permission)
+            print(f"viewslam: error: {error.filename}: {error.strerror}", file=sys.stderr)
+            return EXIT_BAD_INPUT
         # a bug: one line, and the traceback where it can be sent to us
         print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
               f"{_traceback_note(error)}", file=sys.stderr)
@@ -115,7 +119,7 @@ def _traceback_note(error: Exception) -> str:
             continue
         path = Path(folder) / name
         try:
-            path.write_text(f"viewslam {' '.join(sys.argv[1:])}\n{text}")
+            path.write_text(f"viewslam {' '.join(sys.argv[1:])}\n{text}", errors="backslashreplace")
         except OSError:
             continue
         return f"; full traceback in {path}"

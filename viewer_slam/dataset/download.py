@@ -101,7 +101,15 @@ def download_sequence(name: str, dest: Path | None = None, mirror: str | None = 
     return target
 
 
-def _fetch(url: str, part: Path, progress: bool) -> None:
+def fetch_file(url: str, part: Path, progress: bool, retry: str = RETRY,
+               mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR") -> None:
+    """Complete ``part`` from ``url`` (resuming what it holds); a failure is one InputError that says
+    ``retry`` (how to resume) or, for a client error, to check ``mirror_hint``."""
+    _fetch(url, part, progress, retry, mirror_hint)
+
+
+def _fetch(url: str, part: Path, progress: bool, retry: str = RETRY,
+           mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR") -> None:
     """Complete ``part`` from ``url``; transfer failures keep what arrived and say how to resume."""
     try:
         transfer = _open_from(url, part.stat().st_size if part.exists() else 0)
@@ -109,13 +117,13 @@ def _fetch(url: str, part: Path, progress: bool) -> None:
             with transfer.response:
                 _receive(transfer, part, progress)
     except urllib.error.HTTPError as error:
-        advice = "check the mirror (--mirror, VIEWSLAM_TUM_MIRROR)" if error.code < 500 else f"{RETRY} later"
+        advice = f"check the mirror ({mirror_hint})" if error.code < 500 else f"{retry} later"
         raise InputError(f"{url}: download failed: HTTP {error.code} {error.reason}; {advice}") from None
     except (urllib.error.URLError, http.client.HTTPException, OSError) as error:
         reason = " ".join(str(getattr(error, "reason", error)).split()) or type(error).__name__
         kept = part.stat().st_size if part.exists() else 0
         resume = f" to resume from the {kept:,} bytes in {part}" if kept else ""
-        raise InputError(f"{url}: download failed: {reason}; {RETRY}{resume}") from None
+        raise InputError(f"{url}: download failed: {reason}; {retry}{resume}") from None
 
 
 def _open_from(url: str, offset: int) -> _Transfer | None:

@@ -1,0 +1,1 @@
+"""The seed study replayed from the runs its author published (``viewslam study``)."""
