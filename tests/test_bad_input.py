@@ -129,6 +129,31 @@ def hard_link(relative: str, target: str) -> Callable[[Path, Path], None]:
     return prepare
 
 
+def png_header(width: int, height: int) -> bytes:
+    """A PNG whose chunks are all valid, announcing ``width`` x ``height`` RGB pixels, with one
+    tiny IDAT: a decoder would have to allocate the whole image before finding the data short."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(b"\0" * 16)) + chunk(b"IEND", b""))
+
+
+def replace_image(folder: str, content: bytes) -> Callable[[Path, Path], None]:
+    def prepare(seq: Path, tmp: Path) -> None:
+        first_image(seq, folder).write_bytes(content)
+    return prepare
+
+
+def estimate(lines: str) -> Callable[[Path, Path], None]:
+    """``tmp/e.txt``: the first groundtruth stamps of the excerpt with poses from ``lines``
+    (each ``tx ty tz qx qy qz qw``, used in turn)."""
+    def prepare(seq: Path, tmp: Path) -> None:
+        stamps = [line.split()[0] for line in (seq / "rgb.txt").read_text().splitlines() if not line.startswith("#")]
+        poses = lines.splitlines()
+        (tmp / "e.txt").write_text("".join(f"{stamp} {poses[i % len(poses)]}\n" for i, stamp in enumerate(stamps)))
+    return prepare
+
+
 RECORD = ["record", "{seq}", "--out", "{out}", "--quiet"]
 RGBDSLAM = [*RECORD, "--pipeline", "rgbdslam"]
 
@@ -236,13 +261,21 @@ RECORD_CASES = {
     "camera-width-text": Case(RECORD, "camera.json", camera(width="wide")),
     "camera-missing-key": Case(RECORD, "camera.json",
                                write("camera.json", json.dumps({k: v for k, v in CAMERA.items() if k != "cy"}))),
+    "camera-cx-huge": Case(RECORD, "camera.json", camera(cx=1e308)),
+    "camera-fx-huge": Case(RECORD, "camera.json", camera(fx=1e300)),
+    "camera-depth-factor-tiny": Case(RECORD, "camera.json", camera(depth_factor=1e-300)),
+    "camera-one-pixel": Case(RECORD, "camera.json", camera(width=1, height=1)),
+    "camera-huge": Case(RECORD, "camera.json", camera(width=100_000, height=100_000)),
+    "camera-distortion-huge": Case(RECORD, "camera.json", camera(distortion=[1e300, 0, 0, 0, 0])),
     "camera-distortion-text": Case(RECORD, "camera.json", camera(distortion=[0, "a", 0, 0, 0])),
     # the first frame
-    "camera-size-differs": Case(RGBDSLAM, "rgb/", camera(width=320, height=240)),
+    "camera-size-differs": Case(RGBDSLAM, "rgb/", camera(width=320, height=240, cx=160, cy=120)),
     "png-corrupt-data": Case(RGBDSLAM, "rgb/", corrupt_image_data),
     "png-invalid-compressed-data": Case(RGBDSLAM, "rgb/", invalid_compressed_data),
     "png-truncated": Case(RGBDSLAM, "rgb/", truncate_image),
     "png-not-an-image": Case(RGBDSLAM, "rgb/", lambda seq, tmp: first_image(seq, "rgb").write_bytes(b"hello")),
+    "png-huge-header": Case(RGBDSLAM, "rgb/", replace_image("rgb", png_header(20000, 20000))),
+    "png-one-pixel": Case(RGBDSLAM, "depth/", replace_image("depth", png_header(1, 1))),
     "image-missing": Case(RGBDSLAM, "depth/", remove_image),
     "depth-eight-bit": Case(RGBDSLAM, "depth/", eight_bit_depth),
 }
@@ -294,6 +327,12 @@ OTHER_CASES = {
                                                    hard_link("groundtruth.txt", "out/e.json")),
     "evaluate-json-is-the-plot": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--json",
                                        "{tmp}/out/e.json", "--plot", "{tmp}/out/e.json"], "--plot"),
+    "evaluate-estimate-nan": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1",
+                                  estimate("nan 0 0 0 0 0 1")),
+    "evaluate-estimate-huge": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:2",
+                                   estimate("0 0 0 0 0 0 1\n1e300 1e300 0 0 0 0 1")),
+    "evaluate-estimate-zero-quaternion": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1",
+                                              estimate("0 0 0 0 0 0 0")),
     "evaluate-folder-without-groundtruth": Case(["evaluate", "{seq}", "{tmp}/gt.txt"], "groundtruth.txt",
                                                 lambda seq, tmp: (seq / "groundtruth.txt").rename(tmp / "gt.txt")),
     "synth-unknown-scenario": Case(["synth", "nowhere", "--out", "{tmp}/s"], "nowhere"),
@@ -429,3 +468,19 @@ def test_the_png_check_accepts_every_image_of_the_real_excerpt(excerpt):
         assert png_chunks(image.read_bytes())[-1] == b"IEND"
     frames = list(open_sequence(excerpt).frames())
     assert [frame.rgb.shape for frame in frames] == [(480, 640, 3)] * 3
+
+
+def test_a_damaged_jpeg_is_read_without_libjpeg_noise(excerpt, tmp_path, capfd):
+    import cv2
+    import numpy as np
+
+    from viewer_slam.dataset.tum import open_sequence
+
+    seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
+    image = cv2.imread(str(first_image(seq, "rgb")))
+    data = bytearray(cv2.imencode(".jpg", image)[1].tobytes())
+    data[len(data) // 2:len(data) // 2 + 20] = b"\xff\xd9" * 10  # an end marker inside the scan data
+    first_image(seq, "rgb").write_bytes(bytes(data))
+    frame = open_sequence(seq).frame(0)
+    assert frame.rgb.shape == (480, 640, 3) and frame.rgb.dtype == np.uint8
+    assert capfd.readouterr().err == ""

@@ -1,6 +1,7 @@
 """ROS bags as sequences: real bags written from the shared TUM excerpt give the folder's frames."""
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -137,6 +138,39 @@ def test_a_plain_bag_with_no_tf_topic_records_without_groundtruth(tmp_path, caps
     assert main(["evaluate", str(path), str(estimate)]) == 2
     error = capsys.readouterr().err
     assert error.startswith(f"viewslam: error: {path}: no pose topic and no moving tf chain") and error.count("\n") == 1
+
+
+def test_a_camera_info_that_is_no_lens_is_one_line(tmp_path):
+    path = tmp_path / "nan-camera"
+
+    def nan_intrinsics(bag):
+        bag.camera_info("/cam/camera_info", 4 * 10**9, "cam", 32, 24, (float("nan"), 41.0, 15.5, 11.5))
+
+    synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=nan_intrinsics)
+    with pytest.raises(InputError, match=rf"^{path}: /cam/camera_info: bad camera calibration: fx must be a finite "
+                                         r"number, got nan$"):
+        open_bag(path)
+
+
+@pytest.mark.parametrize("pose, problem", [
+    (make_pose(np.eye(3), np.array([1e300, 0.0, 0.0])), "a position coordinate beyond 1e+08 m"),
+    (None, "zero quaternion"),
+])
+def test_a_pose_topic_with_no_pose_is_one_line_naming_the_message(tmp_path, pose, problem):
+    path = tmp_path / "poses"
+
+    def poses(bag):
+        write_poses(bag, "/mocap/pose", [np.eye(4), np.eye(4)])
+        stamp = 9 * 10**9
+        types = bag.types
+        point = types["geometry_msgs/msg/Point"](x=1e300 if pose is not None else 0.0, y=0.0, z=0.0)
+        quaternion = types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0 if pose is not None else 0.0)
+        bag.add("/mocap/pose", "geometry_msgs/msg/PoseStamped", stamp, types["geometry_msgs/msg/PoseStamped"](
+            header=bag.header(stamp, "map"), pose=types["geometry_msgs/msg/Pose"](position=point, orientation=quaternion)))
+
+    synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
+    with pytest.raises(InputError, match=rf"^{path}: /mocap/pose at 9.000000 s: {re.escape(problem)}$"):
+        open_bag(path, groundtruth_topic="/mocap/pose")
 
 
 def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, step_ns: int = 10**8) -> None:

@@ -34,7 +34,7 @@ from ..geometry.association import associate
 from ..geometry.camera import Camera
 from ..geometry.interpolation import interpolate_poses
 from ..geometry.se3 import pose_from_tq
-from ..geometry.trajectory import Trajectory
+from ..geometry.trajectory import Trajectory, pose_problem
 from ..geometry.trajectory_formats import read_trajectory
 from .frame import Frame, TimedFrames
 from .tum import ASSOCIATION_MAX_DIFFERENCE_S, ROS_DEFAULT_CAMERA, freiburg_camera
@@ -333,8 +333,10 @@ def _camera(path: Path, reader: AnyReader, colour: _Stream, topic: str | None) -
     distortion = tuple(float(v) for v in getattr(info, "d", getattr(info, "D", ())))[:5]
     if k.shape != (9,) or k[0] <= 0 or k[4] <= 0:
         raise InputError.at(path, f"{topic}: camera info has no focal length (K = {k.tolist()})")
-    return Camera(k[0], k[4], k[2], k[5], int(info.width), int(info.height),
-                  distortion=distortion + (0.0,) * (5 - len(distortion)))
+    fx, fy, cx, cy = (float(k[i]) for i in (0, 4, 2, 5))
+    return Camera.checked({"fx": fx, "fy": fy, "cx": cx, "cy": cy, "width": int(info.width),
+                           "height": int(info.height), "distortion": distortion + (0.0,) * (5 - len(distortion))},
+                          f"{path}: {topic}")
 
 
 def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--groundtruth-topic") -> Trajectory:
@@ -349,7 +351,7 @@ def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--grou
         pose = getattr(message, "transform", None) or getattr(message, "pose")
         pose = getattr(pose, "pose", pose)  # the ...WithCovariance wrappers
         stamps.append(_stamp_ns(message.header.stamp))
-        poses.append(_pose(getattr(pose, "translation", None) or pose.position,
+        poses.append(_pose(path, topic, stamps[-1], getattr(pose, "translation", None) or pose.position,
                            getattr(pose, "rotation", None) or pose.orientation))
     return _trajectory(stamps, poses)
 
@@ -367,8 +369,9 @@ def _tf_groundtruth(path: Path, reader: AnyReader, frame: str) -> Trajectory | N
             child, parent = transform.child_frame_id.strip("/"), transform.header.frame_id.strip("/")
             entry = samples.setdefault(child, (parent, []))
             if entry[0] == parent:
-                entry[1].append((_stamp_ns(transform.header.stamp),
-                                 _pose(transform.transform.translation, transform.transform.rotation)))
+                stamp = _stamp_ns(transform.header.stamp)
+                entry[1].append((stamp, _pose(path, connection.topic, stamp, transform.transform.translation,
+                                              transform.transform.rotation)))
     chain, frame, seen = [], frame.strip("/"), set()
     while frame in samples and frame not in seen:  # up to the root
         seen.add(frame)
@@ -401,9 +404,14 @@ def _trajectory(stamps_ns: list[int], poses: list[np.ndarray]) -> Trajectory:
     return Trajectory(_seconds(stamps[last]), stacked[last])
 
 
-def _pose(translation, rotation) -> np.ndarray:
-    return pose_from_tq(np.array([translation.x, translation.y, translation.z]),
-                        np.array([rotation.x, rotation.y, rotation.z, rotation.w]))
+def _pose(path: Path, topic: str, stamp_ns: int, translation, rotation) -> np.ndarray:
+    """The pose of a message on ``topic``, checked as a trajectory file's poses are."""
+    t = [translation.x, translation.y, translation.z]
+    q = [rotation.x, rotation.y, rotation.z, rotation.w]
+    problem = pose_problem(t, q)
+    if problem is not None:
+        raise InputError.at(path, f"{topic} at {stamp_ns / 1e9:.6f} s: {problem}")
+    return pose_from_tq(np.array(t), np.array(q))
 
 
 def _stamp_ns(stamp) -> int:

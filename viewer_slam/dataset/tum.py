@@ -10,9 +10,10 @@ import io
 import logging
 import re
 import struct
+import warnings
 import zlib
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -79,16 +80,11 @@ class TumSequence(TimedFrames):
     def frame(self, index: int) -> Frame:
         """The ``index``-th associated frame, read from disk now."""
         rgb_path, depth_path = self.path / self._rgb_files[index], self.path / self._depth_files[index]
-        rgb = self._read_image(rgb_path, colour=True)
-        raw_depth = self._read_image(depth_path, colour=False)
+        rgb = self._read_image(rgb_path, colour=True, size=self._size_check(rgb_path))
+        raw_depth = self._read_image(depth_path, colour=False, size=self._size_check(depth_path))
         if raw_depth.dtype != np.uint16 or raw_depth.ndim != 2:
             raise InputError.at(depth_path, f"depth image must be single-channel 16-bit, "
                                 f"found {raw_depth.dtype} with shape {raw_depth.shape}")
-        expected = (self.camera.height, self.camera.width)
-        for path, image in ((rgb_path, rgb), (depth_path, raw_depth)):
-            if image.shape[:2] != expected:
-                raise InputError.at(path, f"image is {image.shape[1]}x{image.shape[0]} but the camera "
-                                    f"is {self.camera.width}x{self.camera.height} (add a camera.json)")
         depth = (raw_depth / self.camera.depth_factor).astype(np.float32)
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
@@ -109,10 +105,20 @@ class TumSequence(TimedFrames):
                 for future in pending:
                     future.cancel()
 
+    def _size_check(self, path: Path) -> Callable[[int, int], None]:
+        """Refuses (width, height) other than the camera's, naming the image at ``path``."""
+        def check(width: int, height: int) -> None:
+            if (width, height) != (self.camera.width, self.camera.height):
+                raise InputError.at(path, f"image is {width}x{height} but the camera is "
+                                    f"{self.camera.width}x{self.camera.height} (add a camera.json)")
+        return check
+
     @staticmethod
-    def _read_image(path: Path, colour: bool) -> np.ndarray:
-        """An RGB (``colour``) or unchanged (depth) image; PNGs decode with Pillow, which
-        raises on damaged data where libpng prints its own complaint on stderr."""
+    def _read_image(path: Path, colour: bool, size: Callable[[int, int], None]) -> np.ndarray:
+        """An RGB (``colour``) or unchanged (depth) image. ``size`` checks the size the file
+        announces before anything is decoded. Pillow decodes what it knows (PNG, JPEG, ...): it
+        raises on damaged data where libpng and libjpeg print their own complaints on stderr;
+        OpenCV the rest."""
         try:
             data = path.read_bytes()
         except FileNotFoundError:
@@ -121,27 +127,42 @@ class TumSequence(TimedFrames):
             raise InputError.at(path, f"cannot read image: {error.strerror}") from None
         if data.startswith(_PNG_SIGNATURE):
             _check_png(path, data)
-            return _decode_png(path, data, colour)
+        image = _decode(path, data, colour, size)
+        if image is not None:
+            return image
         import cv2  # OpenCV loads only when images are read, not for listings and groundtruth
 
         flags = cv2.IMREAD_COLOR if colour else cv2.IMREAD_UNCHANGED
         image = cv2.imdecode(np.frombuffer(data, np.uint8), flags) if data else None
         if image is None:
             raise InputError.at(path, "not a readable image")
+        size(image.shape[1], image.shape[0])
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if colour else image
 
 
-def _decode_png(path: Path, data: bytes, colour: bool) -> np.ndarray:
-    """Pixels of a checked PNG: RGB uint8 for ``colour``, else as stored (16-bit depth as uint16)."""
+def _decode(path: Path, data: bytes, colour: bool, size: Callable[[int, int], None]) -> np.ndarray | None:
+    """Pixels decoded by Pillow once ``size`` accepts the header's: RGB uint8 for ``colour``, else
+    as stored (16-bit depth as uint16); None for a format Pillow does not know."""
     from PIL import Image
 
-    try:
-        with Image.open(io.BytesIO(data)) as image:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+        try:
+            image = Image.open(io.BytesIO(data))
+        except Image.UnidentifiedImageError:
+            return None
+        except Image.DecompressionBombError:  # more pixels than any camera has: never decoded
+            raise InputError.at(path, "image announces more pixels than a camera may have") from None
+        except (OSError, SyntaxError, ValueError, zlib.error) as error:
+            raise InputError.at(path, f"corrupt image header ({error})") from None
+    with image:
+        size(*image.size)
+        try:
             if colour and image.mode != "RGB":
                 image = image.convert("RGB")
             pixels = np.asarray(image)
-    except (OSError, SyntaxError, ValueError, zlib.error) as error:
-        raise InputError.at(path, f"corrupt PNG ({error})") from None
+        except (OSError, SyntaxError, ValueError, zlib.error) as error:
+            raise InputError.at(path, f"corrupt {image.format or 'image'} ({error})") from None
     return pixels.astype(pixels.dtype.newbyteorder("="), copy=False)
 
 

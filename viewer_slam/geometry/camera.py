@@ -12,6 +12,11 @@ import numpy as np
 from ..errors import InputError
 
 TUM_DEPTH_FACTOR = 5000.0
+# The image sizes a sequence may have, pixels a side (a budget checked before any image is decoded).
+MIN_SIDE, MAX_SIDE = 16, 8192
+# Focal lengths, principal point offsets and distortion coefficients beyond these are no lens.
+MAX_FOCAL_PX = 1e6
+MAX_DISTORTION = 1e3
 
 
 @dataclass(frozen=True)
@@ -79,12 +84,18 @@ class Camera:
             data = json.loads(Path(path).read_text())
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
             raise InputError.at(path, f"cannot read camera calibration: {error}") from None
-        import pydantic  # only where a calibration file is read: it adds to every command's start-up
+        return cls.checked(data, path)
+
+    @classmethod
+    def checked(cls, data, where) -> "Camera":
+        """A camera from ``data`` (the keys of camera.json), every value checked to be one a lens can
+        have; :class:`InputError` naming ``where`` otherwise."""
+        import pydantic  # only where a calibration is read: it adds to every command's start-up
 
         try:
             checked = _camera_schema().model_validate(data)
         except pydantic.ValidationError as error:
-            raise InputError.at(path, _problem(error)) from None
+            raise InputError.at(where, _problem(error)) from None
         return cls(**checked.model_dump())
 
 
@@ -98,6 +109,8 @@ def _problem(error) -> str:
     if detail["type"] == "model_type":
         return f"bad camera calibration: expected a JSON object with fx, fy, cx, cy, width, height, " \
                f"got {detail['input']!r}"
+    if not detail["loc"]:  # a rule between fields, whose message says it all
+        return f"bad camera calibration: {detail['msg'].removeprefix('Value error, ')}"
     where = ".".join(map(str, detail["loc"]))
     return f"bad camera calibration: {where} {detail['msg'].replace('Input should be', 'must be')}, " \
            f"got {detail['input']!r}"
@@ -105,13 +118,25 @@ def _problem(error) -> str:
 
 @cache
 def _camera_schema():
-    """The schema of camera.json: positive focal lengths, size and depth factor, finite numbers."""
+    """The schema of camera.json: focal lengths of a lens, the principal point within the image,
+    a size within the image budget, a depth unit of at most a metre, finite numbers throughout."""
     import pydantic
 
-    finite = Annotated[float, pydantic.Field(allow_inf_nan=False)]
-    positive = Annotated[float, pydantic.Field(gt=0, allow_inf_nan=False)]
-    pixels = Annotated[int, pydantic.Field(gt=0, le=100_000)]
+    focal = Annotated[float, pydantic.Field(gt=0, le=MAX_FOCAL_PX, allow_inf_nan=False)]
+    offset = Annotated[float, pydantic.Field(allow_inf_nan=False)]
+    pixels = Annotated[int, pydantic.Field(ge=MIN_SIDE, le=MAX_SIDE)]
+    coefficient = Annotated[float, pydantic.Field(ge=-MAX_DISTORTION, le=MAX_DISTORTION, allow_inf_nan=False)]
+    per_metre = Annotated[float, pydantic.Field(ge=1, le=1e6, allow_inf_nan=False)]
+
+    def principal_point(camera):
+        for axis, size in (("cx", camera.width), ("cy", camera.height)):
+            if not 0 <= getattr(camera, axis) <= size:
+                raise ValueError(f"{axis} must lie within the image (0 to {size}), got {getattr(camera, axis)!r}")
+        return camera
+
     return pydantic.create_model(
         "CameraFile", __config__=pydantic.ConfigDict(extra="ignore"),
-        fx=(positive, ...), fy=(positive, ...), cx=(finite, ...), cy=(finite, ...), width=(pixels, ...),
-        height=(pixels, ...), depth_factor=(positive, TUM_DEPTH_FACTOR), distortion=(tuple[finite, ...], (0.0,) * 5))
+        __validators__={"principal_point": pydantic.model_validator(mode="after")(principal_point)},
+        fx=(focal, ...), fy=(focal, ...), cx=(offset, ...), cy=(offset, ...), width=(pixels, ...),
+        height=(pixels, ...), depth_factor=(per_metre, TUM_DEPTH_FACTOR),
+        distortion=(tuple[coefficient, ...], (0.0,) * 5))

@@ -62,6 +62,29 @@ def parse_numbers(path: Path, fields: list[str], line: int) -> list[float]:
     return values
 
 
+# Positions beyond this (metres; 100,000 km) are no camera's, and their squares would overflow
+# nothing but still drown every other error.
+MAX_COORDINATE_M = 1e8
+
+
+def pose_problem(translation, quaternion=None) -> str | None:
+    """What keeps a position (and an xyzw quaternion) read from a file from being a pose, or None:
+    a value that is not finite, a coordinate beyond :data:`MAX_COORDINATE_M`, a zero quaternion
+    or one too large to normalise."""
+    values = [*translation, *(quaternion if quaternion is not None else ())]
+    if not all(math.isfinite(value) for value in values):
+        return "a pose value is NaN or infinite"
+    if max(abs(value) for value in translation) > MAX_COORDINATE_M:
+        return f"a position coordinate beyond {MAX_COORDINATE_M:g} m"
+    if quaternion is not None:
+        norm = math.hypot(*quaternion)
+        if norm < 1e-9:
+            return "zero quaternion"
+        if norm > MAX_COORDINATE_M:
+            return f"a quaternion of norm beyond {MAX_COORDINATE_M:g}"
+    return None
+
+
 def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
     """Read ``timestamp tx ty tz qx qy qz qw`` lines; ``#`` comments and blank lines skipped.
 
@@ -80,8 +103,9 @@ def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
         if len(fields) != 8:
             raise InputError.at(path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number)
         values = parse_numbers(path, fields, number)
-        if math.sqrt(sum(v * v for v in values[4:])) < 1e-9:
-            raise InputError.at(path, "zero quaternion", number)
+        problem = pose_problem(values[1:4], values[4:])
+        if problem is not None:
+            raise InputError.at(path, problem, number)
         if in_order and rows and values[0] <= rows[-1][0]:
             raise InputError.at(path, f"timestamp {fields[0]} does not increase (previous {rows[-1][0]:.6f})",
                                 number)

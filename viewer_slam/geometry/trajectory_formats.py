@@ -15,7 +15,6 @@ eight names, the first a timestamp, means ``euroc``; otherwise 12 numbers on the
 line mean ``kitti``; anything else is read as ``tum``.
 """
 
-import math
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -25,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
 from .se3 import make_pose, pose_from_tq
-from .trajectory import Trajectory, parse_numbers, read_text, read_tum
+from .trajectory import Trajectory, parse_numbers, pose_problem, read_text, read_tum
 
 FORMATS = ("tum", "kitti", "euroc")
 KITTI_FIELDS = 12
@@ -110,6 +109,9 @@ def _read_kitti(path: Path, text: str, timestamps) -> Trajectory:
             raise InputError.at(path, f"expected {KITTI_FIELDS} fields (a 3x4 pose, row by row), "
                                 f"found {len(fields)}", number)
         matrices[k] = np.reshape(parse_numbers(path, fields, number), (3, 4))
+        problem = pose_problem(matrices[k, :, 3])
+        if problem is not None:
+            raise InputError.at(path, problem, number)
         rotation = matrices[k, :, :3]
         if np.linalg.det(rotation) <= 0 or np.abs(rotation.T @ rotation - np.eye(3)).max() > ORTHONORMAL_TOLERANCE:
             raise InputError.at(path, "the 3x3 block is not a rotation matrix", number)
@@ -148,8 +150,9 @@ def _read_euroc(path: Path, text: str) -> Trajectory:
         if len(fields) != len(names):
             raise InputError.at(path, f"expected {len(names)} fields as the header names, found {len(fields)}", number)
         row = parse_numbers(path, [fields[c] for c in columns], number)
-        if math.hypot(*row[3:]) < 1e-9:
-            raise InputError.at(path, "zero quaternion", number)
+        problem = pose_problem(row[:3], row[3:])
+        if problem is not None:
+            raise InputError.at(path, problem, number)
         stamps.append(_stamp(path, fields[0], number, in_seconds))
         values.append(row)
         numbers.append(number)
