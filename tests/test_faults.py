@@ -33,7 +33,7 @@ def python(*arguments, **options) -> subprocess.Popen:
     """A Python child that imports this tree's viewer_slam, its output captured."""
     environment = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
     return subprocess.Popen([sys.executable, *map(str, arguments)], env=environment,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **options)
+                            **{"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True, **options})
 
 
 def viewslam(*arguments, **options) -> subprocess.Popen:
@@ -302,3 +302,13 @@ def test_light_commands_never_import_rerun_opencv_open3d_or_gtsam(arguments):
     result = subprocess.run([sys.executable, "-c", script, *(a.format(gt=groundtruth) for a in arguments)],
                             capture_output=True, text=True, env=environment, timeout=120)
     assert result.stdout.splitlines()[-1] == "[]", result.stderr
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="no /dev/full")
+def test_a_stdout_that_cannot_take_the_output_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    trajectory = tmp_path / "t.txt"
+    trajectory.write_text("".join(f"{k / 10:.1f} {k / 100} 0 0 0 0 0 1\n" for k in range(30)))
+    with open("/dev/full", "w") as full:
+        monkeypatch.setattr(sys, "stdout", full)
+        assert main(["evaluate", str(trajectory), str(trajectory)]) == 2
+    assert capsys.readouterr().err == "viewslam: error: stdout: cannot write: No space left on device\n"

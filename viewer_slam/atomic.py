@@ -21,16 +21,34 @@ os.umask(_UMASK)
 
 
 def check_writable(target: Path) -> None:
-    """Fail now, before any work, if ``target`` cannot be written (its folder is created)."""
+    """Fail now, before any work, if ``target`` cannot be written (its folder is created): its
+    name must be UTF-8 text (reports and recordings record it) and leave room for the temporary
+    name it is written under."""
     target = Path(target)
-    if target.is_dir():
-        raise InputError.at(target, "is a folder, not a file name")
+    check_name(target)
     try:
+        if target.is_dir():
+            raise InputError.at(target, "is a folder, not a file name")
         target.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=target.parent):
             pass
+        longest = len(os.fsencode(f".{target.name}.XXXXXXXX.part"))
+        limit = os.pathconf(target.parent, "PC_NAME_MAX")
     except OSError as error:
         raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+    if longest > limit:
+        raise InputError.at(target, f"name too long: {len(os.fsencode(target.name))} bytes, and written under a "
+                            f"temporary name {longest - len(os.fsencode(target.name))} bytes longer; the file "
+                            f"system allows {limit}")
+
+
+def check_name(path: Path) -> None:
+    """An output's name must be UTF-8 text: reports and recordings record it."""
+    try:
+        str(path).encode()
+    except UnicodeEncodeError:
+        raise InputError.at(str(path).encode(errors="surrogateescape").decode(errors="backslashreplace"),
+                            "the name is not UTF-8 text") from None
 
 
 # The files of a TUM folder given as an input that a command reads.
@@ -59,7 +77,7 @@ def _same_file(a: Path, b: Path) -> bool:
     try:
         return os.path.samefile(a, b)
     except OSError:  # one of them does not exist (yet): the same path is the same file
-        return a.resolve() == b.resolve()
+        return os.path.abspath(a) == os.path.abspath(b)
 
 
 class StagedFiles:

@@ -6,6 +6,7 @@ command imports the heavy libraries (Rerun, OpenCV, Open3D, GTSAM) only when it 
 only those it uses, so ``viewslam --help`` and the light commands start at once.
 """
 
+import errno
 import logging
 import os
 import signal
@@ -51,6 +52,8 @@ def _run(argv: list[str] | None) -> int:
         from .app import app
 
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
+        if sys.stdout is not None:
+            sys.stdout.flush()  # here, not at exit: a stdout that cannot take the output is one line
     except InputError as error:
         print(f"viewslam: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -66,7 +69,7 @@ def _run(argv: list[str] | None) -> int:
     except (Interrupted, KeyboardInterrupt):
         return _interrupted()
     except BrokenPipeError:  # `viewslam ... | head`: the reader left
-        sys.stderr.close()
+        _drop_stdout()  # nothing more to flush at exit
         return 0
     except Exception as error:
         if _raised_by_an_interrupt(error):
@@ -75,11 +78,22 @@ def _run(argv: list[str] | None) -> int:
             # a path the system refuses (a name too long, a folder under a file, no permission)
             print(f"viewslam: error: {error.filename}: {error.strerror}", file=sys.stderr)
             return EXIT_BAD_INPUT
+        if isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG):
+            # files are written under names that their errors carry: what has none is the output stream
+            _drop_stdout()
+            print(f"viewslam: error: stdout: cannot write: {error.strerror}", file=sys.stderr)
+            return EXIT_BAD_INPUT
         # a bug: one line, and the traceback where it can be sent to us
         print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
               f"{_traceback_note(error)}", file=sys.stderr)
         return 1
     return result if isinstance(result, int) else 0
+
+
+def _drop_stdout() -> None:
+    """Point stdout at /dev/null, so that what is still buffered does not fail again at exit."""
+    if sys.stdout is not None:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def _interrupted() -> int:

@@ -8,6 +8,8 @@ from ..errors import InputError
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, parse_resolution
 
+MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadline (and inf none at all)
+
 
 @app.command()
 def benchmark(
@@ -28,7 +30,8 @@ def benchmark(
     param: list[str] = typer.Option([], help="Pipeline parameter KEY=VALUE (repeatable)."),
     config: Path = typer.Option(None, help="TOML file of pipeline parameters."),
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the pipelines' random choices."),
-    timeout: float = typer.Option(None, min=1, help="Seconds after which a task is stopped and reported failed."),
+    timeout: float = typer.Option(None, min=1, max=MAX_TIMEOUT_S,
+                                  help="Seconds after which a task is stopped and reported failed."),
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
     estimate: list[str] = typer.Option([], "--estimate", metavar="NAME=FILE",
                                        help="Another system's trajectory of the one SEQUENCE, scored as a row "
@@ -61,8 +64,8 @@ def benchmark(
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
-    chosen = ",".join(pipelines + pipeline)
-    names = select_pipelines(chosen or "both") if chosen or not estimate else []
+    chosen = pipelines + pipeline
+    names = select_pipelines(",".join(chosen) if chosen else "both") if chosen or not estimate else []
     check_format(format)
     estimates = named_estimates(estimate, names)
     other = load_results(compare) if compare is not None else None

@@ -16,6 +16,7 @@ from rich.table import Table
 from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
+from ..pipelines.params import INT_MAX
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
@@ -143,8 +144,9 @@ def evaluate_command(
                                                    "bag's only pose topic)."),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
-    if delta_unit is DeltaUnit.frames and delta != int(delta):
-        raise typer.BadParameter(f"a delta in frames must be a whole number, got {delta}", param_hint="--delta")
+    if delta_unit is DeltaUnit.frames and not (delta == int(delta) and delta <= INT_MAX):
+        raise typer.BadParameter(f"a delta in frames must be a whole number up to {INT_MAX}, got {delta}",
+                                 param_hint="--delta")
     if rpe_mode is RpeMode.tum and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.seconds):
         raise InputError("--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, "
                          "--delta-unit or --all-deltas")

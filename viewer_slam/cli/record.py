@@ -48,7 +48,7 @@ def record_command(
 
     bag = {"rgb_topic": rgb_topic, "depth_topic": depth_topic, "camera_info_topic": camera_info_topic,
            "groundtruth": groundtruth, "groundtruth_topic": groundtruth_topic}
-    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline) or None, out=out,
+    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline) if pipeline else None, out=out,
                                   max_frames=max_frames, stride=stride, params=param, config=config, seed=seed,
                                   quiet=quiet, spawn=spawn, estimates=estimate, format=format, bag=bag))
     if not quiet:

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from ..dataset.synth.catalog import MAX_FRAMES
 from .app import app
 from .options import SEED_MAX, parse_resolution
 
@@ -12,7 +13,7 @@ from .options import SEED_MAX, parse_resolution
 def synth(
     scenario: str = typer.Argument(..., help="Scenario name (see `viewslam sequences`)."),
     out: Path = typer.Option(..., "--out", help="Folder to write the TUM sequence into."),
-    frames: int = typer.Option(None, min=1, help="Number of frames; default: the scenario's own length.",
+    frames: int = typer.Option(None, min=1, max=MAX_FRAMES, help="Number of frames; default: the scenario's own length.",
                                show_default=False),
     resolution: str = typer.Option("640x480", help="Image size WIDTHxHEIGHT; the intrinsics are scaled."),
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the scene, the motion's tremor and the sensor noise."),

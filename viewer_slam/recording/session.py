@@ -142,7 +142,7 @@ def select_runs(choice: str | None, estimates: list[str],
                 format: str | None = None) -> tuple[list[str], list[tuple[str, Path]]]:
     """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
     estimates (``--estimate NAME=FILE``, in ``format``); every name must be unique among them."""
-    pipelines = select_pipelines(choice) if choice else [] if estimates else select_pipelines(BOTH)
+    pipelines = select_pipelines(choice) if choice is not None else [] if estimates else select_pipelines(BOTH)
     check_format(format)
     return pipelines, named_estimates(estimates, pipelines)
 

@@ -13,6 +13,9 @@ class ScenarioInfo:
     in_study: bool = True  # one of the seven situations of the study (the benchmark's default)
 
 
+# The longest scenario rendered: the frames' stamps, poses and plan are allocated up front.
+MAX_FRAMES = 100_000
+
 SCENARIO_INFO = {info.name: info for info in (
     ScenarioInfo("desk_with_person", "fr2/desk_with_person",
                  "dynamic objects: a person moving and shifting an object in an otherwise static office",

@@ -23,13 +23,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ...atomic import check_name
 from ...cache import cache_dir
 from ...errors import InputError
 from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
 from . import writer
 from .render import Renderer
-from .catalog import SCENARIOS
+from .catalog import MAX_FRAMES, SCENARIOS
 from .scenarios import SCENARIOS_BY_NAME, Plan
 from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
@@ -71,8 +72,8 @@ def _scenario(name: str):
 
 
 def _check(frames: int, resolution: tuple[int, int], seed: int) -> None:
-    if frames < 2:
-        raise InputError(f"frames must be at least 2, got {frames}")
+    if not 2 <= frames <= MAX_FRAMES:
+        raise InputError(f"frames must be from 2 to {MAX_FRAMES}, got {frames}")
     width, height = resolution
     if not (16 <= width <= 4096 and 16 <= height <= 4096):
         raise InputError(f"resolution {width}x{height} out of range; valid: WIDTHxHEIGHT from 16x16 to 4096x4096")
@@ -103,8 +104,12 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
         raise InputError.at(out, "exists and is not a folder")
     if out.is_dir() and any(out.iterdir()) and not force:
         raise InputError.at(out, "folder exists and is not empty; use --force to overwrite")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    check_name(out)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    except OSError as error:
+        raise InputError.at(out, f"cannot write: {error.strerror or error}") from None
     try:
         # Embree on one thread when workers share the cores (its hits do not depend on it).
         _Run(scenario, frames, cam, seed, threads=1 if workers > 1 else 0).write(staging, camera, workers)
