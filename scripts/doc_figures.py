@@ -11,36 +11,55 @@ and is made by running, as a user would, the commands that the document shows be
 `--check` writes nothing and exits 1 naming each block that no longer matches;
 names select blocks (`python scripts/doc_figures.py --check demo`). The tests run the
 same functions, so a figure that drifts from what its command prints fails the suite.
-Commands run with this interpreter's viewslam, in a temporary folder, with the cache the
-environment names (`VIEWSLAM_CACHE`).
+Commands run with this interpreter's viewslam, in temporary folders, with the cache the
+environment names (`VIEWSLAM_CACHE`); the demo is recorded once for the blocks that read it.
 """
 
 import argparse
+import atexit
+import functools
 import json
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
+
+import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 TUM_RPY = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy"
 
 
+def scratch() -> Path:
+    """A new temporary folder, removed when this process ends."""
+    folder = Path(tempfile.mkdtemp(prefix="viewslam-figures-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
+
+
 def viewslam(*args: str, cwd: Path | None = None) -> str:
     """Run one viewslam command; its stdout (a failure raises with its stderr)."""
-    result = subprocess.run([sys.executable, "-m", "viewer_slam", *args], capture_output=True, text=True, cwd=cwd)
+    result = subprocess.run([sys.executable, "-m", "viewer_slam", *args], capture_output=True, text=True, cwd=cwd, check=False)
     if result.returncode != 0:
         raise RuntimeError(f"viewslam {' '.join(args)} exited {result.returncode}: {result.stderr.strip()}")
     return result.stdout
 
 
-def demo(work: Path) -> str:
-    """The built-in demo's figures, from the report `viewslam record` writes beside it."""
+@functools.cache
+def demo_run() -> Path:
+    """The built-in demo recorded once (`viewslam record` with no sequence): its folder."""
+    work = scratch()
     viewslam("record", "--out", str(work / "demo.rrd"), "--quiet")
-    report = json.loads((work / "demo.json").read_text())
+    return work
+
+
+def demo() -> str:
+    """The built-in demo's figures, from the report `viewslam record` writes beside it."""
+    report = json.loads((demo_run() / "demo.json").read_text())
     frames, runs = report["sequence"]["frames"], report["pipelines"]
     rgbdslam, rtabmap = runs["rgbdslam"], runs["rtabmap"]
     return (f"In this run: rgbdslam {rgbdslam['frames_with_pose']} of {frames} frames with a pose, "
@@ -49,8 +68,55 @@ def demo(work: Path) -> str:
             f"penalised {rtabmap['penalized_ate']['rmse']:.3f} m.")
 
 
-def estimate(work: Path) -> str:
+def segments() -> str:
+    """On the demo, each pipeline's ATE under one alignment and with each tracked segment
+    aligned on its own, before its first loss and over the run."""
+    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.evaluation import evaluate
+    from viewer_slam.geometry.trajectory import read_tum
+
+    report = json.loads((demo_run() / "demo.json").read_text())
+    sequence = open_sequence(Path(report["sequence"]["path"]))
+    lines = []
+    for name in report["pipelines"]:
+        trajectory = read_tum(demo_run() / f"demo.{name}.txt")
+        evaluation = evaluate(sequence.groundtruth, trajectory, frame_period=sequence.frame_period)
+        tracked = np.isin(np.round(sequence.timestamps, 6), np.round(trajectory.timestamps, 6))
+        lost = _runs(np.flatnonzero(~tracked))
+        first_loss = sequence.timestamps[lost[0][0]] if lost else np.inf
+        before = [series.errors[series.timestamps < first_loss] for series in (evaluation.ate, evaluation.segment_ate)]
+        lines.append(
+            f"{name} is lost over frames {_frames(lost)}; before its first loss the globally aligned ATE averages "
+            f"{before[0].mean():.3f} m (at most {before[0].max():.3f} m) and the segment-aligned one "
+            f"{before[1].mean():.3f} m (at most {before[1].max():.3f} m); over the run the RMSE is "
+            f"{evaluation.ate.stats()['rmse']:.3f} m globally and {evaluation.segment_ate.stats()['rmse']:.3f} m "
+            f"per segment.")
+    return "\n".join(lines)
+
+
+def _runs(indices: np.ndarray) -> list[tuple[int, int]]:
+    """Consecutive indices as (first, last) runs."""
+    breaks = np.flatnonzero(np.diff(indices) > 1)
+    return [(int(run[0]), int(run[-1])) for run in np.split(indices, breaks + 1) if len(run)]
+
+
+def _frames(runs: list[tuple[int, int]]) -> str:
+    spans = [f"{first}–{last}" for first, last in runs]
+    return " and ".join([", ".join(spans[:-1]), spans[-1]] if len(spans) > 1 else spans) or "none"
+
+
+def scenario() -> str:
+    """The scenario.json that `viewslam synth` writes beside a short 360_kidnap."""
+    work = scratch()
+    viewslam("synth", "360_kidnap", "--out", "kidnap", "--frames", "30", "--resolution", "160x120", cwd=work)
+    written = json.loads((work / "kidnap" / "scenario.json").read_text())
+    keys = ",\n".join(f" {json.dumps(key)}: {json.dumps(value)}" for key, value in written.items())
+    return "```json\n{\n" + keys + "\n}\n```"
+
+
+def estimate() -> str:
     """rgbdslam on the 87-frame excerpt, then its own trajectory file replayed beside it."""
+    work = scratch()
     first, second = work / "rpy.rrd", work / "both.rrd"
     viewslam("record", str(TUM_RPY), "--pipeline", "rgbdslam", "--out", str(first), "--quiet")
     viewslam("record", str(TUM_RPY), "--pipeline", "rgbdslam", "--out", str(second), "--quiet",
@@ -64,8 +130,9 @@ def estimate(work: Path) -> str:
             f"{mine['coverage']['ratio']:.0%} against {pipeline['coverage']['ratio']:.0%}.")
 
 
-def diff(work: Path) -> str:
+def diff() -> str:
     """rtabmap without and with odometry resets on a short 360_kidnap, compared by `viewslam diff`."""
+    work = scratch()
     viewslam("synth", "360_kidnap", "--out", "kidnap", "--frames", "120", "--resolution", "320x240", cwd=work)
     for name, countdown in (("reset0", 0), ("reset5", 5)):
         viewslam("record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
@@ -82,13 +149,15 @@ def diff_table(printed: str) -> str:
 @dataclass(frozen=True)
 class Figures:
     document: str
-    make: Callable[[Path], str]
+    make: Callable[[], str]
 
 
 FIGURES = {
     "demo": Figures("README.md", demo),
     "estimate": Figures("README.md", estimate),
+    "segments": Figures("docs/metrics.md", segments),
     "diff": Figures("docs/diagnosis.md", diff),
+    "scenario": Figures("docs/scenarios.md", scenario),
 }
 
 
@@ -112,8 +181,7 @@ def with_block(text: str, name: str, content: str) -> str:
 
 def made(name: str) -> str:
     """The block ``name`` as its commands print it now."""
-    with tempfile.TemporaryDirectory(prefix=f"viewslam-{name}-") as work:
-        return FIGURES[name].make(Path(work))
+    return FIGURES[name].make()
 
 
 def stale(documents: dict[str, str], figures: dict[str, str]) -> list[str]:

@@ -9,7 +9,6 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from fixtures_eval import SHARED_DATA
 
 TUM_RPY_200 = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200"

@@ -6,7 +6,6 @@ import importlib.util
 from pathlib import Path
 
 import pytest
-
 from fixtures_eval import TUM_RPY
 
 REPO = Path(__file__).resolve().parents[1]
