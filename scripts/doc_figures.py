@@ -19,6 +19,7 @@ import argparse
 import atexit
 import functools
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -26,12 +27,26 @@ import sys
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import date
 from pathlib import Path
 
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 TUM_RPY = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy"
+
+
+def stamp(command: str) -> str:
+    """Where a figure too costly for the test suite came from: the command, the machine, the
+    date, and the version and commit of viewslam that ran it."""
+    from viewer_slam import __version__
+
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), "unknown CPU")
+    commit = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True, check=False).stdout.strip() or "unknown commit"
+    return (f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, "
+            f"viewslam {__version__} at {commit}.")
 
 
 def scratch() -> Path:
@@ -146,6 +161,33 @@ def diff_table(printed: str) -> str:
     return "\n".join(["```", *lines, "```"])
 
 
+STUDY_COPY = REPO.parent / "shared" / "data" / "study_kasar2018"
+STUDY_SEQUENCES = ("fr2/360_kidnap", "fr3/long_office_household", "fr3/nostructure_notexture_near_withloop",
+                   "fr3/sitting_static")
+
+
+@functools.cache
+def study_report() -> str:
+    """`viewslam study` on the four sequences whose published runs are at hand, fetched from
+    their copy beside the repository: its report.md, with the copy's address as the
+    documents show it (relative, so that the figures do not hang on where the copy lies)."""
+    work = scratch()
+    mirror = STUDY_COPY.as_uri()
+    viewslam("study", *STUDY_SEQUENCES, "--out", "study", "--mirror", mirror, "--quiet", cwd=work)
+    return (work / "study" / "report.md").read_text().replace(mirror, "../shared/data/study_kasar2018")
+
+
+def study_table() -> str:
+    """The study's table, published beside reproduced, for the README."""
+    report = study_report()
+    return report[report.index("| sequence"):report.index("\n## Findings")].rstrip()
+
+
+def study() -> str:
+    """The whole report of `viewslam study`, for docs/study.md."""
+    return study_report().split("\n", 1)[1].strip()
+
+
 @dataclass(frozen=True)
 class Figures:
     document: str
@@ -155,6 +197,8 @@ class Figures:
 FIGURES = {
     "demo": Figures("README.md", demo),
     "estimate": Figures("README.md", estimate),
+    "study-table": Figures("README.md", study_table),
+    "study": Figures("docs/study.md", study),
     "segments": Figures("docs/metrics.md", segments),
     "diff": Figures("docs/diagnosis.md", diff),
     "scenario": Figures("docs/scenarios.md", scenario),
