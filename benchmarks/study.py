@@ -1,9 +1,11 @@
-"""Reproduce the study: the seven synthetic situations x both pipelines, charts into docs/images.
+"""Reproduce the study: the seven synthetic situations x both pipelines, into docs/benchmark.md.
 
     .venv/bin/python benchmarks/study.py [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
 
 Generates the scenarios first, one process per job (rendering dominates a cold run), then
-runs ``viewslam benchmark`` on them and copies its charts to ``docs/images/``.
+runs ``viewslam benchmark`` on them, copies its charts to ``docs/images/`` and writes its
+results table and findings into docs/benchmark.md (the figure block ``study``), stamped with
+the command, the machine and the date: too costly for the test suite, so never re-run there.
 """
 
 import argparse
@@ -17,7 +19,11 @@ from viewer_slam.cli import main
 from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, cached_scenario
 
-IMAGES = Path(__file__).resolve().parent.parent / "docs" / "images"
+REPO = Path(__file__).resolve().parent.parent
+IMAGES = REPO / "docs" / "images"
+DOCUMENT = REPO / "docs" / "benchmark.md"
+sys.path.insert(0, str(REPO / "scripts"))
+from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
 
 
 def run(arguments: list[str]) -> int:
@@ -37,6 +43,11 @@ def run(arguments: list[str]) -> int:
     IMAGES.mkdir(parents=True, exist_ok=True)
     for chart in sorted(options.out.glob("benchmark_*")):
         shutil.copy2(chart, IMAGES / chart.name)
+    report = (options.out / "report.md").read_text()
+    table_and_findings = report[report.index("| Sequence |"):report.index("\n## Charts")].replace(
+        "## Findings", "**Findings** (written by the benchmark):")
+    command = "python benchmarks/study.py " + " ".join(arguments)
+    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), "study", f"{stamp(command.strip())}\n\n{table_and_findings.strip()}"))
     return code
 
 
