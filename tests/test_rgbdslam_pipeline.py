@@ -189,7 +189,7 @@ def test_real_tum_excerpt_is_tracked_throughout():
     sequence, result, _ = run(TUM_EXCERPT)
     assert len(result.trajectory.timestamps) == len(sequence)
     ate = evaluate(sequence.groundtruth, result.trajectory).ate.stats()["rmse"]
-    assert ate < 0.03  # 0.024 m measured, 0.020-0.027 m over seeds 0-4 (docs/pipelines/rgbdslam.md)
+    assert ate < 0.03  # 0.024 m measured, 0.020-0.027 m over seeds 0-4 (CHANGELOG.md)
 
 
 def test_surf_is_refused_on_the_command_line(capsys):
