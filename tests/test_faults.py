@@ -132,24 +132,50 @@ def test_two_runs_at_once_one_writes_one_refuses(excerpt, tmp_path):
     assert verify(out) and json.loads(out.with_suffix(".json").read_text())["interrupted"] is False
 
 
-@pytest.mark.parametrize("stop", [signal.SIGTERM, signal.SIGHUP], ids=["SIGTERM", "SIGHUP"])
-def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stop):
-    out = tmp_path / "run.rrd"
+def record_until_frames_are_in(excerpt: Path, out: Path) -> subprocess.Popen:
+    """``viewslam record`` of rgbdslam onto ``out``, once its recording holds frames."""
     child = viewslam("record", excerpt, "--out", out, "--pipeline", "rgbdslam", "--quiet")
     deadline = time.monotonic() + 120
-    while not any(path.stat().st_size > 200_000 for path in tmp_path.glob(".run.rrd.*.part")):  # frames in
+    while not any(path.stat().st_size > 200_000 for path in out.parent.glob(f".{out.name}.*.part")):
         assert child.poll() is None and time.monotonic() < deadline
         time.sleep(0.05)
-    child.send_signal(stop)
+    return child
+
+
+@pytest.mark.parametrize("stops", [[signal.SIGTERM], [signal.SIGHUP], [signal.SIGTERM, signal.SIGHUP]],
+                         ids=["SIGTERM", "SIGHUP", "SIGTERM-then-SIGHUP"])
+def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stops):
+    out = tmp_path / "run.rrd"
+    child = record_until_frames_are_in(excerpt, out)
+    for stop in stops:
+        child.send_signal(stop)
+        time.sleep(0.01)
     _, error = child.communicate(timeout=120)
     assert child.returncode == 130 and "Traceback" not in error
-    assert f"viewslam: {stop.name}: stopping after this frame" in error
+    # Signals pending together are handled in number order: which one comes first is not fixed.
+    lines = [line.split(": ", 2)[1:] for line in error.splitlines() if line]
+    assert sorted(name for name, _ in lines) == sorted(stop.name for stop in stops)
+    assert [what.split(" after")[0] for _, what in lines] == ["stopping", "already stopping"][:len(stops)]
     report = json.loads(out.with_suffix(".json").read_text())
     assert report["interrupted"] is True and report["failed"] is False
     poses = report["pipelines"]["rgbdslam"]["frames_with_pose"]
     assert 0 < poses < FRAMES
     assert len(out.with_name("run.rgbdslam.txt").read_text().splitlines()) == poses
     assert verify(out)
+
+
+def test_a_third_stop_signal_aborts_and_leaves_the_earlier_outputs(excerpt, tmp_path):
+    out = tmp_path / "run.rrd"
+    earlier = {name: f"earlier {name}".encode() for name in ("run.rrd", "run.json", "run.rgbdslam.txt")}
+    for name, content in earlier.items():
+        (tmp_path / name).write_bytes(content)
+    child = record_until_frames_are_in(excerpt, out)
+    for stop in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        child.send_signal(stop)
+        time.sleep(0.01)
+    _, error = child.communicate(timeout=120)
+    assert child.returncode == 130 and error.endswith("viewslam: interrupted\n") and "Traceback" not in error
+    assert {path.name: path.read_bytes() for path in tmp_path.iterdir() if path.is_file()} == earlier
 
 
 def test_ctrl_c_during_start_up_is_one_line_and_exit_130(excerpt, tmp_path, monkeypatch, capsys):
@@ -312,3 +338,4 @@ def test_a_stdout_that_cannot_take_the_output_is_one_line_and_exit_2(tmp_path, m
         monkeypatch.setattr(sys, "stdout", full)
         assert main(["evaluate", str(trajectory), str(trajectory)]) == 2
     assert capsys.readouterr().err == "viewslam: error: stdout: cannot write: No space left on device\n"
+

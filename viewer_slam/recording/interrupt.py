@@ -14,20 +14,30 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
 class StopRequest:
-    """Set by the first stop signal; a second one aborts at once (:class:`Interrupted`)."""
+    """Set by the first stop signal; a second one only repeats the request (the run still stops
+    after its frame and writes what was recorded); a third aborts at once (:class:`Interrupted`)."""
+
+    ABORT_AT = 3
 
     def __init__(self):
         self.requested = False
+        self.received = 0
 
     def __call__(self) -> bool:
         return self.requested
 
     def _handle(self, signum, frame) -> None:
-        if self.requested:
-            raise Interrupted(signal.Signals(signum).name)
+        self.received += 1
+        name = signal.Signals(signum).name
+        if self.received >= self.ABORT_AT:
+            raise Interrupted(name)
         self.requested = True
-        print(f"\nviewslam: {signal.Signals(signum).name}: stopping after this frame and writing what was "
-              "recorded (Ctrl-C again to abort)", file=sys.stderr)
+        if self.received == 1:
+            print(f"\nviewslam: {name}: stopping after this frame and writing what was recorded (a third "
+                  f"stop signal aborts)", file=sys.stderr)
+        else:
+            print(f"viewslam: {name}: already stopping after this frame (one more stop signal aborts)",
+                  file=sys.stderr)
 
     @contextmanager
     def installed(self) -> Iterator["StopRequest"]:
