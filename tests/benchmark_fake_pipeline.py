@@ -8,6 +8,7 @@ processes (the pool's and Ray's) import pipelines by module name.
 """
 
 import os
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -62,7 +63,8 @@ class FakeParams:
     wobble_m: float = param(0.0, key="wobble_m", help="Amplitude of a position error alternating frame by frame.")
     lost_from: int = param(-1, key="lost_from", help="First frame without a pose (-1: never lost).")
     lost_until: int = param(-1, key="lost_until", help="First frame with a pose again (-1: never recovers).")
-    fail: str = param("", key="fail", choices=("", "raise", "exit", "hang"), help="How to fail on the first frame.")
+    fail: str = param("", key="fail", choices=("", "raise", "exit", "sys.exit", "hang"),
+                      help="How to fail on the first frame.")
 
 
 class FakePipeline(Pipeline):
@@ -79,6 +81,8 @@ class FakePipeline(Pipeline):
             raise RuntimeError("scripted failure")
         if self.params.fail == "exit":
             os._exit(3)
+        if self.params.fail == "sys.exit":
+            sys.exit(5)
         if self.params.fail == "hang":
             time.sleep(3600)
         p = self.params

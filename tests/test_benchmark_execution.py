@@ -53,18 +53,20 @@ def test_failures_are_reported_and_the_other_tasks_finish(folder, tmp_path):
         task(folder, name="a"),
         task(folder, name="raises", fail="raise"),
         task(folder, name="exits", fail="exit"),
+        task(folder, name="calls-sys-exit", fail="sys.exit"),
         BenchmarkTask(name="hangs", sequence=folder, pipeline="fake", parameters={"fail": "hang"}, timeout_s=2),
         BenchmarkTask(name="corrupt", sequence=corrupt, pipeline="fake"),
         task(folder, name="b"),
     ]
     results = run_tasks(tasks, LocalExecutor(jobs=2))
-    assert [result.sequence for result in results] == ["a", "raises", "exits", "hangs", "corrupt", "b"]
-    assert [result.status for result in results] == ["ok", "failed", "failed", "failed", "failed", "ok"]
+    assert [result.sequence for result in results] == ["a", "raises", "exits", "calls-sys-exit", "hangs", "corrupt", "b"]
+    assert [result.status for result in results] == ["ok", "failed", "failed", "failed", "failed", "failed", "ok"]
     assert results[1].error == "RuntimeError: scripted failure"
     assert results[2].error == "worker process died"
-    assert results[3].error == "TaskTimeout: timed out after 2 s"
-    assert results[4].error.startswith("InputError: ") and "depth.txt" in results[4].error
-    assert results[0].report == results[5].report | {"timing": results[0].report["timing"]}
+    assert results[3].error == "SystemExit: the task called sys.exit(5)"
+    assert results[4].error == "TaskTimeout: timed out after 2 s"
+    assert results[5].error.startswith("InputError: ") and "depth.txt" in results[5].error
+    assert results[0].report == results[6].report | {"timing": results[0].report["timing"]}
 
 
 def test_rerun_is_served_from_the_cache_until_inputs_change(folder, tmp_path):

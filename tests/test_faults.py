@@ -339,3 +339,37 @@ def test_a_stdout_that_cannot_take_the_output_is_one_line_and_exit_2(tmp_path, m
         assert main(["evaluate", str(trajectory), str(trajectory)]) == 2
     assert capsys.readouterr().err == "viewslam: error: stdout: cannot write: No space left on device\n"
 
+
+def test_a_plugin_that_calls_sys_exit_at_import_is_that_plugins_one_line(tmp_path, monkeypatch):
+    from importlib.metadata import EntryPoint
+
+    from viewer_slam.errors import InputError
+    from viewer_slam.pipelines.base import ENTRY_POINT_GROUP, load_plugin
+
+    (tmp_path / "exits_at_import.py").write_text("import sys\nsys.exit(3)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    with pytest.raises(InputError, match=r"^pipeline plugin 'quitter' \(exits_at_import:Pipeline\): cannot be "
+                                         r"imported: called sys.exit\(3\)$"):
+        load_plugin(EntryPoint("quitter", "exits_at_import:Pipeline", ENTRY_POINT_GROUP))
+
+
+def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_are_kept(tmp_path, monkeypatch,
+                                                                                          capsys):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    monkeypatch.setitem(base.PIPELINE_MODULES, "quitter", MODULE)
+    folder = write_tum_folder(tmp_path / "tiny", frames=4)
+    config = tmp_path / "c.toml"
+    config.write_text('[quitter]\nfail = "sys.exit"\n')
+    out = tmp_path / "run.rrd"
+    assert main(["record", str(folder), "--pipeline", "fake,quitter", "--config", str(config), "--out", str(out),
+                 "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("viewslam: error: pipeline quitter called sys.exit(5); the frames before it are "
+                             "recorded in") and \
+        error.count("\n") == 1
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert report["failed"] is True and report["pipelines"]["fake"]["frames_with_pose"] == 4
+    assert verify(out)

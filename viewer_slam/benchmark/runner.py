@@ -125,8 +125,9 @@ def execute_task(task: BenchmarkTask) -> TaskResult:
     try:
         with time_limit(task.timeout_s):
             return _run(task)
-    except (Exception, TaskTimeout) as error:  # crash isolation: report, never propagate
-        message = " ".join(str(error).split()) or "no message"
+    except (Exception, TaskTimeout, SystemExit) as error:  # crash isolation: report, never propagate
+        message = (f"the task called sys.exit({error.code!r})" if isinstance(error, SystemExit)
+                   else " ".join(str(error).split()) or "no message")
         return TaskResult.failure(task, f"{type(error).__name__}: {message}")
 
 

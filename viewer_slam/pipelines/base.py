@@ -81,9 +81,10 @@ def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
         raise InputError(f"{where}: the name is taken by a built-in pipeline")
     try:
         loaded = plugin.load()
-    except Exception as error:  # whatever the plugin's import raises, it is the plugin's fault
-        raise InputError(f"{where}: cannot be imported: {type(error).__name__}: {' '.join(str(error).split())}") \
-            from None
+    except (Exception, SystemExit) as error:  # whatever the plugin's import raises, it is the plugin's fault
+        problem = f"called sys.exit({error.code!r})" if isinstance(error, SystemExit) else \
+            f"{type(error).__name__}: {' '.join(str(error).split())}"
+        raise InputError(f"{where}: cannot be imported: {problem}") from None
     problem = interface_problem(loaded)
     if problem is not None:
         raise InputError(f"{where}: {problem}")

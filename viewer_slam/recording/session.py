@@ -252,9 +252,11 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                         run = drive(runs[name], name, guarded, max_frames=options.max_frames, stride=options.stride,
                                     sinks=[recorder, progress.sink(name), signals],
                                     frame_sinks=[on_frame, signals.frame], should_stop=stop)
-                    except Exception as error:  # an unexpected failure: keep what was recorded before it
+                    except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
+                        if isinstance(error, SystemExit):  # a plugin that exits: that pipeline's failure
+                            error = InputError(f"pipeline {name} called sys.exit({error.code!r})")
                         if not blocks and not guarded.read:
-                            raise
+                            raise error
                         failure = error
                         break
                     failure = guarded.error
