@@ -373,3 +373,21 @@ def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_ar
     report = json.loads(out.with_suffix(".json").read_text())
     assert report["failed"] is True and report["pipelines"]["fake"]["frames_with_pose"] == 4
     assert verify(out)
+
+
+def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(tmp_path, monkeypatch):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    monkeypatch.setitem(base.PIPELINE_MODULES, "other", MODULE)
+    folder = write_tum_folder(tmp_path / "tiny", frames=3)
+    out = tmp_path / "out" / "run.rrd"
+    notes = out.with_name("run.notes.txt")  # not the run's: stays
+    for pipelines in ("fake,other", "fake"):
+        assert main(["record", str(folder), "--pipeline", pipelines, "--out", str(out), "--quiet"]) == 0
+        notes.write_text("mine\n")
+    report = json.loads(out.with_suffix(".json").read_text())
+    assert list(report["pipelines"]) == ["fake"]
+    assert sorted(path.name for path in out.parent.iterdir()) == ["run.fake.txt", "run.json", "run.notes.txt",
+                                                                  "run.rrd"]

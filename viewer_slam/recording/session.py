@@ -17,6 +17,7 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
+import json
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -229,6 +230,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions, counted)
     scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
+    earlier = earlier_trajectories(out)
     with StagedFiles() as staged, StopRequest().installed() as stop:
         recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
         stream = recording.stream
@@ -288,6 +290,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
             report["error"] = "; ".join(error for error in errors if error)
         _write(report_path, lambda path: write_report(path, report), staged)
         staged.commit()
+    for path in set(earlier) - {trajectory_paths[name] for name in trajectories}:
+        path.unlink(missing_ok=True)  # the earlier run's, which the report now in place does not list
     written = [path for path in (out, report_path, *trajectory_paths.values()) if path.exists()]
     if recording.error is not None:
         raise InputError(f"{out}: recording not written: {recording.error}; the report and trajectories "
@@ -298,6 +302,16 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     if failure is not None:
         raise failure
     return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
+
+
+def earlier_trajectories(out: Path) -> list[Path]:
+    """The trajectory files of the run recorded at ``out`` before, as its report lists them (none
+    when it has no readable report)."""
+    try:
+        pipelines = json.loads(out.with_suffix(".json").read_text())["pipelines"]
+        return list(report_paths(out, [str(name) for name in pipelines])[1].values())
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
 
 
 def _counts_features(run: Pipeline) -> bool:
