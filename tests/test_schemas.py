@@ -89,12 +89,14 @@ def test_every_field_is_described(name):
     assert undescribed == []
 
 
+@pytest.mark.slow
 def test_a_real_record_report_validates(report):
     assert set(report["pipelines"]) == {"rgbdslam", "rtabmap"}
     assert any(block["tracking_lost"] for block in report["pipelines"].values())  # the diagnosis' keys are covered
     assert errors("report", report) == []
 
 
+@pytest.mark.slow
 def test_the_record_report_documents_odometry_edges_and_stages(report):
     """The fields the schema defines are the ones written: every run key and every stage named."""
     run = load_schema("report")["$defs"]["run"]
@@ -105,6 +107,7 @@ def test_the_record_report_documents_odometry_edges_and_stages(report):
         assert all(f"`{stage}`" in stages for stage in block["timing"]["per_stage_ms"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("doctor, where", [
     (lambda r: r["pipelines"]["rgbdslam"].pop("timing"), "pipelines/rgbdslam"),
     (lambda r: r.pop("versions"), ""),
@@ -120,6 +123,7 @@ def test_a_doctored_report_fails(report, doctor, where):
     assert found and any(error.split(": ", 1)[0] == where for error in found), found
 
 
+@pytest.mark.slow
 def test_evaluate_json_validates_for_one_and_several_estimates(recorded, scenario, tmp_path):
     trajectories = [recorded.with_name(f"{recorded.stem}.{name}.txt") for name in ("rgbdslam", "rtabmap")]
     one, several = tmp_path / "one.json", tmp_path / "several.json"
@@ -132,6 +136,7 @@ def test_evaluate_json_validates_for_one_and_several_estimates(recorded, scenari
     assert errors("evaluate", doctored)
 
 
+@pytest.mark.slow
 def test_a_real_benchmark_results_json_and_its_run_reports_validate(benchmark_out):
     rows = json.loads((benchmark_out / "results.json").read_text())
     assert [row["status"] for row in rows] == ["ok"]
@@ -140,6 +145,7 @@ def test_a_real_benchmark_results_json_and_its_run_reports_validate(benchmark_ou
     assert reports and all(errors("report", json.loads(path.read_text())) == [] for path in reports)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("doctor", [
     lambda row: row.pop("coverage"),
     lambda row: row.update(frames="60"),
