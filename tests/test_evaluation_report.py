@@ -16,7 +16,7 @@ from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 
 PIPELINE_KEYS = {"source", "frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",
-                 "odometry_ate", "loop_closures", "edges",
+                 "odometry_ate", "node_ate", "loop_closures", "edges", "edges_by_detection",
                  "keyframes", "tracking_lost", "timing", "parameters"}
 STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 
@@ -64,7 +64,7 @@ def test_pipeline_block_has_exactly_the_documented_keys(sequence):
 def test_without_groundtruth_the_metric_blocks_are_null(sequence):
     block = pipeline_report(finished_run(sequence), None, None)
     assert set(block) == PIPELINE_KEYS
-    metric_keys = ("alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate", "odometry_ate")
+    metric_keys = ("alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate", "odometry_ate", "node_ate")
     assert [block[key] for key in metric_keys] == [None] * len(metric_keys)
 
 

@@ -46,6 +46,7 @@ class Evaluation:
     delta_unit: str
     offset: float = 0.0
     rpe_mode: str = "delta"
+    node_ate: ErrorSeries | None = None
 
     def to_dict(self) -> dict:
         """The report blocks ``alignment``, ``ate``, ``ate_segments``, ``rpe``, ``coverage`` and ``penalized_ate``."""

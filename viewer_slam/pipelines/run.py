@@ -33,6 +33,8 @@ class PipelineRun:
     loop_closures_accepted: int = 0
     loop_closures_rejected: int = 0
     edges: dict[str, int] = field(default_factory=lambda: {kind.value: 0 for kind in EdgeKind})
+    edges_by_detection: dict[str, dict[str, int]] = field(default_factory=dict)
+    node_frames: list[int] = field(default_factory=list)
     tracking_lost: list[dict[str, Any]] = field(default_factory=list)
     stage_ms_total: dict[str, float] = field(default_factory=dict)
     total_s: float = 0.0
@@ -55,7 +57,10 @@ class PipelineRun:
                 self.stage_ms_total[stage] = self.stage_ms_total.get(stage, 0.0) + ms
         elif isinstance(event, KeyframeAdded):
             self.keyframes += 1
+            self.node_frames.append(event.frame_index)
         elif isinstance(event, GraphEdge):
+            counts = self.edges_by_detection.setdefault(event.detection, {"accepted": 0, "rejected": 0})
+            counts["accepted" if event.accepted else "rejected"] += 1
             if event.accepted:
                 self.edges[event.kind.value] += 1
             if event.kind == EdgeKind.LOOP:

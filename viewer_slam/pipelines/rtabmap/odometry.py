@@ -120,6 +120,8 @@ class OdometryResult:
     map_index: np.ndarray | None = None
     match_inliers: np.ndarray | None = None
     map_points: np.ndarray | None = None
+    key_frame: bool = False
+    local_map_size: int = 0
 
 
 def scaled_down(variance: float, floor: float) -> float:
@@ -208,7 +210,8 @@ class FrameToMapOdometry:
         self.map.add(transform_points(self.pose, features.points[new]), features.descriptors[new], self.frame_count,
                      self._references(features, new))
         reset, self.was_reset = self.was_reset, False
-        return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset)
+        return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset, key_frame=True,
+                              local_map_size=len(self.map))
 
     def _register(self, features: Features, guess: np.ndarray | None) -> OdometryResult:
         """Registration with the motion guess, then, if that fails or there is none, against
@@ -220,8 +223,9 @@ class FrameToMapOdometry:
         if result is None or result.pose is None:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)
+        result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
-            self._update_map(features, result)
+            result.key_frame = self._update_map(features, result)
         return result
 
     def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -318,10 +322,10 @@ class FrameToMapOdometry:
         pixels = self._undistorted(features.keypoints[index])
         return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
 
-    def _update_map(self, features: Features, result: OdometryResult) -> None:
+    def _update_map(self, features: Features, result: OdometryResult) -> bool:
         """Note the map points seen again and, on a key frame, move the inliers' map points to
         their adjusted positions, record this frame's observations of every matched map point
-        and add the features that matched none (OdometryF2M::computeTransform: a matched
+        and add the features that matched none; True on a key frame (OdometryF2M::computeTransform: a matched
         feature carries its map word's id, inlier or not, so it is an observation of that word
         and never a new one)."""
         params = self.params
@@ -334,6 +338,8 @@ class FrameToMapOdometry:
                 self.map.points[inlier_points] = result.map_points
                 self.map.refer(result.map_index, self._references(features, result.feature_index))
             self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), result.feature_index))
+            return True
+        return False
 
     def _extend_map(self, features: Features, pose: np.ndarray, candidates: np.ndarray) -> None:
         """Add the frame's unregistered features with depth, then cap the map."""

@@ -104,7 +104,8 @@ class Rtabmap(Pipeline):
             self.records.append(_FrameRecord(frame.index, frame.timestamp, odometry.pose, self.current_location))
             pose = self.graph.correction(self.current_location) @ odometry.pose
         metrics = {"stm": len(self.memory.stm), "wm": len(self.memory.wm), "ltm": len(self.memory.ltm),
-                   "words": len(self.vocabulary), "posterior_max": self.posterior_max}
+                   "words": len(self.vocabulary), "posterior_max": self.posterior_max,
+                   "local_map": odometry.local_map_size, "key_frame": float(odometry.key_frame)}
         events.insert(0, FrameTracked(frame.index, frame.timestamp, pose, status, len(features), odometry.matches,
                                       odometry.inliers, self.current_location if pose is not None else None,
                                       watch.ms, metrics))
