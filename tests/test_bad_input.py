@@ -370,6 +370,11 @@ OTHER_CASES = {
     "synth-out-not-empty": Case(["synth", "360_kidnap", "--out", "{seq}", "--frames", "2"], "--force"),
     "synth-camera-unknown": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--camera", "fr9"], "fr9"),
     "view-missing": Case(["view", "{tmp}/none.rrd"], "none.rrd"),
+    "view-web-empty": Case(["view", "{tmp}/e.rrd", "--web"], "e.rrd: not a complete Rerun recording",
+                           write("tmp/e.rrd", b"")),
+    "view-web-garbage": Case(["view", "{tmp}/g.rrd", "--web"], "g.rrd: not a complete", write("tmp/g.rrd", b"garbage")),
+    "view-web-json": Case(["view", "{tmp}/out/run.json", "--web"], "run.json: not a complete"),
+    "view-truncated": Case(["view", "{tmp}/t.rrd"], "t.rrd: not a complete", write("tmp/t.rrd", b"RRF2\0\0\0\0")),
 }
 
 CASES = RECORD_CASES | BENCHMARK_CASES | OTHER_CASES

@@ -17,11 +17,21 @@ from viewer_slam.recording.viewer import viewer_binary
 VIEWSLAM = Path(sys.executable).with_name("viewslam")
 
 
+def tiny_recording(path: Path) -> Path:
+    """A complete one-point Rerun recording at ``path``."""
+    import rerun as rr
+
+    stream = rr.RecordingStream("viewslam-test")
+    stream.save(path)
+    stream.log("point", rr.Points3D([[0.0, 0.0, 0.0]]))
+    stream.flush()
+    stream.disconnect()
+    return path
+
+
 @pytest.fixture
 def recording(tmp_path) -> Path:
-    path = tmp_path / "x.rrd"
-    path.write_bytes(b"")
-    return path
+    return tiny_recording(tmp_path / "x.rrd")
 
 
 def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
@@ -49,9 +59,19 @@ def test_with_no_display_view_says_so_in_one_line_and_names_web(recording, monke
     assert error.count("\n") == 1 and "no display" in error and "--web" in error
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="DISPLAY and WAYLAND_DISPLAY are X11/Wayland's")
+def test_record_spawn_with_no_display_says_so_before_anything_is_written(tmp_path, monkeypatch, capsys):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    out = tmp_path / "run.rrd"
+    assert main(["record", str(tmp_path / "anything"), "--out", str(out), "--spawn", "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("viewslam: error: --spawn: no display") and f"viewslam view {out} --web" in error
+    assert error.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
+
 def test_view_web_serves_the_web_viewer_on_localhost(tmp_path):
-    recording = tmp_path / "empty.rrd"
-    recording.write_bytes(b"")
+    recording = tiny_recording(tmp_path / "one-point.rrd")
     environment = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
     process = subprocess.Popen([VIEWSLAM, "view", str(recording), "--web"], stdout=subprocess.PIPE, text=True,
                                env=environment, start_new_session=True)

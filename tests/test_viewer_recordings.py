@@ -21,7 +21,7 @@ from fixtures_eval import TUM_RPY
 from test_recorder import serve_scripted_pipeline, write_tum_folder
 from viewer_slam import palette
 from viewer_slam.cli import main
-from viewer_slam.cli.view import free_port
+from viewer_slam.recording.viewer import free_port
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.edges import LOOP_MIN_AGE_S, LOOP_MIN_NODE_GAP
 from viewer_slam.recording import layout

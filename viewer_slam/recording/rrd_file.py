@@ -24,7 +24,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ..errors import InputError
-from .viewer import viewer_binary
+from .viewer import LOCALHOST, free_port, viewer_binary
 
 # Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
 BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
@@ -52,9 +52,11 @@ class RecordingFile:
         self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
         try:
-            if spawn:
-                rr.spawn(connect=False, executable_path=str(viewer_binary()), recording=self.stream)
-                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(), default_blueprint=blueprint)
+            if spawn:  # on a port of its own: never into a viewer some other program started
+                port = free_port()
+                rr.spawn(port=port, connect=False, executable_path=str(viewer_binary()), recording=self.stream)
+                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(f"rerun+http://{LOCALHOST}:{port}/proxy"),
+                                      default_blueprint=blueprint)
             else:
                 self.stream.save(path, default_blueprint=blueprint)
         except RuntimeError as error:
@@ -69,7 +71,7 @@ class RecordingFile:
         if error is not None:
             self.error = disk_problem(self.path, error)
         self.stream.disconnect()
-        if self.error is None and not _has_footer(self.path):
+        if self.error is None and not has_footer(self.path):
             self.error = disk_problem(self.path, None)
 
 
@@ -128,7 +130,8 @@ def _room_problem(path: Path) -> str | None:
     return None
 
 
-def _has_footer(path: Path) -> bool:
+def has_footer(path: Path) -> bool:
+    """Whether ``path`` is a complete RRD file: it opens and ends with the footer readers need."""
     from rerun.chunk import RrdReader
 
     with warnings.catch_warnings():

@@ -49,6 +49,7 @@ from .recorder import PipelineRecorder, log_frame_image, log_world
 from .rrd_file import RecordingFile
 from .sizes import extent
 from .timelines import log_evaluation
+from .viewer import has_display, no_display_problem
 
 DEMO_SCENARIO = "360_kidnap"
 DEMO_FRAMES = 240
@@ -190,6 +191,8 @@ def record(options: RecordOptions) -> RecordResult:
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)
+    if options.spawn and not has_display():
+        raise InputError(f"--spawn: {no_display_problem(out)}")
     inputs = {Path(file): f"--estimate {name}={file}" for name, file in estimates}
     if options.config is not None:
         inputs[Path(options.config)] = f"--config {options.config}"
