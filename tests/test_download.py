@@ -7,6 +7,7 @@ import re
 import socket
 import tarfile
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -226,6 +227,23 @@ def test_bad_downloads_exit_2_and_leave_nothing(mirror, tmp_path, capsys, payloa
     assert not (tmp_path / "escaped.txt").exists() and not Path("/tmp/viewslam-absolute.txt").exists()
 
 
+@pytest.mark.parametrize("damage, message", [
+    pytest.param(lambda image: image.unlink(), "image listed in the sequence is missing", id="image-missing"),
+    pytest.param(lambda image: image.write_bytes(image.read_bytes()[:-20]), "truncated PNG", id="image-truncated"),
+    pytest.param(lambda image: image.write_bytes(image.read_bytes()[:40] + b"\0" * 8 + image.read_bytes()[48:]),
+                 "corrupt PNG (bad checksum", id="image-corrupt"),
+])
+def test_an_archive_whose_images_are_missing_or_damaged_is_refused(mirror, tmp_path, capsys, damage, message):
+    source = write_tum_folder(tmp_path / "source", frames=4)
+    damage(sorted((source / "depth").iterdir())[2])
+    serve(mirror, archive_of(source))
+    dest = tmp_path / "dest"
+    assert download(dest, mirror.url) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "archive is not a TUM sequence (<archive>/" in error and message in error
+    assert list(dest.iterdir()) == []
+
+
 def test_unknown_name_suggests_close_names_before_downloading_anything(mirror, tmp_path, capsys):
     assert main(["download", "fr1/xyz", "fr2/360_kidnapp", "--dest", str(tmp_path), "--mirror", mirror.url]) == 2
     error = capsys.readouterr().err
@@ -247,6 +265,28 @@ def test_network_failure_says_what_to_retry(tmp_path, capsys):
     assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {url}/freiburg1/{NAME}.tgz: download failed: ")
     assert error.rstrip().endswith("; run the same `viewslam download` again")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_host_that_does_not_exist_says_to_check_the_mirror_not_to_retry(tmp_path, capsys):
+    url = "http://viewslam-no-such-host.invalid"
+    assert download(tmp_path, url) == 2
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and "the host 'viewslam-no-such-host.invalid' is not known" in error
+    assert "check the mirror (--mirror, VIEWSLAM_TUM_MIRROR)" in error and "again" not in error
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_two_downloads_of_one_sequence_at_once_both_get_it_whole(mirror, tmp_path):
+    from viewer_slam.dataset.download import download_sequence
+
+    source = write_tum_folder(tmp_path / "source", frames=6)
+    serve(mirror, archive_of(source))
+    dest = tmp_path / "dest"
+    with ThreadPoolExecutor(2) as pool:
+        folders = list(pool.map(lambda _: download_sequence("fr1/xyz", dest, mirror.url, progress=False), range(2)))
+    assert folders == [dest / NAME] * 2 and same_files(dest / NAME, source)
+    assert [path.name for path in dest.iterdir()] == [NAME]  # no .part and no lock left
+    assert mirror.ranges == [None]  # fetched once: the second waited and found it installed
 
 
 def test_download_bag_fetches_the_bag_resumably_and_the_name_resolves_to_it(mirror, tmp_path, capsys):

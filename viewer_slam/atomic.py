@@ -132,12 +132,13 @@ def lock_path(target: Path) -> Path:
 
 
 @contextmanager
-def exclusive(targets: Iterable[Path]) -> Iterator[None]:
-    """Hold a lock per target for the block; :class:`InputError` if another run holds one."""
+def exclusive(targets: Iterable[Path], wait: bool = False) -> Iterator[None]:
+    """Hold a lock per target for the block; :class:`InputError` if another run holds one, or
+    with ``wait``, once it lets go."""
     held: list[tuple[Path, int]] = []
     try:
         for target in targets:
-            held.append((lock_path(target), _lock(Path(target))))
+            held.append((lock_path(target), _lock(Path(target), wait)))
         yield
     finally:
         for path, handle in reversed(held):
@@ -145,7 +146,7 @@ def exclusive(targets: Iterable[Path]) -> Iterator[None]:
             os.close(handle)
 
 
-def _lock(target: Path) -> int:
+def _lock(target: Path, wait: bool = False) -> int:
     path = lock_path(target)
     while True:
         try:
@@ -153,7 +154,7 @@ def _lock(target: Path) -> int:
         except OSError as error:
             raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
         try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            fcntl.flock(handle, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as error:
             os.close(handle)
             if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):

@@ -15,6 +15,7 @@ import http.client
 import os
 import re
 import shutil
+import socket
 import tarfile
 import tempfile
 import urllib.error
@@ -27,7 +28,7 @@ from pathlib import Path, PurePosixPath
 from rich.console import Console
 from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
-from ..atomic import check_writable
+from ..atomic import check_writable, exclusive
 from ..errors import InputError
 from .catalog import TumSequenceInfo, known_tum_sequence, tum_cache_dir
 
@@ -91,13 +92,16 @@ def download_sequence(name: str, dest: Path | None = None, mirror: str | None = 
         return target
     part = partial_archive(dest, info.name, bag)
     check_writable(part)
-    _fetch(url, part, progress)
-    try:
-        (_install_bag if bag else _install)(part, target, url)
-    except BadArchive:
+    with exclusive([part], wait=True):  # a second download of the same sequence waits for the first
+        if (target.is_file() if bag else target.is_dir()) and not force:
+            return target
+        _fetch(url, part, progress)
+        try:
+            (_install_bag if bag else _install)(part, target, url)
+        except BadArchive:
+            part.unlink(missing_ok=True)
+            raise
         part.unlink(missing_ok=True)
-        raise
-    part.unlink(missing_ok=True)
     return target
 
 
@@ -121,6 +125,10 @@ def _fetch(url: str, part: Path, progress: bool, retry: str = RETRY,
         raise InputError(f"{url}: download failed: HTTP {error.code} {error.reason}; {advice}") from None
     except (urllib.error.URLError, http.client.HTTPException, OSError) as error:
         reason = " ".join(str(getattr(error, "reason", error)).split()) or type(error).__name__
+        if isinstance(getattr(error, "reason", None), socket.gaierror):  # no such host: waiting will not help
+            host = urllib.parse.urlsplit(url).hostname
+            raise InputError(f"{url}: download failed: the host {host!r} is not known ({reason}); check the "
+                             f"mirror ({mirror_hint}) and the network") from None
         kept = part.stat().st_size if part.exists() else 0
         resume = f" to resume from the {kept:,} bytes in {part}" if kept else ""
         raise InputError(f"{url}: download failed: {reason}; {retry}{resume}") from None
@@ -243,7 +251,7 @@ def _verify(folder: Path, scratch: Path, url: str) -> None:
     from .tum import open_sequence
 
     try:
-        open_sequence(folder)
+        open_sequence(folder).check_images()
     except InputError as error:
         problem = str(error).replace(str(scratch), "<archive>")
         raise BadArchive(f"{url}: archive is not a TUM sequence ({problem})") from None

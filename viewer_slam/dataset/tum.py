@@ -105,6 +105,22 @@ class TumSequence(TimedFrames):
                 for future in pending:
                     future.cancel()
 
+    def check_images(self) -> None:
+        """Refuse a missing, truncated or corrupt image among the frames without decoding any:
+        each must exist, and a PNG have complete chunks that match their checksums."""
+        for name in (*self._rgb_files, *self._depth_files):
+            path = self.path / name
+            try:
+                data = path.read_bytes()
+            except FileNotFoundError:
+                raise InputError.at(path, "image listed in the sequence is missing") from None
+            except OSError as error:
+                raise InputError.at(path, f"cannot read image: {error.strerror}") from None
+            if data.startswith(_PNG_SIGNATURE):
+                _check_png(path, data)
+            elif not data:
+                raise InputError.at(path, "not a readable image")
+
     def _size_check(self, path: Path) -> Callable[[int, int], None]:
         """Refuses (width, height) other than the camera's, naming the image at ``path``."""
         def check(width: int, height: int) -> None:
