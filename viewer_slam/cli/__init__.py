@@ -55,7 +55,7 @@ def _run(argv: list[str] | None) -> int:
         if sys.stdout is not None:
             sys.stdout.flush()  # here, not at exit: a stdout that cannot take the output is one line
     except InputError as error:
-        print(f"viewslam: error: {error}", file=sys.stderr)
+        _error_line(f"viewslam: error: {error}")
         return EXIT_BAD_INPUT
     except _typer_exception("Abort"):
         return _interrupted()
@@ -64,7 +64,7 @@ def _run(argv: list[str] | None) -> int:
             return 0
         context = getattr(error, "ctx", None)
         command = context.command_path if context is not None else "viewslam"
-        print(f"{command}: error: {error.format_message()}", file=sys.stderr)
+        _error_line(f"{command}: error: {error.format_message()}")
         return EXIT_BAD_INPUT
     except (Interrupted, KeyboardInterrupt):
         return _interrupted()
@@ -76,7 +76,7 @@ def _run(argv: list[str] | None) -> int:
             return _interrupted()
         if isinstance(error, OSError) and error.filename is not None:
             # a path the system refuses (a name too long, a folder under a file, no permission)
-            print(f"viewslam: error: {error.filename}: {error.strerror}", file=sys.stderr)
+            _error_line(f"viewslam: error: {error.filename}: {error.strerror}")
             return EXIT_BAD_INPUT
         if isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG):
             # files are written under names that their errors carry: what has none is the output stream
@@ -88,6 +88,12 @@ def _run(argv: list[str] | None) -> int:
               f"{_traceback_note(error)}", file=sys.stderr)
         return 1
     return result if isinstance(result, int) else 0
+
+
+def _error_line(text: str) -> None:
+    """``text`` as one line on stderr: line breaks inside it (a path's, a server's message) are
+    shown escaped, as ``\\n``."""
+    print(text.replace("\r", "\\r").replace("\n", "\\n"), file=sys.stderr)
 
 
 def _drop_stdout() -> None:

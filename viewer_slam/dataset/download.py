@@ -61,8 +61,12 @@ def archive_url(info: TumSequenceInfo, mirror: str | None = None, bag: bool = Fa
     """The archive's (with ``bag``, the bag's) URL below ``mirror`` (default: :func:`default_mirror`);
     InputError if that is no URL."""
     base = mirror or default_mirror()
-    parts = urllib.parse.urlsplit(base)
-    if parts.scheme not in ("http", "https", "file") or (parts.scheme != "file" and not parts.netloc):
+    try:
+        parts = urllib.parse.urlsplit(base)
+        parts.port  # noqa: B018  (a port that is no number raises here)
+    except ValueError:  # e.g. an IPv6 address without its closing bracket
+        parts = None
+    if parts is None or parts.scheme not in ("http", "https", "file") or (parts.scheme != "file" and not parts.netloc):
         source = "--mirror" if mirror else "VIEWSLAM_TUM_MIRROR"
         raise InputError(f"{source} {base!r}: not a URL; expected http://HOST/PATH, https://... or file:///PATH")
     return f"{base.rstrip('/')}/{info.bag if bag else info.archive}"
