@@ -4,7 +4,7 @@ from pathlib import Path
 
 import typer
 
-from ..atomic import StagedFiles, check_writable
+from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..errors import InputError
 from ..evaluation.report import write_report
 from .app import app
@@ -24,9 +24,10 @@ def diff_command(
     pair = _run_pair(runs)
     if out is not None and out.suffix != ".rrd":
         raise InputError.at(out, "the recording must have the .rrd extension")
-    for target in (out, json_path):
-        if target is not None:
-            check_writable(target)
+    outputs = {path: option for path, option in ((out, "--out"), (json_path, "--json")) if path is not None}
+    refuse_inputs_as_outputs(outputs, {a: f"A {a}", b: f"B {b}"})
+    for target in outputs:
+        check_writable(target)
     from ..comparison import compare_reports, comparison_to_dict, print_comparison  # OpenCV loads only now
 
     comparison = compare_reports(a, b, pair)

@@ -44,15 +44,32 @@ def load_report(path: Path) -> RecordReport:
         raise InputError.at(path, "not a `viewslam record` report (no sequence and pipelines blocks)")
     runs = {}
     for name, block in blocks.items():
+        if not isinstance(block, dict):
+            raise InputError.at(path, f"run {name!r} is {type(block).__name__}, not a run block")
         missing = [key for key in RUN_KEYS if key not in block]
         if missing:
             raise InputError.at(path, f"report of an older or unknown format: run {name!r} has no "
                                       f"{', '.join(missing)}; record it again with this version")
+        problem = _shape_problem(block)
+        if problem is not None:
+            raise InputError.at(path, f"run {name!r}: {problem}")
         trajectory_path = path.with_name(f"{path.stem}.{name}.txt")
         if not trajectory_path.is_file():
             raise InputError.at(trajectory_path, f"no trajectory of run {name!r} beside {path.name}")
         runs[name] = RecordedRun(name, block, _trajectory(trajectory_path))
     return RecordReport(path, sequence, runs)
+
+
+def _shape_problem(block: dict[str, Any]) -> str | None:
+    """What in a run block is not of the shape a comparison reads, or None (the metric blocks are
+    read as they come: a missing figure shows as one)."""
+    if not isinstance(block["parameters"], dict):
+        return "parameters is not an object"
+    losses = block["tracking_lost"]
+    if not isinstance(losses, list) or not all(isinstance(loss, dict) and isinstance(loss.get("frame"), int)
+                                               and not isinstance(loss["frame"], bool) for loss in losses):
+        return "tracking_lost is not a list of losses, each with its frame number"
+    return None
 
 
 def _trajectory(path: Path) -> Trajectory:
