@@ -391,3 +391,22 @@ def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(tmp_pa
     assert list(report["pipelines"]) == ["fake"]
     assert sorted(path.name for path in out.parent.iterdir()) == ["run.fake.txt", "run.json", "run.notes.txt",
                                                                   "run.rrd"]
+
+
+def test_evaluate_writes_its_json_and_plot_together_or_neither(tmp_path, monkeypatch, capsys):
+    import errno
+
+    import viewer_slam.evaluation.plot as plot
+
+    def full_disk(path, *arguments, **options):
+        Path(path).write_bytes(b"half a picture")
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(plot, "plot_evaluation", full_disk)
+    trajectory = tmp_path / "t.txt"
+    trajectory.write_text("".join(f"{k / 10:.1f} {k / 100} 0 0 0 0 0 1\n" for k in range(30)))
+    report, picture = tmp_path / "e.json", tmp_path / "e.png"
+    report.write_text("earlier\n")
+    assert main(["evaluate", str(trajectory), str(trajectory), "--json", str(report), "--plot", str(picture)]) == 2
+    assert capsys.readouterr().err == f"viewslam: error: {picture}: cannot write: No space left on device\n"
+    assert report.read_text() == "earlier\n" and sorted(path.name for path in tmp_path.iterdir()) == ["e.json", "t.txt"]

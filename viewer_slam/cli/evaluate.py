@@ -1,8 +1,7 @@
 """`viewslam evaluate`: score trajectory files against groundtruth, one table row per estimate."""
 
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -16,13 +15,13 @@ from rich.table import Table
 from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
-from ..pipelines.params import INT_MAX
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import read_trajectory
+from ..pipelines.params import INT_MAX
 from ..terminal import print_table
 from .app import app
 
@@ -181,31 +180,33 @@ def evaluate_command(
         evaluations.append(evaluation)
 
     _print_results(groundtruth, labels, formats, evaluations)
+    writers = {}
     if json_path is not None:
         blocks = {label: evaluation.to_dict() for label, evaluation in zip(labels, evaluations)}
         report = blocks[labels[0]] if len(labels) == 1 else {"groundtruth": str(groundtruth), "estimates": blocks}
-        with _writing(json_path) as staged:
-            write_report(staged, report)
+        writers[json_path] = lambda path: write_report(path, report)
     if plot is not None:
         from ..evaluation.plot import Scored, plot_evaluation
 
-        with _writing(plot) as staged:
-            plot_evaluation(staged, reference, [Scored(Path(label).name, trajectory, evaluation) for label, trajectory,
-                                                evaluation in zip(labels, estimated, evaluations)],
-                            format=plot.suffix.lstrip(".").lower())
+        scored = [Scored(Path(label).name, trajectory, evaluation)
+                  for label, trajectory, evaluation in zip(labels, estimated, evaluations)]
+        writers[plot] = lambda path: plot_evaluation(path, reference, scored, format=plot.suffix.lstrip(".").lower())
+    _write_together(writers)
 
 
-@contextmanager
-def _writing(target: Path) -> Iterator[Path]:
-    """A temporary path beside ``target``, renamed onto it when written; a failure to write is a
-    one-line input error (and leaves ``target`` as it was). Says on stderr what was written."""
-    try:
-        with StagedFiles() as staged:
-            yield staged.path(target)
-            staged.commit()
-    except OSError as error:
-        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
-    typer.echo(f"wrote {target}", err=True)
+def _write_together(writers: dict[Path, Callable[[Path], None]]) -> None:
+    """Each target written by its writer under a temporary name beside it, then all renamed into
+    place together: a failure to write one (a full disk) is a one-line input error naming it, and
+    leaves every target as it was. Says on stderr what was written."""
+    with StagedFiles() as staged:
+        for target, write in writers.items():
+            try:
+                write(staged.path(target))
+            except OSError as error:
+                raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
+        staged.commit()
+    for target in writers:
+        typer.echo(f"wrote {target}", err=True)
 
 
 def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajectory, Clock]:
