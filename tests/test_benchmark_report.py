@@ -2,6 +2,7 @@
 
 import csv
 import json
+from pathlib import Path
 
 import pytest
 
@@ -71,6 +72,18 @@ def test_charts_are_written_as_png_and_svg_reproducibly(results, written, tmp_pa
             assert first.startswith(signature)
             assert first == (tmp_path / f"benchmark_{metric}{suffix}").read_bytes()
     assert len(CHARTS) == 6 and {"ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s"} < set(CHARTS)
+
+
+def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(results, tmp_path):
+    write_outputs(results, tmp_path)
+    (tmp_path / "notes.txt").write_text("mine\n")  # not the benchmark's: stays
+    earlier = {path.relative_to(tmp_path) for path in tmp_path.rglob("*") if path.is_file()}
+    fewer = [result for result in results if result.sequence != "covered"]
+    written = write_outputs(fewer, tmp_path)
+    now = {path.relative_to(tmp_path) for path in tmp_path.rglob("*") if path.is_file()}
+    assert now == {path.relative_to(tmp_path) for path in written} | {Path("notes.txt")}
+    assert {str(path) for path in earlier - now} == {"runs/covered.json", "runs/covered.steady.txt",
+                                                     "runs/covered.quitter.txt"}
 
 
 def test_report_has_the_table_failures_and_charts(written):

@@ -44,6 +44,8 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
             staged.path(report_path).write_text(markdown_report(results))
             charts = plot_all(rows, out_dir, staged)
             staged.commit()
+        for path in set(_earlier_outputs(out_dir)) - {*runs, *charts}:
+            path.unlink(missing_ok=True)  # an earlier run's, which the results now in place do not list
         if compare_with is not None:  # a comparison refused (an InputError) leaves the report without it
             comparison = markdown_comparison(compare_results(compare_with, load_results(out_dir)))
             with StagedFiles() as staged:
@@ -52,6 +54,13 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
     except OSError as error:
         raise InputError.at(out_dir, f"cannot write the results: {error.strerror or error}") from None
     return [csv_path, json_path, report_path, *runs, *charts]
+
+
+def _earlier_outputs(out_dir: Path) -> list[Path]:
+    """The run reports, trajectories and charts a benchmark may have written into ``out_dir``."""
+    charts = [out_dir / f"benchmark_{metric}.{kind}" for metric in CHARTS for kind in ("png", "svg")]
+    runs = [*(out_dir / RUNS_FOLDER).glob("*.json"), *(out_dir / RUNS_FOLDER).glob("*.txt")]
+    return [path for path in (*charts, *runs) if path.is_file()]
 
 
 def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) -> list[Path]:
