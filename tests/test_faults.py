@@ -410,3 +410,19 @@ def test_evaluate_writes_its_json_and_plot_together_or_neither(tmp_path, monkeyp
     assert main(["evaluate", str(trajectory), str(trajectory), "--json", str(report), "--plot", str(picture)]) == 2
     assert capsys.readouterr().err == f"viewslam: error: {picture}: cannot write: No space left on device\n"
     assert report.read_text() == "earlier\n" and sorted(path.name for path in tmp_path.iterdir()) == ["e.json", "t.txt"]
+
+
+def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(excerpt, tmp_path, capsys):
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
+                                           capture_output=True).returncode != 0:
+        pytest.skip("no small file system can be mounted here")
+    try:
+        out = mount / "run.rrd"
+        assert main(["record", str(excerpt), "--pipeline", "rgbdslam", "--out", str(out), "--quiet"]) == 2
+        error = capsys.readouterr().err
+        assert error.startswith(f"viewslam: error: {out}: cannot write the recording: no space left on device (")
+        assert error.count("\n") == 1 and list(mount.iterdir()) == []
+    finally:
+        subprocess.run(["umount", str(mount)], check=True)

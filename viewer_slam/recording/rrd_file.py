@@ -30,6 +30,9 @@ from .viewer import LOCALHOST, free_port, viewer_binary
 BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
 # Less free space than this after the file sink failed means the disk was full.
 FULL_DISK_BYTES = 1 << 20
+# Less free space than this before the file is opened: Rerun's first write (the header and the
+# blueprint) could block forever on the full disk, before any watch can start.
+START_BYTES = 256 << 10
 # A flush whose file has not grown for this long, with no room left, has stalled.
 STALL_S = 3.0
 POLL_S = 0.2
@@ -51,6 +54,10 @@ class RecordingFile:
         self.error: str | None = None
         self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
+        free = shutil.disk_usage(path.parent).free
+        if free < START_BYTES:
+            raise InputError.at(target, f"cannot write the recording: no space left on device ({free:,} bytes "
+                                f"free, {START_BYTES:,} needed to start)")
         try:
             if spawn:  # on a port of its own: never into a viewer some other program started
                 port = free_port()
