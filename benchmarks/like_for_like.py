@@ -1,0 +1,374 @@
+"""viewslam's rtabmap against the real RTAB-Map 0.23.8, like for like and frame by frame.
+
+    .venv/bin/python benchmarks/like_for_like.py                      # every reference run found
+    .venv/bin/python benchmarks/like_for_like.py rgbd_dataset_freiburg1_rpy_200-perframe
+    .venv/bin/python benchmarks/like_for_like.py 360_kidnap-default --synthetic DIR   # DIR: the rendered scenes
+    .venv/bin/python benchmarks/like_for_like.py ... --param Vis/MinInliers=20 --out DIR
+
+The reference (``../shared/data/reference/rtabmap-0.23.8``, ``--reference``) holds the
+original's runs, one folder per sequence and mode: ``<sequence>-perframe`` (a node every
+frame: Rtabmap/DetectionRate 0, RGBD/LinearUpdate 0, RGBD/AngularUpdate 0) and
+``<sequence>-default``. Each is replayed in the original's configuration:
+
+- the same frames (the TUM folder of the same name under ``--tum``, or the synthetic scene
+  rendered under ``--synthetic``, checked against the reference's SHA-256 list);
+- the same camera: the intrinsics the original used, without lens distortion (the dataset
+  tool reads no distortion coefficients), through a view of the folder with its own
+  camera.json;
+- the same mode, and OdomF2M/BundleAdjustment 0 (that build has no g2o).
+
+The run is written as ``viewslam record`` writes one (report, trajectory files), with the
+original's optimised graph (``poses_tum.txt``) and its odometry (``db_poses_odom_tum.txt``)
+replayed beside it as estimates (``--estimate``), so ``viewslam diff`` compares them; the
+command to do so is printed. Then, per frame: odometry inliers, features, local map size,
+key frame decisions, loop closure hypotheses accepted and rejected, proximity links,
+where the two first diverge and where most.
+"""
+
+import argparse
+import csv
+import hashlib
+import json
+import sys
+import tempfile
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from viewer_slam.comparison.compare import compare_reports  # noqa: E402
+from viewer_slam.comparison.output import print_comparison  # noqa: E402
+from viewer_slam.dataset.tum import open_sequence  # noqa: E402
+from viewer_slam.evaluation.imported import replay_estimate  # noqa: E402
+from viewer_slam.evaluation.report import build_report, pipeline_report, write_report  # noqa: E402
+from viewer_slam.evaluation.run import evaluate_run  # noqa: E402
+from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
+from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
+from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered  # noqa: E402
+from viewer_slam.pipelines.params import apply_overrides  # noqa: E402
+from viewer_slam.pipelines.rtabmap import RtabmapParams  # noqa: E402
+from viewer_slam.pipelines.run import drive  # noqa: E402
+
+REFERENCE = ROOT.parent / "shared" / "data" / "reference" / "rtabmap-0.23.8"
+TUM = ROOT.parent / "shared" / "data" / "tum"
+REFERENCE_NAME = "rtabmap-0.23.8"
+PER_FRAME = {"Rtabmap/DetectionRate": 0, "RGBD/LinearUpdate": 0, "RGBD/AngularUpdate": 0}
+THAT_BUILD = {"OdomF2M/BundleAdjustment": 0}
+SYNTHETIC_PREFIX = "rgbd_dataset_freiburg"
+# A count differs when it is off by more than this share of the reference's (and by more than 2).
+COUNT_TOLERANCE = 0.2
+
+
+@dataclass
+class ReferenceRun:
+    folder: Path
+    sequence: str          # the folder name of the frames
+    mode: str              # "perframe" or "default"
+    synthetic: bool
+
+    @property
+    def name(self) -> str:
+        return self.folder.name
+
+    @property
+    def overrides(self) -> dict:
+        return {**THAT_BUILD, **(PER_FRAME if self.mode == "perframe" else {})}
+
+
+def reference_runs(reference: Path) -> list[ReferenceRun]:
+    runs = []
+    for folder in sorted([*reference.glob("*-perframe"), *reference.glob("*-default"),
+                          *(reference / "synthetic").glob("*-perframe"), *(reference / "synthetic").glob("*-default")]):
+        sequence, _, mode = folder.name.rpartition("-")
+        runs.append(ReferenceRun(folder, sequence, mode, folder.parent.name == "synthetic"))
+    return runs
+
+
+def scene_name(sequence: str) -> str:
+    """``rgbd_dataset_freiburg2_synth_360_kidnap`` -> ``360_kidnap``."""
+    return sequence.split("_synth_", 1)[1] if "_synth_" in sequence else sequence
+
+
+def frames_folder(run: ReferenceRun, tum: Path, synthetic: Path | None) -> Path:
+    if not run.synthetic:
+        return tum / run.sequence
+    if synthetic is None:
+        raise SystemExit(f"{run.name}: a synthetic scene; render it (viewslam synth {scene_name(run.sequence)} "
+                         f"--out DIR/{run.sequence} --resolution 640x480 --seed 0) and pass --synthetic DIR")
+    for candidate in (synthetic / run.sequence, synthetic / scene_name(run.sequence)):
+        if candidate.is_dir():
+            return candidate
+    raise SystemExit(f"{run.name}: no {run.sequence} (or {scene_name(run.sequence)}) under {synthetic}")
+
+
+def same_frames(run: ReferenceRun, folder: Path) -> tuple[int, int, int]:
+    """(files listed, files equal, rgb/depth PNGs that differ) against the reference's SHA-256 list."""
+    listing = run.folder.parent / f"{run.sequence}.sha256"
+    if not listing.is_file():
+        return 0, 0, 0
+    listed = equal = images = 0
+    for line in listing.read_text().splitlines():
+        digest, _, name = line.partition("  ")
+        path = folder / name
+        listed += 1
+        if path.is_file() and hashlib.sha256(path.read_bytes()).hexdigest() == digest:
+            equal += 1
+        elif name.endswith(".png"):
+            images += 1
+    return listed, equal, images
+
+
+def reference_camera(sequence_camera, run: ReferenceRun):
+    """The intrinsics the original used: the same focal lengths and centre, no distortion."""
+    return replace(sequence_camera, distortion=(0.0,) * 5)
+
+
+def camera_view(folder: Path, camera, into: Path) -> Path:
+    """A folder of the same name whose files link to ``folder``'s, with ``camera`` in camera.json."""
+    view = into / folder.name
+    view.mkdir(parents=True, exist_ok=True)
+    for item in folder.iterdir():
+        if item.name != "camera.json" and not (view / item.name).exists():
+            (view / item.name).symlink_to(item.resolve())
+    camera.save(view / "camera.json")
+    return view
+
+
+# -- the reference's per-frame internals -----------------------------------------------------
+
+def read_nodes(run: ReferenceRun) -> list[dict]:
+    with open(run.folder / "nodes.csv", newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def read_links(run: ReferenceRun) -> list[dict]:
+    with open(run.folder / "links.csv", newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def number(text: str) -> float:
+    return float(text) if text not in ("", None) else float("nan")
+
+
+def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndarray]:
+    """Per processed frame (NaN where the original has no node): its statistics."""
+    nodes = read_nodes(run)
+    frame_of_stamp = {round(s, 4): i for i, s in enumerate(stamps)}
+    frame_of_node = {}
+    series = {key: np.full(len(stamps), np.nan) for key in
+              ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity")}
+    for node in nodes:
+        frame = frame_of_stamp.get(round(float(node["stamp"]), 4))
+        if frame is None:
+            continue
+        frame_of_node[int(node["node_id"])] = frame
+        series["inliers"][frame] = number(node["odom_inliers"])
+        series["features"][frame] = number(node["odom_features"])
+        series["local_map"][frame] = number(node["odom_local_map_size"])
+        series["key_frame"][frame] = number(node["odom_keyframe_added"])
+        for key in ("loop_accepted", "loop_rejected", "proximity"):
+            series[key][frame] = 0
+        series["loop_rejected"][frame] = number(node["loop_rejected"])
+    for link in read_links(run):
+        kind = {"global_loop": "loop_accepted", "local_space": "proximity"}.get(link["type_name"])
+        newer = max(int(link["from_id"]), int(link["to_id"]))
+        if kind and newer in frame_of_node:
+            series[kind][frame_of_node[newer]] += 1
+    frames_csv = run.folder / "frames.csv"        # synthetic runs: odometry of every frame, nodes or not
+    if frames_csv.is_file():
+        with open(frames_csv, newline="") as file:
+            for row in csv.DictReader(file):
+                frame = frame_of_stamp.get(round(float(row["stamp"]), 4))
+                if frame is not None:
+                    series["inliers"][frame] = number(row["inliers"])
+                    series["features"][frame] = number(row["features"])
+    return series
+
+
+def our_series(events, count: int) -> dict[str, np.ndarray]:
+    series = {key: np.full(count, np.nan) for key in
+              ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity", "node")}
+    for event in events:
+        if isinstance(event, FrameTracked) and event.frame_index < count:
+            i = event.frame_index
+            series["inliers"][i] = event.inliers
+            series["features"][i] = event.features
+            series["local_map"][i] = event.metrics.get("local_map", np.nan)
+            series["key_frame"][i] = event.metrics.get("key_frame", np.nan)
+            for key in ("loop_accepted", "loop_rejected", "proximity", "node"):
+                series[key][i] = 0
+    for event in events:
+        if isinstance(event, KeyframeAdded):
+            series["node"][event.frame_index] = 1
+        elif isinstance(event, GraphEdge) and event.frame_index < count:
+            if event.detection == "appearance":
+                series["loop_accepted" if event.accepted else "loop_rejected"][event.frame_index] += 1
+            elif event.detection == "proximity" and event.accepted:
+                series["proximity"][event.frame_index] += 1
+    return series
+
+
+def divergence(name: str, ours: np.ndarray, reference: np.ndarray) -> str:
+    """Where a per-frame series first and most departs from the reference's."""
+    both = ~np.isnan(ours) & ~np.isnan(reference)
+    if not both.any():
+        return f"| {name} | – | – | – | – | – |"
+    frames = np.flatnonzero(both)
+    difference = ours[both] - reference[both]
+    binary = name in ("key_frame", "loop_accepted", "loop_rejected", "proximity")
+    off = (difference != 0) if binary else (np.abs(difference) > np.maximum(2, COUNT_TOLERANCE * np.abs(reference[both])))
+    first = f"{frames[np.argmax(off)]}" if off.any() else "none"
+    most = frames[np.argmax(np.abs(difference))]
+    agree = f"{1 - off.mean():.0%}"
+    return (f"| {name} | {np.nansum(ours[both]):.0f} / {np.nansum(reference[both]):.0f} "
+            f"| {np.median(ours[both]):.0f} / {np.median(reference[both]):.0f} | {agree} | {first} "
+            f"| {most} ({ours[most]:.0f} vs {reference[most]:.0f}) |")
+
+
+def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) -> str:
+    """Per-frame ATE (each aligned to the groundtruth on its own): first frame where ours is worse
+    by over 2 cm, and where most."""
+    from viewer_slam.evaluation import evaluate
+    if our_trajectory is None or reference_trajectory is None or len(reference_trajectory) < 3:
+        return f"{label}: –"
+    ours = evaluate(sequence.groundtruth, our_trajectory).ate
+    theirs = evaluate(sequence.groundtruth, reference_trajectory).ate
+    ours_at = dict(zip(np.round(ours.timestamps, 4), ours.errors))
+    pairs = [(t, ours_at[round(t, 4)], e) for t, e in zip(theirs.timestamps, theirs.errors) if round(t, 4) in ours_at]
+    if not pairs:
+        return f"{label}: no common stamps"
+    stamps = sequence.timestamps
+    frame = {round(s, 4): i for i, s in enumerate(stamps)}
+    worse = [(frame.get(round(t, 4)), a - b) for t, a, b in pairs]
+    first = next((f for f, d in worse if d > 0.02), None)
+    most = max(worse, key=lambda item: abs(item[1]))
+    return (f"{label}: ATE {ours.stats()['rmse'] * 100:.2f} cm (ours) vs {theirs.stats()['rmse'] * 100:.2f} cm "
+            f"({REFERENCE_NAME}) over {len(pairs)} common frames; ours first worse by > 2 cm at frame {first}, "
+            f"most apart at frame {most[0]} ({most[1] * 100:+.1f} cm)")
+
+
+# -- one comparison ----------------------------------------------------------------------------
+
+def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
+    listed, equal, differing_images = same_frames(run, frames)
+    sequence = open_sequence(frames)
+    with tempfile.TemporaryDirectory() as views:
+        view = camera_view(frames, reference_camera(sequence.camera, run), Path(views))
+        sequence = open_sequence(view)
+        params = apply_overrides(RtabmapParams(), {**run.overrides, **extra}, "like_for_like")
+        events = []
+        ours = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence,
+                     sinks=[events.append])
+        stamps = np.asarray(sequence.timestamps)
+        replays = {REFERENCE_NAME: replay_estimate(sequence, REFERENCE_NAME, run.folder / "poses_tum.txt"),
+                   f"{REFERENCE_NAME}-odometry": replay_estimate(sequence, f"{REFERENCE_NAME}-odometry",
+                                                                 run.folder / "db_poses_odom_tum.txt")}
+        blocks, trajectories = {}, {}
+        for name, result in {"rtabmap": ours, **replays}.items():
+            blocks[name] = pipeline_report(result, *evaluate_run(sequence.groundtruth, result, stamps))
+            trajectories[name] = result.trajectory
+        out.mkdir(parents=True, exist_ok=True)
+        report_path = out / f"{run.name}.json"
+        report = build_report(sequence, blocks, interrupted=False)
+        report["sequence"]["path"] = str(frames)
+        report["like_for_like"] = {"reference": str(run.folder), "mode": run.mode, "overrides": {**run.overrides, **extra},
+                                   "camera": sequence.camera.to_json(),
+                                   "frames_checked": {"listed": listed, "equal": equal,
+                                                      "images_differing": differing_images}}
+        write_report(report_path, report)
+        for name, trajectory in trajectories.items():
+            write_tum(out / f"{run.name}.{name}.txt", trajectory)
+        write_tum(out / f"{run.name}.rtabmap-odometry.txt", ours.odometry)
+        ref_series = reference_series(run, stamps)
+        our = our_series(events, len(stamps))
+        summary = summarise(run, blocks, ours, our, ref_series, sequence, replays, report_path,
+                            (listed, equal, differing_images), events)
+    return summary
+
+
+def resumptions(run: ReferenceRun) -> list[tuple[int, int]]:
+    """(frame, inliers) where the original's odometry registers again after lost frames (frames.csv)."""
+    frames_csv = run.folder / "frames.csv"
+    if not frames_csv.is_file():
+        return []
+    with open(frames_csv, newline="") as file:
+        rows = list(csv.DictReader(file))
+    return [(int(row["frame"]), int(float(row["inliers"]))) for before, row in zip(rows, rows[1:])
+            if before["odom_lost"] == "1" and row["odom_lost"] == "0"]
+
+
+def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, checked, events) -> dict:
+    reference_summary = json.loads((run.folder / "summary.json").read_text())
+    links = reference_summary.get("db", {}).get("links_by_type", {})
+    ours_block, ref_block = blocks["rtabmap"], blocks[REFERENCE_NAME]
+    listed, equal, differing = checked
+    cm = lambda stats: f"{stats['rmse'] * 100:.2f}" if stats else "–"  # noqa: E731
+    detections = ours_block["edges_by_detection"]
+    print(f"\n## {run.name} ({len(sequence)} frames, {run.mode}; OdomF2M/BundleAdjustment 0, no lens distortion)\n")
+    if listed:
+        print(f"frames: {equal} of {listed} files byte-equal to the reference's render"
+              + (f" ({differing} images differ: the same scenario and seed, another render)" if differing else ""))
+    print("\n| | ours | RTAB-Map 0.23.8 |\n|---|---|---|")
+    print(f"| ATE, every pose written (cm) | {cm(ours_block['ate'])} ({ours_block['frames_with_pose']} poses) "
+          f"| {cm(ref_block['ate'])} ({ref_block['frames_with_pose']} poses) |")
+    print(f"| ATE over the graph nodes (cm) | {cm(ours_block['node_ate'])} ({ours_block['keyframes']} nodes) "
+          f"| {cm(ref_block['ate'])} ({reference_summary.get('db', {}).get('nodes', '?')} nodes) |")
+    print(f"| odometry alone (cm) | {cm(ours_block['odometry_ate'])} "
+          f"| {cm(blocks[REFERENCE_NAME + '-odometry']['ate'])} (nodes' odometry) |")
+    print(f"| global loop closures (appearance) | {detections.get('appearance', {}).get('accepted', 0)} accepted, "
+          f"{detections.get('appearance', {}).get('rejected', 0)} rejected | {links.get('global_loop', 0)} |")
+    print(f"| proximity links | {detections.get('proximity', {}).get('accepted', 0)} "
+          f"| {links.get('local_space', 0)} |")
+    print(f"| edges by kind (sequential / local / loop) | {ours_block['edges']['sequential']} / "
+          f"{ours_block['edges']['local']} / {ours_block['edges']['loop']} | – |")
+    print(f"| coverage | {ours_block['coverage']['ratio']:.1%} | {ref_block['coverage']['ratio']:.1%} |")
+    print("\nPer frame (frames where both have the statistic): sum and median ours / reference, share of "
+          "frames that agree, first frame they diverge (inliers, features, local map: off by over 20 % and 2; "
+          "decisions and link counts: any difference), largest difference.\n")
+    print("| statistic | sum | median | agree | first divergence | largest |\n|---|---|---|---|---|---|")
+    for key in ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity"):
+        print(divergence(key, our[key], ref[key]))
+    resumed = resumptions(run)
+    if resumed:
+        ours_resumed = [(e.frame_index, int(our["inliers"][e.frame_index])) for e in events
+                        if isinstance(e, TrackingRecovered)]
+        print(f"\nodometry resumes after a loss at frame (inliers): ours {ours_resumed or 'never'}; "
+              f"RTAB-Map 0.23.8 {resumed}")
+    print()
+    print(pose_divergence(ours.odometry, replays[f"{REFERENCE_NAME}-odometry"].trajectory, sequence, "odometry"))
+    print(pose_divergence(ours.trajectory, replays[REFERENCE_NAME].trajectory, sequence, "graph"))
+    print(f"\nreport: {report_path}\n  viewslam diff {report_path} {report_path} --runs {REFERENCE_NAME}:rtabmap")
+    return {"run": run.name, "ours": {"ate": ours_block["ate"], "node_ate": ours_block["node_ate"],
+                                      "odometry_ate": ours_block["odometry_ate"], "edges_by_detection": detections},
+            "reference": {"ate": ref_block["ate"], "odometry_ate": blocks[REFERENCE_NAME + "-odometry"]["ate"],
+                          "links": links}}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("runs", nargs="*", help="reference run folders (or parts of their names); default: all found")
+    parser.add_argument("--reference", type=Path, default=REFERENCE)
+    parser.add_argument("--tum", type=Path, default=TUM, help="folder holding the shared TUM excerpts")
+    parser.add_argument("--synthetic", type=Path, help="folder holding the rendered synthetic scenes")
+    parser.add_argument("--out", type=Path, default=Path("recordings/like_for_like"))
+    parser.add_argument("--param", action="append", default=[], help="KEY=VALUE on top of the reference's configuration")
+    parser.add_argument("--diff", action="store_true", help="also print `viewslam diff` of ours against the original")
+    args = parser.parse_args()
+    extra = dict(item.split("=", 1) for item in args.param)
+    runs = [run for run in reference_runs(args.reference)
+            if not args.runs or any(wanted in run.name for wanted in args.runs)]
+    if not args.synthetic:
+        runs = [run for run in runs if not run.synthetic] if not args.runs else runs
+    for run in runs:
+        summary = compare(run, frames_folder(run, args.tum, args.synthetic), args.out, extra)
+        if args.diff:
+            report = args.out / f"{run.name}.json"
+            print_comparison(compare_reports(report, report, (REFERENCE_NAME, "rtabmap")))
+        (args.out / f"{run.name}.summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+
+
+if __name__ == "__main__":
+    main()
