@@ -1,9 +1,18 @@
+import dataclasses
+import json
+import math
+import tempfile
+import typing
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from viewer_slam.errors import InputError
-from viewer_slam.pipelines.params import apply_overrides, param, params_to_dict, resolve_params
+from viewer_slam.pipelines.params import INT_MAX, apply_overrides, param, param_fields, params_to_dict, resolve_params
+from viewer_slam.pipelines.rgbdslam.params import RgbdSlamParams
+from viewer_slam.pipelines.rtabmap.params import RtabmapParams
 
 
 @dataclass(frozen=True)
@@ -86,19 +95,6 @@ def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
 
 
 # --param and --config accept exactly the same values, for every parameter of every pipeline.
-
-import dataclasses  # noqa: E402
-import json  # noqa: E402
-import math  # noqa: E402
-import tempfile  # noqa: E402
-import typing  # noqa: E402
-from pathlib import Path  # noqa: E402
-
-from hypothesis import given, settings, strategies as st  # noqa: E402
-
-from viewer_slam.pipelines.params import INT_MAX, param_fields  # noqa: E402
-from viewer_slam.pipelines.rgbdslam.params import RgbdSlamParams  # noqa: E402
-from viewer_slam.pipelines.rtabmap.params import RtabmapParams  # noqa: E402
 
 PIPELINES = {"rgbdslam": RgbdSlamParams, "rtabmap": RtabmapParams}
 DECLARED = [(pipeline, key, typing.get_type_hints(kind)[field.name], field.metadata)
