@@ -4,5 +4,5 @@
 # recorded runs) are then made once, not once on each worker.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-source scripts/setup.sh test xvfb mesa-vulkan-drivers
+source scripts/setup.sh test xvfb mesa-vulkan-drivers chromium
 python -m pytest -n 2 --dist loadfile "$@"

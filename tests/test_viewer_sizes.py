@@ -4,8 +4,14 @@ import numpy as np
 import pytest
 
 from viewer_slam.recording.budget import SnapshotBudget
-from viewer_slam.recording.sizes import (FRUSTUM_RANGE_M, FRUSTUM_SHARE, KEYFRAME_SHARE, MAP_POINT_SHARE,
-                                         MIN_EXTENT_M, extent, scene_sizes)
+from viewer_slam.recording.sizes import (
+    FRUSTUM_RANGE_M,
+    FRUSTUM_SHARE,
+    KEYFRAME_SHARE,
+    MIN_EXTENT_M,
+    extent,
+    scene_sizes,
+)
 
 
 def test_extent_is_the_largest_side_of_the_bounding_box():
@@ -16,13 +22,13 @@ def test_extent_is_the_largest_side_of_the_bounding_box():
 
 def test_sizes_are_shares_of_the_extent_between_their_bounds():
     desk, room = scene_sizes(0.27), scene_sizes(2.0)
-    assert room.frustum_depth == pytest.approx(FRUSTUM_SHARE * 2.0)  # 0.3 m: inside the bounds
+    assert room.frustum_depth == pytest.approx(FRUSTUM_SHARE * 2.0)  # 0.24 m: inside the bounds
     assert room.keyframe_radius == pytest.approx(KEYFRAME_SHARE * 2.0)
-    assert room.map_point_radius == pytest.approx(MAP_POINT_SHARE * 2.0)
     assert desk.frustum_depth == pytest.approx(max(FRUSTUM_SHARE * 0.27, FRUSTUM_RANGE_M[0]))
     assert all(d < r for d, r in zip(desk, room))  # a desk is drawn finer than a room
-    hall = scene_sizes(7.0)
-    assert hall.frustum_depth == FRUSTUM_RANGE_M[1] and hall.frustum_depth > 5 * desk.frustum_depth
+    hall, building = scene_sizes(7.0), scene_sizes(30.0)
+    assert hall.frustum_depth == pytest.approx(FRUSTUM_SHARE * 7.0) and hall.frustum_depth > 5 * desk.frustum_depth
+    assert building.frustum_depth == FRUSTUM_RANGE_M[1]
     # A frustum stays well inside the scene it is drawn in, and a still camera gets the floor's sizes.
     assert desk.frustum_depth < 0.27 / 2
     assert scene_sizes(0.0) == scene_sizes(MIN_EXTENT_M)

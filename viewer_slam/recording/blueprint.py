@@ -1,72 +1,188 @@
-"""The layout a recording opens with: 3D scene left; matches, error plots and log right."""
+"""The layout a recording opens with: 3D scene and log left; matches, error plots and states right.
+
+Plots carry no legend inside the curves: each view's title names what its colours are
+(every run has one colour, :mod:`viewer_slam.palette`), and every error plot holds, per run,
+a thick bar at zero across the frames where that run had no pose, so a plot and the
+playhead agree where tracking was lost.
+"""
 
 import numpy as np
+import rerun as rr
 import rerun.blueprint as rrb
+from rerun.blueprint.api import EntityPathLike, VisualizerLike
 
 from .. import palette
 from ..pipelines.edges import EdgeKind
 from . import layout
-from .sizes import extent
+from .sizes import MIN_EXTENT_M, extent
+
+# The eye: a camera path of this extent or less is framed as one of this extent (a desk scene
+# reaches beyond a camera that turns in place), looked at from behind and above.
+EYE_MIN_EXTENT_M = 0.25
+EYE_DISTANCE_SHARE = 1.25  # distance from the look target, as a multiple of the extent ...
+EYE_DISTANCE_M = 0.45  # ... plus this: the depth an RGB-D camera sees beyond its path
+EYE_ELEVATION_DEG = 35.0
+# The whole path is kept inside a cone of this half-angle around the view axis (the viewer's
+# vertical field of view is wider: a margin for the frustums and the window's aspect).
+EYE_HALF_ANGLE_DEG = 20.0
+LOOK_AHEAD_SHARE = 0.1  # the look target lies ahead of the path (towards the map it sees) ...
+LOOK_AHEAD_M = 0.25  # ... by this share of the extent plus this
+# A camera path whose mean viewing direction (horizontal) is shorter than this turns all around:
+# no "ahead"; it is seen from a fixed side.
+MIN_HEADING = 0.3
+FALLBACK_DIRECTION = np.array([-0.45, -0.9, 0.0])  # from the eye towards the target, horizontal
+LOST_BAND = "lost"  # the series that marks a run's frames without a pose on its error plots
+LOST_BAND_WIDTH = 10.0  # the first run's; later runs' are narrower (lost_band_widths)
+# Loop closures of the last second (on the frame timeline: the last 30 frames, TUM's rate) are
+# drawn bright; older ones dim.
+RECENT_LOOP_S = 1.0
+RECENT_LOOP_FRAMES = 30
 
 
 def _series(pipelines: list[str], series: str) -> list[str]:
     return [f"/{layout.metric(name, series)}" for name in pipelines]
 
 
-def overview_eye(positions: np.ndarray) -> rrb.EyeControls3D:
-    """A three-quarter view from above that frames the camera path and the room around it
-    (the room reaches beyond a short path: the distance has a floor)."""
-    centre = positions.mean(axis=0)
-    direction = np.array([-0.35, -0.5, 1.0])
-    distance = 1.6 * extent(positions) + 0.5
-    return rrb.EyeControls3D(kind="Orbital", position=centre + distance * direction / np.linalg.norm(direction),
-                             look_target=centre, eye_up=[0.0, 0.0, 1.0])
+def _horizontal_heading(poses: np.ndarray) -> np.ndarray | None:
+    """The mean horizontal viewing direction of camera poses ``(N, 4, 4)`` (optical z axis),
+    None when they look all around (or at the floor)."""
+    forward = poses[:, :3, 2].mean(axis=0)
+    forward[2] = 0.0
+    norm = np.linalg.norm(forward)
+    return forward / norm if norm >= MIN_HEADING else None
 
 
-def default_blueprint(pipelines: list[str], groundtruth_positions: np.ndarray | None = None,
+def overview_eye(groundtruth: np.ndarray) -> rrb.EyeControls3D:
+    """An orbital eye that frames the camera path and what the cameras see.
+
+    ``groundtruth`` is poses ``(N, 4, 4)`` or positions ``(N, 3)``. With poses whose mean
+    viewing direction is clear, the eye stands behind and above the path and looks over it
+    to a target ahead of it, where the map is; otherwise it looks at the path's centre from
+    a fixed side, from a distance that is a multiple of the path's extent (with a floor) or,
+    if further, the one that keeps the whole path in view: a desk path of 12 cm and a 30 m
+    hall open alike.
+    """
+    groundtruth = np.asarray(groundtruth, dtype=np.float64)
+    poses = groundtruth if groundtruth.ndim == 3 else None
+    positions = groundtruth[:, :3, 3] if poses is not None else groundtruth.reshape(-1, 3)
+    scene = max(extent(positions), EYE_MIN_EXTENT_M, MIN_EXTENT_M)
+    centre = (positions.min(axis=0) + positions.max(axis=0)) / 2
+    heading = _horizontal_heading(poses) if poses is not None else None
+    if heading is None:
+        heading, target = FALLBACK_DIRECTION / np.linalg.norm(FALLBACK_DIRECTION), centre
+    else:
+        target = centre + (LOOK_AHEAD_SHARE * scene + LOOK_AHEAD_M) * heading
+    elevation = np.radians(EYE_ELEVATION_DEG)
+    axis = np.cos(elevation) * heading - [0.0, 0.0, np.sin(elevation)]  # from the eye to the target
+    offsets = positions - target
+    along = offsets @ axis
+    across = np.linalg.norm(offsets - along[:, None] * axis, axis=1)
+    framed = float(np.max(across / np.tan(np.radians(EYE_HALF_ANGLE_DEG)) - along))
+    distance = max(EYE_DISTANCE_SHARE * scene + EYE_DISTANCE_M, framed)
+    position = target - distance * axis
+    return rrb.EyeControls3D(kind="Orbital", position=position, look_target=target, eye_up=[0.0, 0.0, 1.0],
+                             speed=max(scene, 0.5))
+
+
+def recent_window() -> rrb.VisibleTimeRanges:
+    """The last RECENT_LOOP_S seconds up to the playhead, on whichever timeline is shown."""
+    return rrb.VisibleTimeRanges([
+        rrb.VisibleTimeRange("frame", start=rrb.TimeRangeBoundary.cursor_relative(seq=-RECENT_LOOP_FRAMES),
+                             end=rrb.TimeRangeBoundary.cursor_relative()),
+        rrb.VisibleTimeRange("time", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-RECENT_LOOP_S),
+                             end=rrb.TimeRangeBoundary.cursor_relative())])
+
+
+def colour_legend(pipelines: list[str]) -> str:
+    """``rgbdslam orange, rtabmap blue``: the runs' colours, for a view's title."""
+    return ", ".join(f"{name} {palette.run_colour(name, i).name}" for i, name in enumerate(pipelines))
+
+
+def hidden_legend() -> rrb.PlotLegend:
+    """No legend over the curves: the title names the colours."""
+    return rrb.PlotLegend(visible=False)
+
+
+def lost_band_widths(count: int) -> list[float]:
+    """Widths of the runs' lost bands, narrower for each later run: where several runs are lost
+    at once, each band shows inside the one before."""
+    return [LOST_BAND_WIDTH / (position + 1) for position in range(count)]
+
+
+def lost_band_overrides(paths: list[str]) -> dict[EntityPathLike, VisualizerLike]:
+    """The width of each lost band at ``paths`` (one per run, in the runs' order) in a plot."""
+    return {path: rr.SeriesLines.from_fields(widths=[width]) for path, width in zip(paths, lost_band_widths(len(paths)))}
+
+
+def error_plot(title: str, pipelines: list[str], series: str) -> rrb.TimeSeriesView:
+    """One series of every run and the runs' lost bands, its colours named in the title."""
+    bands = lost_band_overrides(_series(pipelines, LOST_BAND))
+    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)}; bar at 0: no pose",
+                              contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
+                              plot_legend=hidden_legend(), overrides=bands)
+
+
+def log_columns() -> rrb.archetypes.TextLogColumns:
+    """Frame, level and text: each line starts with its run, so the entity path column is left out."""
+    return rrb.archetypes.TextLogColumns(
+        timeline_columns=[rrb.encodings.TimelineColumn("frame"), rrb.encodings.TimelineColumn("time", visible=False)],
+        text_log_columns=[rrb.encodings.TextLogColumn("LogLevel"), rrb.encodings.TextLogColumn("Body"),
+                          rrb.encodings.TextLogColumn("EntityPath", visible=False)])
+
+
+def scene_title(pipelines: list[str]) -> str:
+    return (f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(pipelines)}, dim when lost · "
+            f"loop closures {palette.ACCEPTED.name}, bright for {RECENT_LOOP_S:g} s · other edges faint")
+
+
+def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = None,
                       counted: list[str] | None = None) -> rrb.Blueprint:
     """3D view of groundtruth and every pipeline; per pipeline its image with matches; the
     ATE of all pipelines in one plot, the other metrics in tabs, tracking state and log.
 
-    With groundtruth, the 3D view opens looking at its camera path. The features / inliers
-    plot shows the ``counted`` runs (default: all; an imported estimate has no counts)."""
+    ``groundtruth`` (poses ``(N, 4, 4)`` or positions ``(N, 3)``) places the 3D view's eye
+    (:func:`overview_eye`). The features / inliers plot shows the ``counted`` runs
+    (default: all; an imported estimate has no counts)."""
     counted = pipelines if counted is None else counted
-    eye = overview_eye(groundtruth_positions) if groundtruth_positions is not None else None
+    eye = overview_eye(groundtruth) if groundtruth is not None and len(groundtruth) else None
     # Keyframe depth clouds, the many rejected loop closures and the local edges (short chords
     # among recent keyframes) would bury the map and the trajectories; one click shows them.
-    hidden = {f"/{path}": rrb.EntityBehavior(visible=False) for name in pipelines
+    overrides: dict[EntityPathLike, VisualizerLike] = {
+        f"/{path}": rrb.EntityBehavior(visible=False) for name in pipelines
               for path in (f"{layout.latest_keyframe(name)}/depth", layout.rejected_loop_closures(name),
                            layout.edges(name, EdgeKind.LOCAL.value))}
-    legend = ", ".join(f"{name} {palette.run_colour(name, i).name}" for i, name in enumerate(pipelines))
-    scene = rrb.Spatial3DView(origin="world", name=f"groundtruth {palette.GROUNDTRUTH.name}, {legend}; "
-                                                   f"loop closures {palette.ACCEPTED.name}",
-                              eye_controls=eye, overrides=hidden)
+    overrides.update({f"/{layout.recent_loop_closures(name)}": recent_window() for name in pipelines})
+    scene = rrb.Spatial3DView(origin="world", name=scene_title(pipelines), eye_controls=eye,
+                              overrides=overrides)
     matches = rrb.Horizontal(*[
         rrb.Spatial2DView(origin=layout.matches(name), contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
-                          name=f"{name} matches")
+                          name=f"{name}: matches (inliers {palette.INLIER.name}, outliers {palette.OUTLIER.name})")
         for name in pipelines])
-    ate = rrb.TimeSeriesView(name="ATE per frame, one alignment for the run [m]", contents=_series(pipelines, "ate"),
-                             plot_legend=rrb.Corner2D.LeftTop)
+    ate = error_plot("ATE [m], one alignment for the run", pipelines, "ate")
     details = rrb.Tabs(
-        rrb.TimeSeriesView(name="ATE per frame, each tracked segment aligned on its own [m]",
-                           contents=_series(pipelines, "ate_segments")),
-        rrb.TimeSeriesView(name="RPE translation [m], Δ=1 s", contents=_series(pipelines, "rpe_trans")),
-        rrb.TimeSeriesView(name="RPE rotation [deg], Δ=1 s", contents=_series(pipelines, "rpe_rot")),
-        rrb.TimeSeriesView(name="coverage so far", contents=_series(pipelines, "coverage")),
-        rrb.TimeSeriesView(name="features / inliers",
-                           contents=_series(counted, "features") + _series(counted, "inliers")),
-        rrb.TimeSeriesView(name="pose-graph error after optimisation", contents=_series(pipelines, "graph_error")),
-        *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"))
+        error_plot("ATE [m], each tracked segment aligned on its own", pipelines, "ate_segments"),
+        error_plot("RPE translation [m], Δ=1 s", pipelines, "rpe_trans"),
+        error_plot("RPE rotation [deg], Δ=1 s", pipelines, "rpe_rot"),
+        error_plot("coverage so far", pipelines, "coverage"),
+        rrb.TimeSeriesView(name=f"features (thin) / inliers (thick) · {colour_legend(counted)}",
+                           contents=_series(counted, "features") + _series(counted, "inliers"),
+                           plot_legend=hidden_legend()),
+        rrb.TimeSeriesView(name=f"pose-graph error after optimisation · {colour_legend(pipelines)}",
+                           contents=_series(pipelines, "graph_error"), plot_legend=hidden_legend()),
+        *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"),
+                             plot_legend=rrb.Corner2D.LeftTop)
           for name in pipelines],
     )
     state = rrb.StateTimelineView(name="tracking state and the cause of each loss",
-                                  contents=_series(pipelines, "tracking_state") + _series(pipelines, "cause"))
+                                  contents=[path for name in pipelines
+                                            for path in _series([name], "tracking_state") + _series([name], "cause")])
     # Rejected loop-closure candidates are DEBUG lines: there are many; the view's menu shows them.
-    log = rrb.TextLogView(origin="log", name="tracking and loop-closure log",
+    log = rrb.TextLogView(origin="log", name="tracking and loop-closure log", columns=log_columns(),
                           rows=rrb.TextLogRows(filter_by_log_level=["INFO", "WARN", "ERROR", "CRITICAL"]))
-    side = rrb.Vertical(matches, ate, details, state, log, row_shares=[3, 2, 2, 1.6, 2])
+    state_share = 1.0 + 0.9 * len(pipelines)  # every run's two rows stay in view
+    side = rrb.Vertical(matches, ate, details, state, row_shares=[2.4, 2, 2, state_share])
     return rrb.Blueprint(
-        rrb.Horizontal(scene, side, column_shares=[3, 2]),
+        rrb.Horizontal(rrb.Vertical(scene, log, row_shares=[3.2, 1]), side, column_shares=[1.35, 1]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),

@@ -13,14 +13,20 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from .. import palette
 from ..atomic import StagedFiles
 from ..comparison.compare import Comparison, RunComparison
 from ..comparison.reports import RecordedRun
-from .. import palette
 from . import layout
-from .blueprint import overview_eye
-from .recorder import log_world, transform
-from .timelines import gap_starts, send_frame_columns
+from .blueprint import (
+    LOST_BAND,
+    hidden_legend,
+    log_columns,
+    lost_band_overrides,
+    overview_eye,
+)
+from .recorder import log_world, lost_colour, transform
+from .timelines import gap_starts, log_lost_band, send_frame_columns
 
 SIDE_COLORS = {"A": (255, 140, 0), "B": (40, 150, 255)}
 DIFFERENCE_COLOR = (200, 80, 220)
@@ -38,24 +44,27 @@ def difference_label(run: RunComparison) -> str:
 def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
     """3D view of groundtruth and both runs left; both errors, their difference and the losses right."""
     groundtruth = comparison.sequence.groundtruth
-    eye = overview_eye(groundtruth.positions) if groundtruth is not None and len(groundtruth) else None
+    eye = overview_eye(groundtruth.poses) if groundtruth is not None and len(groundtruth) else None
     labels = [side_label(side, run.a.name if side == "A" else run.b.name)
               for run in comparison.runs for side in SIDE_COLORS]  # A's, then B's, of each compared run
+    bands = [f"/{layout.metric(label, LOST_BAND)}" for label in labels]
+    overrides = lost_band_overrides(bands)
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="groundtruth grey, A orange, B blue", eye_controls=eye),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="ATE per frame [m], A and B",
-                                   contents=[f"/{layout.metric(label, 'ate')}" for label in labels],
-                                   plot_legend=rrb.Corner2D.LeftTop),
+                rrb.TimeSeriesView(name="ATE per frame [m] · A orange, B blue; bar at 0: no pose",
+                                   contents=[f"/{layout.metric(label, 'ate')}" for label in labels] + bands,
+                                   plot_legend=hidden_legend(), overrides=overrides),
                 rrb.StateTimelineView(name="frames with a pose, A and B",
                                       contents=[f"/{layout.metric(label, 'pose')}" for label in labels]),
-                rrb.TimeSeriesView(name="ATE difference B - A [m]",
+                rrb.TimeSeriesView(name="ATE difference B - A [m] · purple; bar at 0: no pose",
                                    contents=[f"/{layout.metric(difference_label(run), 'ate')}"
-                                             for run in comparison.runs]),
-                rrb.TextLogView(origin="log", name="losses and their causes"),
-                row_shares=[2, 1, 2, 1]),
-            column_shares=[3, 2]),
+                                             for run in comparison.runs] + bands,
+                                   plot_legend=hidden_legend(), overrides=overrides),
+                rrb.TextLogView(origin="log", name="losses and their causes", columns=log_columns()),
+                row_shares=[2, 1.4, 2, 1.2]),
+            column_shares=[1.35, 1]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame"),
@@ -89,6 +98,9 @@ def _log_run(stream: rr.RecordingStream, run: RunComparison) -> None:
                                                                  radii=rr.Radius.ui_points(2.5)), static=True)
         _log_series(stream, layout.metric(label, "ate"), frames, stamps, errors, color, f"{side}: {recorded.name}")
         _log_pose_states(stream, layout.metric(label, "pose"), frames, stamps, tracked)
+        stream.log(layout.metric(label, LOST_BAND), rr.SeriesLines(colors=[lost_colour(palette.Colour(color, side))], names=[f"{side}: no pose"]),
+                   static=True)
+        log_lost_band(stream, layout.metric(label, LOST_BAND), frames, stamps, ~np.asarray(tracked, dtype=bool))
         losses = recorded.block["tracking_lost"]
         send_frame_columns(stream, layout.text_log(label), np.array([loss["frame"] for loss in losses], dtype=np.int64),
                            np.array([loss["timestamp"] for loss in losses], dtype=np.float64),

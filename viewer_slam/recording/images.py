@@ -7,11 +7,15 @@ import rerun as rr
 JPEG_QUALITY = 75
 
 
-def jpeg(rgb: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
+def jpeg_bytes(rgb: np.ndarray, quality: int = JPEG_QUALITY) -> bytes:
     ok, data = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:
         raise ValueError("JPEG encoding failed")
-    return rr.EncodedImage(contents=data.tobytes(), media_type="image/jpeg")
+    return data.tobytes()
+
+
+def jpeg(rgb: np.ndarray, quality: int = JPEG_QUALITY) -> rr.EncodedImage:
+    return rr.EncodedImage(contents=jpeg_bytes(rgb, quality), media_type="image/jpeg")
 
 
 def depth_png(depth: np.ndarray) -> bytes:

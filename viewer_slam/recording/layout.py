@@ -18,6 +18,11 @@ def camera(name: str) -> str:
     return f"world/{name}/camera"
 
 
+def lost_label(name: str) -> str:
+    """A labelled point at the last pose while the pipeline is lost."""
+    return f"world/{name}/lost"
+
+
 def trajectory(name: str) -> str:
     return f"world/{name}/trajectory"
 
@@ -36,6 +41,11 @@ def latest_keyframe(name: str) -> str:
 
 def loop_closures(name: str) -> str:
     return f"world/{name}/loop_closures"
+
+
+def recent_loop_closures(name: str) -> str:
+    """The accepted loop closures of the last few seconds (drawn bright)."""
+    return f"world/{name}/loop_closures/recent"
 
 
 def rejected_loop_closures(name: str) -> str:

@@ -7,6 +7,7 @@ pipeline's map frame and are logged under ``world/<pipeline>``, whose transform 
 ``world`` is set once the run has been evaluated.
 """
 
+import cv2
 import numpy as np
 import rerun as rr
 
@@ -15,11 +16,22 @@ from ..dataset.frame import Frame
 from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory
 from ..pipelines.edges import EdgeKind
-from ..pipelines.events import (Event, FeatureMatches, FrameTracked, GraphEdge, GraphOptimized, KeyframeAdded,
-                                MapUpdated, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+from ..pipelines.events import (
+    Event,
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from . import layout
+from .blueprint import LOST_BAND, LOST_BAND_WIDTH
 from .budget import SnapshotBudget
-from .images import depth_png, jpeg
+from .images import depth_png, jpeg, jpeg_bytes
 from .sizes import SceneSizes, extent, scene_sizes
 from .voxel_map import VoxelMap
 
@@ -31,6 +43,7 @@ KEYFRAMES_BYTES_PER_FRAME = 512
 LOOP_CLOSURES_BYTES_PER_FRAME = 512
 EDGES_BYTES_PER_FRAME = 512
 DEPTH_BYTES_PER_FRAME = 1536
+THUMBNAIL_BYTES_PER_FRAME = 1024
 # A map snapshot is due once the frames have paid for this share of it, and is thinned to what
 # they paid: the map grows visibly while scrubbing, for the bytes of rarer whole snapshots.
 MAP_MIN_SHARE = 0.1
@@ -42,6 +55,15 @@ EDGE_BYTES = 36
 FRUSTUM_RESIZE_FACTOR = 1.25
 # The tracker's own per-frame counts (FrameTracked fields) and their line widths.
 TRACKER_COUNTS = {"features": 1.0, "matches": 1.0, "inliers": 2.0}
+# Line widths and point radii on screen (ui points): legible at any scene scale.
+TRAJECTORY_WIDTH = 2.0
+ODOMETRY_WIDTH = 1.0
+FRUSTUM_WIDTH = 1.5
+LOST_FRUSTUM_WIDTH = 1.0
+RECENT_LOOP_WIDTH = 1.5
+OLD_LOOP_WIDTH = 0.75
+EDGE_WIDTH = 0.5
+MAP_POINT_RADIUS = 1.25
 
 
 def set_frame_time(stream: rr.RecordingStream, index: int, timestamp: float) -> None:
@@ -63,11 +85,16 @@ def log_world(stream: rr.RecordingStream, groundtruth: Trajectory | None) -> Non
                                                    radii=rr.Radius.ui_points(2.0)), static=True)
 
 
-def pinhole(camera: Camera, color, depth: float) -> rr.Pinhole:
+def pinhole(camera: Camera, color, depth: float, width: float = FRUSTUM_WIDTH) -> rr.Pinhole:
     """A frustum ``depth`` metres deep (see :mod:`.sizes`)."""
     return rr.Pinhole(image_from_camera=camera.K, resolution=[camera.width, camera.height],
                       camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=depth, color=color,
-                      line_width=rr.Radius.ui_points(1.5))
+                      line_width=rr.Radius.ui_points(width))
+
+
+def lost_colour(colour: palette.Colour) -> tuple[int, int, int]:
+    """A run's colour while it is lost: its own hue, dimmed (not a red shared by every run)."""
+    return palette.faded(colour, share=0.45, towards=40)
 
 
 def transform(pose: np.ndarray) -> rr.Transform3D:
@@ -95,6 +122,9 @@ class PipelineRecorder:
     Sizes come from ``scene_extent`` (the groundtruth's, see :mod:`.sizes`), else from the
     poses seen so far. Every batch of instances goes through :meth:`_log_instances`, which
     sends a Clear rather than an empty batch; the recorder never sends columns.
+    Each accepted loop closure is also logged once, bright, at its frame under
+    ``loop_closures/recent``, which the 3D view shows over a window of the last second;
+    all of them are drawn dim under ``loop_closures``.
     ``tracker_counts`` False (an imported estimate, which measures no features, matches or
     inliers) leaves those series out rather than plotting zeros.
     """
@@ -112,6 +142,7 @@ class PipelineRecorder:
         self._scene_extent = scene_extent
         self._seen = np.zeros((0, 3))  # corners of the bounding box of the poses seen
         self._frustum_depth: float | None = None
+        self._last_pose: np.ndarray | None = None
         self._frame: Frame | None = None
         self._matched_frame: int | None = None
         self._keyframes: dict[int, np.ndarray] = {}
@@ -124,6 +155,7 @@ class PipelineRecorder:
         self._loops_budget = SnapshotBudget(LOOP_CLOSURES_BYTES_PER_FRAME)
         self._edges_budget = SnapshotBudget(EDGES_BYTES_PER_FRAME)
         self._depth_budget = SnapshotBudget(DEPTH_BYTES_PER_FRAME)
+        self._thumbnail_budget = SnapshotBudget(THUMBNAIL_BYTES_PER_FRAME)
         self._handlers = {
             FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
             FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
@@ -168,6 +200,9 @@ class PipelineRecorder:
         for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "graph_error"):
             self._log(layout.metric(name, series), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
                       static=True)
+        self._log(layout.metric(name, LOST_BAND), rr.SeriesLines(colors=[lost_colour(self.colour)],
+                                                                 names=[f"{name}: no pose"],
+                                                                 widths=[LOST_BAND_WIDTH]), static=True)
         for series, width in TRACKER_COUNTS.items() if self.tracker_counts else ():
             self._log(layout.metric(name, series),
                       rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]), static=True)
@@ -188,6 +223,7 @@ class PipelineRecorder:
             self._seen = np.stack([seen.min(axis=0), seen.max(axis=0)])
         self._log_state_and_frustum(event.status)
         if event.pose is not None:
+            self._last_pose = event.pose
             self._log(layout.camera(self.name), transform(event.pose))
         if self._matched_frame != event.frame_index:
             self._log(layout.matches(self.name), rr.Clear(recursive=True))
@@ -209,8 +245,16 @@ class PipelineRecorder:
             self._log(layout.metric(self.name, "tracking_state"), rr.StateChange(state=[status.value]))
         if changed or resized:
             self._frustum_depth = depth
-            colour = palette.LOST.rgb if status is TrackingStatus.LOST else self.colour.rgb
-            self._log(layout.camera(self.name), pinhole(self.camera, colour, depth))
+            lost = status is TrackingStatus.LOST
+            self._log(layout.camera(self.name),
+                      pinhole(self.camera, lost_colour(self.colour), depth, LOST_FRUSTUM_WIDTH) if lost
+                      else pinhole(self.camera, self.colour.rgb, depth))
+        if changed:  # while lost, a label at the last pose says whose frustum it is
+            lost = status is TrackingStatus.LOST and self._last_pose is not None
+            self._log(layout.lost_label(self.name),
+                      rr.Points3D([self._last_pose[:3, 3]], colors=[self.colour.rgb], radii=rr.Radius.ui_points(3.0),
+                                  labels=[f"{self.name} lost"], show_labels=True)
+                      if lost else rr.Clear(recursive=False))
 
     def _feature_matches(self, event: FeatureMatches) -> None:
         """Lines from each keypoint to its match, inliers and outliers apart, thinned evenly."""
@@ -245,6 +289,19 @@ class PipelineRecorder:
             self._log(f"{layout.latest_keyframe(self.name)}/depth",
                       rr.EncodedDepthImage(png, media_type="image/png", meter=1000.0, colormap="turbo"))
             self._depth_budget.logged(event.frame_index)
+            self._log_thumbnail(event, small.shape)
+
+    def _log_thumbnail(self, event: KeyframeAdded, shape: tuple[int, ...]) -> None:
+        """The keyframe's image (the pipeline's thumbnail), drawn inside its frustum in the 3D
+        view at the depth's resolution, when its own byte budget allows."""
+        if event.image is None:
+            return
+        encoded = jpeg_bytes(cv2.resize(event.image, (shape[1], shape[0]), interpolation=cv2.INTER_AREA))
+        self._thumbnail_budget.dirty = True
+        if self._thumbnail_budget.due(event.frame_index, len(encoded)):
+            self._log(f"{layout.latest_keyframe(self.name)}/thumbnail",
+                      rr.EncodedImage(contents=encoded, media_type="image/jpeg"))
+            self._thumbnail_budget.logged(event.frame_index)
 
     def _graph_edge(self, event: GraphEdge) -> None:
         """Loop closures (accepted or not) are drawn and logged; other accepted edges only drawn."""
@@ -252,6 +309,9 @@ class PipelineRecorder:
             self._loops.append(event)
             self._loops_budget.dirty = True
             self._unlogged_loops.append(event)
+            if event.accepted:  # drawn once, at its frame; the 3D view shows the last second of them
+                self._log_lines(layout.recent_loop_closures(self.name), [event], palette.ACCEPTED.rgb,
+                                RECENT_LOOP_WIDTH)
         elif event.accepted:
             self._edges[event.kind].append(event)
             self._edges_budget.dirty = True
@@ -309,24 +369,24 @@ class PipelineRecorder:
             segments, colors=[colour], radii=rr.Radius.ui_points(radius)))
 
     def _log_loop_closures(self) -> None:
-        """Accepted closures as thick green segments; rejected ones, often many, apart in thin red."""
+        """All accepted closures as thin dim green segments (the recent ones are drawn bright apart);
+        rejected ones, often many, apart in thin red."""
         self._log_lines(layout.loop_closures(self.name), [loop for loop in self._loops if loop.accepted],
-                        palette.ACCEPTED.rgb, 2.0)
+                        palette.faded(palette.ACCEPTED, share=0.5, towards=50), OLD_LOOP_WIDTH)
         self._log_lines(layout.rejected_loop_closures(self.name), [loop for loop in self._loops if not loop.accepted],
                         palette.REJECTED.rgb, 0.5)
 
     def _log_edges(self) -> None:
         """Sequential and local edges: thin and faded, beneath the trajectories and loop closures."""
         for kind, edges in self._edges.items():
-            self._log_lines(layout.edges(self.name, kind.value), edges, palette.faded(self.colour), 0.5)
+            self._log_lines(layout.edges(self.name, kind.value), edges, palette.faded(self.colour), EDGE_WIDTH)
 
     def _log_map(self, share: float) -> None:
         """The map, evenly thinned to ``share`` of its points (see MAP_MIN_SHARE)."""
         points, colors = self._map.points, self._map.colors
         kept = evenly_spaced(len(points), round(share * len(points)))
-        radius = self.sizes.map_point_radius
         self._log_instances(layout.map_cloud(self.name), kept, lambda kept: rr.Points3D(
-            points[kept].astype(np.float32), colors=colors[kept], radii=radius))
+            points[kept].astype(np.float32), colors=colors[kept], radii=rr.Radius.ui_points(MAP_POINT_RADIUS)))
 
     # --- end of run ---------------------------------------------------------------------
 
@@ -338,12 +398,12 @@ class PipelineRecorder:
         poses = np.asarray(event.poses).reshape(-1, 4, 4)
         self._log_instances(layout.trajectory(self.name), segments, lambda segments: rr.LineStrips3D(
             [poses[segment, :3, 3] for segment in segments], colors=[self.colour.rgb],
-            radii=rr.Radius.ui_points(2.0)), static=True)
+            radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)), static=True)
         if event.odometry_poses is not None and len(event.odometry_poses):
             odometry = np.asarray(event.odometry_poses).reshape(-1, 4, 4)
             self._log_instances(layout.odometry(self.name), segments, lambda segments: rr.LineStrips3D(
                 [odometry[segment, :3, 3] for segment in segments], colors=[palette.faded(self.colour)],
-                radii=rr.Radius.ui_points(1.0)), static=True)
+                radii=rr.Radius.ui_points(ODOMETRY_WIDTH)), static=True)
 
     def _tracked_segments(self, posed_frames: np.ndarray) -> list[np.ndarray]:
         """Index runs of consecutively processed frames with a pose: no line bridges a loss."""

@@ -230,7 +230,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     failure: Exception | None = None
     groundtruth = sequence.groundtruth
     counted = [name for name in pipelines if _counts_features(runs[name])]
-    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.positions, counted)
+    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.poses, counted)
     scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = frame_count(sequence, options.max_frames, options.stride)
     earlier = earlier_trajectories(out)

@@ -10,6 +10,7 @@ import rerun as rr
 
 from ..evaluation import Evaluation
 from . import layout
+from .blueprint import LOST_BAND
 from .recorder import transform
 
 
@@ -36,6 +37,14 @@ def gap_starts(present: np.ndarray) -> np.ndarray:
     """Positions of frames without a value that follow one with a value: where a plot must break."""
     present = np.asarray(present, dtype=bool)
     return np.flatnonzero(present[:-1] & ~present[1:]) + 1
+
+
+def lost_frames(frame_timestamps: np.ndarray, lost_intervals: list[tuple[float, float]]) -> np.ndarray:
+    """Which frames lie in a lost interval, its ends (the last pose before, the first after) included."""
+    lost = np.zeros(len(frame_timestamps), dtype=bool)
+    for start, end in lost_intervals:
+        lost |= (frame_timestamps >= start - 1e-6) & (frame_timestamps <= end + 1e-6)
+    return lost
 
 
 def send_frame_columns(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray,
@@ -82,6 +91,18 @@ def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation
         breaks = gap_starts(present)
         send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
                            rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+    log_lost_band(stream, layout.metric(name, LOST_BAND), frame_indices, frame_timestamps,
+                  lost_frames(frame_timestamps, evaluation.coverage.lost_intervals))
     if len(frame_timestamps) > 1:
         coverage = coverage_so_far(frame_timestamps, evaluation.coverage.lost_intervals)
         _send_series(stream, layout.metric(name, "coverage"), frame_indices[1:], frame_timestamps[1:], coverage[1:])
+
+
+def log_lost_band(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
+                  lost: np.ndarray) -> None:
+    """A series at zero across the ``lost`` frames, broken between lost spans: on an error plot
+    it is a bar under the stretch where the run had no pose, up to where the playhead runs."""
+    _send_series(stream, path, frame_indices[lost], frame_timestamps[lost], np.zeros(int(lost.sum())))
+    breaks = gap_starts(lost)
+    send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
+                       rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))

@@ -1,0 +1,91 @@
+"""Takes the viewer screenshots of docs/images/ from recordings made as a user would make them.
+
+    python scripts/viewer_screenshots.py [demo] [fr1_rpy_200] [diff]
+
+Each recording is made by the commands listed in FIGURES (in a temporary folder, with this
+interpreter's viewslam), then opened by the Rerun viewer under Xvfb at 1920x1080 and
+1280x800 (`xvfb-run -a rerun --screenshot-to shot.png --window-size WxH FILE.rrd`, on a port
+of its own). The viewer draws at twice the window's size; the picture is scaled back to the
+window's size and stored with a 256-colour palette. Needs xvfb-run (Debian package xvfb) and,
+for `fr1_rpy_200`, the 200-frame fr1/rpy excerpt beside the repository
+(../shared/data/tum/rgbd_dataset_freiburg1_rpy_200).
+"""
+
+import argparse
+import shutil
+import socket
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from PIL import Image
+
+REPO = Path(__file__).resolve().parents[1]
+IMAGES = REPO / "docs" / "images"
+VIEWSLAM = Path(sys.executable).with_name("viewslam")
+RERUN = Path(sys.executable).with_name("rerun")
+RPY_200 = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy_200"
+SIZES = ("1920x1080", "1280x800")
+
+# name -> (commands, the recording they write, the image name at 1920x1080)
+FIGURES = {
+    "demo": ([["record", "--out", "demo.rrd", "--quiet"]], "demo.rrd", "viewer_demo.png"),
+    "fr1_rpy_200": ([["record", str(RPY_200), "--out", "rpy200.rrd", "--quiet"]], "rpy200.rrd",
+                    "viewer_fr1_rpy_200.png"),
+    "diff": ([["synth", "360_kidnap", "--out", "kidnap", "--frames", "120", "--resolution", "320x240"],
+              ["record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
+               "--param", "Odom/ResetCountdown=0", "--out", "runs/reset0.rrd", "--quiet"],
+              ["record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
+               "--param", "Odom/ResetCountdown=5", "--out", "runs/reset5.rrd", "--quiet"],
+              ["diff", "runs/reset0.json", "runs/reset5.json", "--json", "runs/diff.json", "--out", "runs/diff.rrd"]],
+             "runs/diff.rrd", "diff.png"),
+}
+
+
+def free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def screenshot(recording: Path, size: str, out: Path) -> None:
+    """``recording`` in the Rerun viewer at window ``size``, saved to ``out`` at that size."""
+    with tempfile.TemporaryDirectory() as folder:
+        shot = Path(folder) / "shot.png"
+        subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x2400x24", str(RERUN), "--port", str(free_port()),
+                        "--screenshot-to", str(shot), "--window-size", size, str(recording)],
+                       check=True, capture_output=True, timeout=600)
+        width, height = map(int, size.split("x"))
+        image = Image.open(shot).convert("RGB").resize((width, height), Image.Resampling.LANCZOS)
+        image.quantize(256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(out, optimize=True)
+
+
+def image_name(name: str, size: str) -> str:
+    stem = Path(FIGURES[name][2]).stem
+    return f"{stem}.png" if size == SIZES[0] else f"{stem}_{size}.png"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("names", nargs="*", help=f"figures to take (default: all): {', '.join(FIGURES)}")
+    names = parser.parse_args().names or list(FIGURES)
+    if unknown := sorted(set(names) - set(FIGURES)):
+        parser.error(f"unknown figure {', '.join(unknown)}; choose from {', '.join(FIGURES)}")
+    if shutil.which("xvfb-run") is None:
+        print("xvfb-run is missing (Debian package xvfb)", file=sys.stderr)
+        return 2
+    with tempfile.TemporaryDirectory(prefix="viewslam-shots-") as folder:
+        for name in names:
+            commands, recording, _ = FIGURES[name]
+            for command in commands:
+                subprocess.run([str(VIEWSLAM), *command], cwd=folder, check=True, stdout=subprocess.DEVNULL)
+            for size in SIZES:
+                out = IMAGES / image_name(name, size)
+                screenshot(Path(folder) / recording, size, out)
+                print(f"{out.relative_to(REPO)}  ({name}, {size})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
