@@ -314,6 +314,13 @@ BENCHMARK_CASES = {
     "benchmark-config-misspelt-table": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "[rtab_map]",
                                             write("tmp/c.toml", "[rtab_map]\n")),
     "benchmark-old-frames-option": Case([*BENCHMARK, "--frames", "60"], "--frames"),
+    "benchmark-estimate-is-a-run-trajectory": Case(
+        [*BENCHMARK, "--estimate", "mine={tmp}/bench/runs/rgbd_dataset_freiburg1_rpy.mine.txt"],
+        "runs/rgbd_dataset_freiburg1_rpy.mine.txt is the input --estimate mine=",
+        lambda seq, tmp: (tmp / "bench/runs").mkdir(parents=True) or copy("groundtruth.txt", "bench/runs/"
+                                                                             "rgbd_dataset_freiburg1_rpy.mine.txt")(seq, tmp)),
+    "benchmark-config-is-the-results": Case([*BENCHMARK, "--config", "{tmp}/bench/results.json"],
+                                            "results.json is the input --config", write("tmp/bench/results.json", "")),
     "benchmark-unknown-sequence": Case(["benchmark", "fr9/none", "--out", "{tmp}/bench", "--quiet"], "fr9/none"),
 }
 

@@ -56,11 +56,24 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
     return [csv_path, json_path, report_path, *runs, *charts]
 
 
+def planned_outputs(out_dir: Path, tasks) -> dict[Path, str]:
+    """Every file the benchmark of ``tasks`` (BenchmarkTask) may write into ``out_dir``, each
+    named by the option that chose it (``--out``)."""
+    paths = [*(out_dir / name for name in OUTPUT_FILES), *_chart_paths(out_dir)]
+    for task in tasks:
+        report = runs_report_path(out_dir, task.name)
+        paths += [report, report.with_name(f"{report.stem}.{task.pipeline}.txt")]
+    return dict.fromkeys(paths, "--out")
+
+
 def _earlier_outputs(out_dir: Path) -> list[Path]:
     """The run reports, trajectories and charts a benchmark may have written into ``out_dir``."""
-    charts = [out_dir / f"benchmark_{metric}.{kind}" for metric in CHARTS for kind in ("png", "svg")]
     runs = [*(out_dir / RUNS_FOLDER).glob("*.json"), *(out_dir / RUNS_FOLDER).glob("*.txt")]
-    return [path for path in (*charts, *runs) if path.is_file()]
+    return [path for path in (*_chart_paths(out_dir), *runs) if path.is_file()]
+
+
+def _chart_paths(out_dir: Path) -> list[Path]:
+    return [out_dir / f"benchmark_{metric}.{kind}" for metric in CHARTS for kind in ("png", "svg")]
 
 
 def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) -> list[Path]:

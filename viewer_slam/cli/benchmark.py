@@ -50,11 +50,11 @@ def benchmark(
     Exits with 1 when a task failed (the others still complete and are reported), 130 when
     interrupted (the finished tasks are written).
     """
-    from ..atomic import check_writable, exclusive
+    from ..atomic import check_writable, exclusive, refuse_inputs_as_outputs
     from ..benchmark.cache import ResultCache
     from ..benchmark.executors import make_executor
     from ..benchmark.plan import plan_tasks
-    from ..benchmark.report import OUTPUT_FILES, write_outputs
+    from ..benchmark.report import OUTPUT_FILES, planned_outputs, write_outputs
     from ..benchmark.suite import run_benchmark
     from ..benchmark.tables import print_results
     from ..comparison.results import check_planned_sequences, load_results
@@ -78,6 +78,10 @@ def benchmark(
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
                            timeout_s=timeout, recordings=out / "recordings" if record else None,
                            estimates=estimates, estimate_format=format)
+        refuse_inputs_as_outputs(planned_outputs(out, tasks),
+                                 {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
+                                     if task.estimate is not None},
+                                  **({config: f"--config {config}"} if config is not None else {})})
         if not quiet:
             for task in tasks:
                 if task.estimate is not None:
