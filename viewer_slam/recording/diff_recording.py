@@ -44,7 +44,8 @@ def difference_label(run: RunComparison) -> str:
 def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
     """3D view of groundtruth and both runs left; both errors, their difference and the losses right."""
     groundtruth = comparison.sequence.groundtruth
-    eye = overview_eye(groundtruth.poses) if groundtruth is not None and len(groundtruth) else None
+    # No map here: the eye looks at the path itself rather than ahead of it.
+    eye = overview_eye(groundtruth.positions) if groundtruth is not None and len(groundtruth) else None
     labels = [side_label(side, run.a.name if side == "A" else run.b.name)
               for run in comparison.runs for side in SIDE_COLORS]  # A's, then B's, of each compared run
     bands = [f"/{layout.metric(label, LOST_BAND)}" for label in labels]
@@ -67,7 +68,7 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
             column_shares=[1.35, 1]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(state="collapsed", timeline="frame"),
+        rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),
     )
 
 
