@@ -49,7 +49,7 @@ def test_pipeline_block_has_exactly_the_documented_keys(sequence):
     assert block["alignment"] == "rigid"
     assert set(block["ate"]) == set(block["ate_segments"]) == set(block["penalized_ate"]) == STATS_KEYS
     assert set(block["odometry_ate"]) == STATS_KEYS
-    assert set(block["rpe"]) == {"trans", "rot", "delta", "delta_unit"}
+    assert set(block["rpe"]) == {"trans", "rot", "delta", "delta_unit", "mode"} and block["rpe"]["mode"] == "delta"
     assert set(block["rpe"]["trans"]) == set(block["rpe"]["rot"]) == STATS_KEYS
     assert block["odometry_ate"] == odometry.ate.stats()
     assert block["loop_closures"] == {"accepted": 2, "rejected": 5}
