@@ -58,9 +58,9 @@ def _make_detector(kind: str, max_features: int):
     if kind == "SIFT":
         return cv2.SIFT_create(nfeatures=max_features * 2, contrastThreshold=SIFT_THRESHOLD.start), None
     if kind == "AKAZE":
-        return cv2.xfeatures2d.AKAZE_create(threshold=0.0005), None
+        return cv2.AKAZE_create(threshold=0.0005), None
     if kind == "BRISK":
-        return cv2.xfeatures2d.BRISK_create(thresh=20), None
+        return cv2.BRISK_create(thresh=20), None
     # RTAB-Map defaults: GFTT/QualityLevel 0.001, GFTT/MinDistance 7, GFTT/BlockSize 3.
     gftt = cv2.GFTTDetector_create(maxCorners=max_features, qualityLevel=0.001, minDistance=7, blockSize=3)
     if kind == "GFTT_ORB":

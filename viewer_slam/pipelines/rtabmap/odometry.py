@@ -312,8 +312,8 @@ class FrameToMapOdometry:
 
     def _undistorted(self, keypoints: np.ndarray) -> np.ndarray:
         """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""
-        if not any(self.camera.distortion):
-            return keypoints.astype(np.float64)
+        if not any(self.camera.distortion) or len(keypoints) == 0:  # OpenCV 4 returns None for no points
+            return keypoints.astype(np.float64).reshape(-1, 2)
         return cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), self.camera.K,
                                    np.asarray(self.camera.distortion), P=self.camera.K).reshape(-1, 2)
 
