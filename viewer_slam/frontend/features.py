@@ -144,7 +144,7 @@ class FeatureExtractor:
         rows = np.clip(np.rint(xy[:, 1]).astype(int), 0, depth.shape[0] - 1)
         z = (smoothed_depth(depth, rows, cols) if self.depth_smoothing else depth[rows, cols]).astype(np.float64)
         pixels = xy.astype(np.float64)
-        if any(self.camera.distortion):
+        if any(self.camera.distortion) and len(pixels):  # OpenCV 4 returns None for no points
             pixels = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion),
                                          P=self.camera.K).reshape(-1, 2)
         points = self.camera.backproject(pixels, z)
