@@ -110,15 +110,7 @@ class TumSequence(TimedFrames):
         each must exist, and a PNG have complete chunks that match their checksums."""
         for name in (*self._rgb_files, *self._depth_files):
             path = self.path / name
-            try:
-                data = path.read_bytes()
-            except FileNotFoundError:
-                raise InputError.at(path, "image listed in the sequence is missing") from None
-            except OSError as error:
-                raise InputError.at(path, f"cannot read image: {error.strerror}") from None
-            if data.startswith(_PNG_SIGNATURE):
-                _check_png(path, data)
-            elif not data:
+            if not _image_bytes(path):
                 raise InputError.at(path, "not a readable image")
 
     def _size_check(self, path: Path) -> Callable[[int, int], None]:
@@ -135,14 +127,7 @@ class TumSequence(TimedFrames):
         announces before anything is decoded. Pillow decodes what it knows (PNG, JPEG, ...): it
         raises on damaged data where libpng and libjpeg print their own complaints on stderr;
         OpenCV the rest."""
-        try:
-            data = path.read_bytes()
-        except FileNotFoundError:
-            raise InputError.at(path, "image listed in the sequence is missing") from None
-        except OSError as error:
-            raise InputError.at(path, f"cannot read image: {error.strerror}") from None
-        if data.startswith(_PNG_SIGNATURE):
-            _check_png(path, data)
+        data = _image_bytes(path)
         image = _decode(path, data, colour, size)
         if image is not None:
             return image
@@ -154,6 +139,19 @@ class TumSequence(TimedFrames):
             raise InputError.at(path, "not a readable image")
         size(image.shape[1], image.shape[0])
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if colour else image
+
+
+def _image_bytes(path: Path) -> bytes:
+    """The bytes of the image at ``path``; a PNG's chunks checked complete and intact."""
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError.at(path, "image listed in the sequence is missing") from None
+    except OSError as error:
+        raise InputError.at(path, f"cannot read image: {error.strerror}") from None
+    if data.startswith(_PNG_SIGNATURE):
+        _check_png(path, data)
+    return data
 
 
 def _decode(path: Path, data: bytes, colour: bool, size: Callable[[int, int], None]) -> np.ndarray | None:
