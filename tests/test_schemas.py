@@ -18,7 +18,7 @@ from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.schemas import load_schema, schema_names, validator
 
 ROOT = Path(__file__).resolve().parents[1]
-OURS = ("report", "evaluate", "benchmark_results")
+OURS = ("report", "evaluate", "benchmark_results", "study_results")
 
 
 def errors(name: str, document) -> list[str]:
