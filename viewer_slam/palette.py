@@ -7,6 +7,8 @@ shown together, so the same list of runs always gets the same colours.
 
 from typing import NamedTuple
 
+import numpy as np
+
 
 class Colour(NamedTuple):
     rgb: tuple[int, int, int]
@@ -36,6 +38,11 @@ CAUSES = {"sensor blocked": Colour((120, 120, 120), "grey"), "no depth": Colour(
           "too few features": Colour((235, 50, 50), "red"), "too few inliers": Colour((230, 200, 40), "yellow"),
           "unknown": Colour((170, 170, 170), "grey")}
 
+# A pose coloured by its error: green at no error, through yellow, to red at the largest shown;
+# a pose without a groundtruth pair (no error) dark grey.
+ERROR_RAMP = (Colour((40, 220, 90), "green"), Colour((230, 200, 40), "yellow"), Colour((235, 50, 50), "red"))
+NO_ERROR = Colour((110, 110, 110), "dark grey")
+
 
 def run_colour(name: str, position: int = 0) -> Colour:
     """The colour of run ``name``, shown at ``position`` among the runs of one view."""
@@ -45,3 +52,14 @@ def run_colour(name: str, position: int = 0) -> Colour:
 def faded(colour: Colour, share: float = 0.55, towards: int = 90) -> tuple[int, int, int]:
     """``colour`` mixed with a dark grey: the same hue, in the background."""
     return tuple(int((1 - share) * c + share * towards) for c in colour.rgb)
+
+
+def error_colours(errors: np.ndarray, top: float) -> np.ndarray:
+    """``(N, 3)`` uint8: each error's place on :data:`ERROR_RAMP` from 0 to ``top`` (clamped), NaN dark grey."""
+    errors = np.asarray(errors, dtype=np.float64)
+    share = np.clip(np.nan_to_num(errors / top if top > 0 else errors * 0.0), 0.0, 1.0)
+    stops = np.linspace(0.0, 1.0, len(ERROR_RAMP))
+    rgb = np.stack([np.interp(share, stops, [colour.rgb[channel] for colour in ERROR_RAMP]) for channel in range(3)],
+                   axis=1)
+    rgb[~np.isfinite(errors)] = NO_ERROR.rgb
+    return np.round(rgb).astype(np.uint8)

@@ -16,6 +16,7 @@ from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
+from ..evaluation.evaluation import why_no_pairs
 from ..evaluation.coverage import Span
 from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
@@ -176,7 +177,7 @@ def evaluate_command(
                               all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period,
                               rpe_mode=rpe_mode.value)
         if evaluation.ate is None:
-            raise InputError.at(path, _why_no_pairs(reference, trajectory, offset, max_difference))
+            raise InputError.at(path, why_no_pairs(reference, trajectory, offset, max_difference))
         evaluations.append(evaluation)
 
     _print_results(groundtruth, labels, formats, evaluations)
@@ -250,15 +251,6 @@ def _clock_of(sequence) -> Clock:
     """Coverage over the time the camera recorded, in units of its frame period."""
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)
     return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period, stamps)
-
-
-def _why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float, max_difference: float) -> str:
-    start, end = estimate.timestamps[0] + offset, estimate.timestamps[-1] + offset
-    gt_start, gt_end = groundtruth.timestamps[0], groundtruth.timestamps[-1]
-    if end < gt_start or start > gt_end:
-        return (f"no temporal overlap with the groundtruth (estimate {start:.3f}..{end:.3f} s, "
-                f"groundtruth {gt_start:.3f}..{gt_end:.3f} s)")
-    return f"no pose within {max_difference} s of a groundtruth pose"
 
 
 def plural(count: int, noun: str) -> str:

@@ -37,12 +37,15 @@ def record_command(
     depth_topic: str | None = typer.Option(None, help="ROS bag: the depth image topic (default: found by type)."),
     camera_info_topic: str | None = typer.Option(None, help="ROS bag: the camera info topic (default: the one "
                                                            "beside the colour topic)."),
-    groundtruth: Path | None = typer.Option(None, help="ROS bag: groundtruth trajectory file (TUM, EuRoC) "
-                                                      "instead of the bag's /tf."),
+    groundtruth: Path | None = typer.Option(None, help="Groundtruth trajectory file (TUM, EuRoC). Without "
+                                                      "SEQUENCE: record the --estimate files alone against it, "
+                                                      "scored as `evaluate` does (no images, no pipeline). With a "
+                                                      "ROS bag: its groundtruth instead of the bag's /tf."),
     groundtruth_topic: str | None = typer.Option(None, help="ROS bag: groundtruth pose topic instead of /tf."),
 ) -> int:
     """Run SLAM pipelines over SEQUENCE (a TUM folder, scenario, TUM name or ROS bag) into a Rerun
-    recording, with a report and trajectories; --estimate adds other systems' trajectories as runs."""
+    recording, with a report and trajectories; --estimate adds other systems' trajectories as runs.
+    --groundtruth FILE with no SEQUENCE records the --estimate files alone against it."""
     from ..recording.console import print_summary
     from ..recording.session import RecordOptions, record
 

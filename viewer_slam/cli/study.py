@@ -19,7 +19,8 @@ def study(
                                           "$VIEWSLAM_STUDY_MIRROR, else raw.githubusercontent.com at the pinned "
                                           "commit)."),
     record: bool = typer.Option(False, "--record", help="Also write OUT/<sequence>.rrd: both runs against the "
-                                                        "groundtruth."),
+                                                        "groundtruth, as `record --groundtruth` records trajectory "
+                                                        "files (with its report and trajectories beside it)."),
     list_only: bool = typer.Option(False, "--list", help="List the study's sequences and which are cached."),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
@@ -55,14 +56,15 @@ def study(
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
     written = write_all(out, runs, found, base, command)
     if record:
-        from ..study.recording import record_sequence
+        from ..recording.trajectory_files import record_trajectory_files
         from ..study.manifest import groundtruth_path, poses_path, SYSTEMS
 
         for sequence in selected:
-            target = out / f"{sequence.name}.rrd"
-            record_sequence(target, sequence, files[groundtruth_path(sequence)][0],
-                            {system.name: files[poses_path(sequence, system)][0] for system in SYSTEMS})
-            written.append(target)
+            recorded = record_trajectory_files(
+                files[groundtruth_path(sequence)][0],
+                [(system.name, files[poses_path(sequence, system)][0]) for system in SYSTEMS],
+                out / f"{sequence.name}.rrd", format="tum", name=sequence.name)
+            written.extend(recorded.written)
     from ..study.report import table
 
     typer.echo(table(runs))

@@ -71,6 +71,14 @@ class Coverage:
     lost_intervals: list[tuple[float, float]]
     span: Span
 
+    @property
+    def stopped_at(self) -> float | None:
+        """When the method produced its last pose, if no pose follows it up to the span's end (it
+        quit); None when it had a pose to the end."""
+        if self.lost_intervals and self.lost_intervals[-1][1] == self.span.end:
+            return self.lost_intervals[-1][0]
+        return None
+
     def to_dict(self) -> dict:
         return {"ratio": self.ratio, "lost_intervals": [[start, end] for start, end in self.lost_intervals],
                 "span": self.span.to_dict()}

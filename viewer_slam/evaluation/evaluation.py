@@ -60,6 +60,14 @@ class Evaluation:
             "penalized_ate": stats_or_none(self.penalized_ate),
         }
 
+    def pose_errors(self, count: int) -> np.ndarray:
+        """The ATE error of each of the estimate's ``count`` poses, NaN for a pose without a groundtruth
+        pair: what a view colours each pose by."""
+        errors = np.full(count, np.nan)
+        if self.ate is not None:
+            errors[self.pairs[1]] = self.ate.errors
+        return errors
+
     def aligned_positions(self, estimate: Trajectory) -> np.ndarray | None:
         """The estimate's positions in the groundtruth frame, as its ATE saw them (None without pairs)."""
         if self.pose_alignment is None:
@@ -169,6 +177,17 @@ def evaluate(
         offset=offset,
         rpe_mode=rpe_mode,
     )
+
+
+def why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float = 0.0,
+                 max_difference: float = 0.02) -> str:
+    """Why ``estimate`` has no pose pair with ``groundtruth``: no overlap in time, or none close enough."""
+    start, end = estimate.timestamps[0] + offset, estimate.timestamps[-1] + offset
+    gt_start, gt_end = groundtruth.timestamps[0], groundtruth.timestamps[-1]
+    if end < gt_start or start > gt_end:
+        return (f"no temporal overlap with the groundtruth (estimate {start:.3f}..{end:.3f} s, "
+                f"groundtruth {gt_start:.3f}..{gt_end:.3f} s)")
+    return f"no pose within {max_difference} s of a groundtruth pose"
 
 
 def _tum_rpe(groundtruth: Trajectory, estimate: Trajectory, offset: float,

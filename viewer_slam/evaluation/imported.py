@@ -39,6 +39,11 @@ class EstimateParams:
     format: str = param("", key="format", choices=("", *FORMATS), help="its format ('': detected)")
 
 
+def no_pose_reason(file: Path, gap_s: float) -> str:
+    """Why an estimate is lost: its file has no pose for ``gap_s`` seconds."""
+    return f"no pose in {file.name} for {gap_s:.2f} s"
+
+
 def parse_estimate(text: str) -> tuple[str, Path]:
     """``NAME=FILE`` (the ``--estimate`` option) as the run's name and the file."""
     name, sep, file = text.partition("=")
@@ -106,8 +111,8 @@ class EstimateReplay(Pipeline):
             state = TrackingStatus.INITIALISING if self._state in (None, TrackingStatus.INITIALISING) else \
                 TrackingStatus.OK
         if state is TrackingStatus.LOST and self._state is not TrackingStatus.LOST:
-            events.append(TrackingLost(frame.index, frame.timestamp, f"no pose in {Path(self.params.file).name} "
-                                       f"for {self._gap_at(frame.timestamp):.2f} s"))
+            events.append(TrackingLost(frame.index, frame.timestamp,
+                                       no_pose_reason(Path(self.params.file), self._gap_at(frame.timestamp))))
         elif state is TrackingStatus.OK and self._state is TrackingStatus.LOST:
             events.append(TrackingRecovered(frame.index, frame.timestamp, "the estimate has poses again"))
         self._state = state

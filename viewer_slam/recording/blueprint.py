@@ -25,6 +25,8 @@ EYE_ELEVATION_DEG = 35.0
 # The whole path is kept inside a cone of this half-angle around the view axis (the viewer's
 # vertical field of view is wider: a margin for the frustums and the window's aspect).
 EYE_HALF_ANGLE_DEG = 20.0
+# With nothing to see beyond the camera path (trajectory files alone), the path may fill more of the view.
+PATH_ONLY_HALF_ANGLE_DEG = 26.0
 LOOK_AHEAD_SHARE = 0.1  # the look target lies ahead of the path (towards the map it sees) ...
 LOOK_AHEAD_M = 0.25  # ... by this share of the extent plus this
 # A camera path whose mean viewing direction (horizontal) is shorter than this turns all around:
@@ -52,7 +54,7 @@ def _horizontal_heading(poses: np.ndarray) -> np.ndarray | None:
     return forward / norm if norm >= MIN_HEADING else None
 
 
-def overview_eye(groundtruth: np.ndarray) -> rrb.EyeControls3D:
+def overview_eye(groundtruth: np.ndarray, path_only: bool = False) -> rrb.EyeControls3D:
     """An orbital eye that frames the camera path and what the cameras see.
 
     ``groundtruth`` is poses ``(N, 4, 4)`` or positions ``(N, 3)``. With poses whose mean
@@ -60,7 +62,9 @@ def overview_eye(groundtruth: np.ndarray) -> rrb.EyeControls3D:
     to a target ahead of it, where the map is; otherwise it looks at the path's centre from
     a fixed side, from a distance that is a multiple of the path's extent (with a floor) or,
     if further, the one that keeps the whole path in view: a desk path of 12 cm and a 30 m
-    hall open alike.
+    hall open alike. ``path_only`` (no map, no images: trajectory files alone) looks at the
+    path's centre from the fixed side, as close as keeps the path within
+    PATH_ONLY_HALF_ANGLE_DEG of the view's axis.
     """
     groundtruth = np.asarray(groundtruth, dtype=np.float64)
     poses = groundtruth if groundtruth.ndim == 3 else None
@@ -68,7 +72,7 @@ def overview_eye(groundtruth: np.ndarray) -> rrb.EyeControls3D:
     scene = max(extent(positions), EYE_MIN_EXTENT_M, MIN_EXTENT_M)
     centre = (positions.min(axis=0) + positions.max(axis=0)) / 2
     heading = _horizontal_heading(poses) if poses is not None else None
-    if heading is None:
+    if heading is None or path_only:
         heading, target = FALLBACK_DIRECTION / np.linalg.norm(FALLBACK_DIRECTION), centre
     else:
         target = centre + (LOOK_AHEAD_SHARE * scene + LOOK_AHEAD_M) * heading
@@ -77,8 +81,9 @@ def overview_eye(groundtruth: np.ndarray) -> rrb.EyeControls3D:
     offsets = positions - target
     along = offsets @ axis
     across = np.linalg.norm(offsets - along[:, None] * axis, axis=1)
-    framed = float(np.max(across / np.tan(np.radians(EYE_HALF_ANGLE_DEG)) - along))
-    distance = max(EYE_DISTANCE_SHARE * scene + EYE_DISTANCE_M, framed)
+    half_angle = np.radians(PATH_ONLY_HALF_ANGLE_DEG if path_only else EYE_HALF_ANGLE_DEG)
+    framed = float(np.max(across / np.tan(half_angle) - along))
+    distance = max(scene if path_only else EYE_DISTANCE_SHARE * scene + EYE_DISTANCE_M, framed)
     position = target - distance * axis
     return rrb.EyeControls3D(kind="Orbital", position=position, look_target=target, eye_up=[0.0, 0.0, 1.0],
                              speed=max(scene, 0.5))
@@ -114,12 +119,19 @@ def lost_band_overrides(paths: list[str]) -> dict[EntityPathLike, VisualizerLike
     return {path: rr.SeriesLines.from_fields(widths=[width]) for path, width in zip(paths, lost_band_widths(len(paths)))}
 
 
-def error_plot(title: str, pipelines: list[str], series: str) -> rrb.TimeSeriesView:
+def whole_timeline() -> rrb.TimeAxis:
+    """A time axis that spans all the data: the viewer's default, while it follows the playhead,
+    is a window of a couple of thousand steps, a small part of a 100 Hz groundtruth's frames."""
+    return rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
+                                                 end=rrb.TimeRangeBoundary.infinite()))
+
+
+def error_plot(title: str, pipelines: list[str], series: str, axis_x: rrb.TimeAxis | None = None) -> rrb.TimeSeriesView:
     """One series of every run and the runs' lost bands, its colours named in the title."""
     bands = lost_band_overrides(_series(pipelines, LOST_BAND))
     return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)}; bar at 0: no pose",
                               contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
-                              plot_legend=hidden_legend(), overrides=bands)
+                              plot_legend=hidden_legend(), overrides=bands, axis_x=axis_x)
 
 
 def log_columns() -> rrb.archetypes.TextLogColumns:
@@ -183,6 +195,39 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
     side = rrb.Vertical(matches, ate, details, state, row_shares=[2.4, 2, 2, state_share])
     return rrb.Blueprint(
         rrb.Horizontal(rrb.Vertical(scene, log, row_shares=[3.2, 1]), side, column_shares=[1.35, 1]),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),
+    )
+
+
+def files_scene_title(runs: list[str], error_top: float) -> str:
+    ramp = " → ".join(colour.name for colour in palette.ERROR_RAMP)
+    return (f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(runs)} · poses by ATE, {ramp} from 0 to "
+            f"{error_top:.2f} m · thin lines: each pose to its groundtruth")
+
+
+def files_blueprint(runs: list[str], groundtruth: np.ndarray, error_top: float) -> rrb.Blueprint:
+    """The layout of a recording of trajectory files alone: the 3D view of groundtruth and the aligned
+    runs over the summary and the log of losses; the ATE of all runs, the other error series in
+    tabs and the tracking state. ``groundtruth`` (poses or positions) places the 3D view's eye;
+    ``error_top`` is the error the pose colours saturate at, named in the 3D view's title."""
+    scene = rrb.Spatial3DView(origin="world", name=files_scene_title(runs, error_top),
+                              eye_controls=overview_eye(groundtruth, path_only=True))
+    text = rrb.Tabs(rrb.TextDocumentView(origin=layout.SUMMARY, name="summary"),
+                    rrb.TextLogView(origin="log", name="losses and recoveries", columns=log_columns()))
+    axis = whole_timeline()
+    details = rrb.Tabs(
+        error_plot("ATE [m], each tracked segment aligned on its own", runs, "ate_segments", axis),
+        error_plot("RPE translation [m], Δ=1 s", runs, "rpe_trans", axis),
+        error_plot("RPE rotation [deg], Δ=1 s", runs, "rpe_rot", axis),
+        error_plot("coverage so far", runs, "coverage", axis))
+    state = rrb.StateTimelineView(name="tracking state (lost: no pose for longer than the gap rule)",
+                                  contents=_series(runs, "tracking_state"), time_view=axis)
+    side = rrb.Vertical(error_plot("ATE [m], one alignment for the run", runs, "ate", axis), details, state,
+                        row_shares=[2, 2, 0.5 + 0.35 * len(runs)])
+    return rrb.Blueprint(
+        rrb.Horizontal(rrb.Vertical(scene, text, row_shares=[2.6, 1]), side, column_shares=[1.35, 1]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),

@@ -7,6 +7,7 @@ here (their colours are in :mod:`viewer_slam.palette`). ``world`` is the groundt
 
 GROUNDTRUTH = "world/groundtruth"
 CAMERA_IMAGE = "camera/image"
+SUMMARY = "summary"  # a recording of trajectory files: the scores as Markdown
 
 
 def world(name: str) -> str:
@@ -25,6 +26,16 @@ def lost_label(name: str) -> str:
 
 def trajectory(name: str) -> str:
     return f"world/{name}/trajectory"
+
+
+def poses(name: str) -> str:
+    """A trajectory file's poses, each coloured by its error."""
+    return f"world/{name}/poses"
+
+
+def correspondences(name: str) -> str:
+    """A line from each pose of a trajectory file to the groundtruth pose it was scored against."""
+    return f"world/{name}/correspondences"
 
 
 def odometry(name: str) -> str:

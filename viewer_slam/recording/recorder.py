@@ -53,6 +53,8 @@ KEYFRAME_BYTES = 24
 EDGE_BYTES = 36
 # Re-log the frustum when the scene (seen so far, without groundtruth) has grown by this factor.
 FRUSTUM_RESIZE_FACTOR = 1.25
+# The series the evaluation writes back once a run has ended (recording/timelines.py).
+EVALUATION_SERIES = ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage")
 # The tracker's own per-frame counts (FrameTracked fields) and their line widths.
 TRACKER_COUNTS = {"features": 1.0, "matches": 1.0, "inliers": 2.0}
 # Line widths and point radii on screen (ui points): legible at any scene scale.
@@ -114,6 +116,19 @@ def loop_closure_line(edges: list[GraphEdge], verdict: str) -> str:
                         f"score {edge.score:.3g}, {edge.inliers} inliers)" for edge in edges)
     noun = "loop closure" if len(edges) == 1 else f"{len(edges)} loop closures"
     return f"{noun} {verdict}: {details}"
+
+
+def log_run_styles(stream: rr.RecordingStream, name: str, colour: palette.Colour) -> None:
+    """The static styles of a run's evaluation series (ATE, segment ATE, RPE, coverage), its lost
+    band and its tracking-state timeline: the same for a pipeline and for a trajectory file."""
+    for series in EVALUATION_SERIES:
+        stream.log(layout.metric(name, series), rr.SeriesLines(colors=[colour.rgb], names=[name], widths=[2.0]),
+                   static=True)
+    stream.log(layout.metric(name, LOST_BAND), rr.SeriesLines(colors=[lost_colour(colour)], names=[f"{name}: no pose"],
+                                                              widths=[LOST_BAND_WIDTH]), static=True)
+    stream.log(layout.metric(name, "tracking_state"),
+               rr.StateConfiguration(values=list(palette.STATUS), labels=list(palette.STATUS),
+                                     colors=[status.rgb for status in palette.STATUS.values()]), static=True)
 
 
 class PipelineRecorder:
@@ -197,18 +212,12 @@ class PipelineRecorder:
 
     def _log_styles(self) -> None:
         name, rgb = self.name, self.colour.rgb
-        for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "graph_error"):
-            self._log(layout.metric(name, series), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
-                      static=True)
-        self._log(layout.metric(name, LOST_BAND), rr.SeriesLines(colors=[lost_colour(self.colour)],
-                                                                 names=[f"{name}: no pose"],
-                                                                 widths=[LOST_BAND_WIDTH]), static=True)
+        log_run_styles(self.stream, name, self.colour)
+        self._log(layout.metric(name, "graph_error"), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
+                  static=True)
         for series, width in TRACKER_COUNTS.items() if self.tracker_counts else ():
             self._log(layout.metric(name, series),
                       rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]), static=True)
-        self._log(layout.metric(name, "tracking_state"),
-                  rr.StateConfiguration(values=list(palette.STATUS), labels=list(palette.STATUS),
-                                        colors=[colour.rgb for colour in palette.STATUS.values()]), static=True)
         self._log(layout.matches(name), rr.LineStrips2D.from_fields(colors=[palette.INLIER.rgb]), static=True)
         self._log(f"{layout.matches(name)}/outliers", rr.LineStrips2D.from_fields(colors=[palette.OUTLIER.rgb]),
                   static=True)

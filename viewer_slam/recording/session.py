@@ -136,7 +136,9 @@ def open_input(sequence: str | None, bag: BagOptions | None = None) -> TumSequen
         path = resolve_sequence(sequence)
     bag = {key: value for key, value in (bag or {}).items() if value is not None}
     if bag and not is_bag(path):
-        raise InputError(f"{BAG_FLAGS[next(iter(bag))]}: only for a ROS bag, and {sequence or 'the demo'} is not one")
+        flag = BAG_FLAGS[next(iter(bag))]
+        alone = " (without SEQUENCE, --groundtruth records trajectory files alone)" if flag == "--groundtruth" else ""
+        raise InputError(f"{flag}: only for a ROS bag, and {sequence or 'the demo'} is not one{alone}")
     return open_sequence(path, **bag)
 
 
@@ -186,7 +188,12 @@ def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
 
 
 def record(options: RecordOptions) -> RecordResult:
-    """Check the options, then record every selected run (see the module docstring)."""
+    """Check the options, then record every selected run (see the module docstring); ``--groundtruth``
+    without a sequence records trajectory files alone (:mod:`.trajectory_files`)."""
+    from .trajectory_files import is_files_only, record_files  # it builds on this module
+
+    if is_files_only(options):
+        return record_files(options)
     pipelines, estimates = select_runs(options.pipeline, options.estimates, options.format)
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
@@ -284,14 +291,15 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
         for name, trajectory in trajectories.items():  # written once a failed recording made room
-            _write(trajectory_paths[name], lambda path, trajectory=trajectory: write_tum(path, trajectory), staged)
+            write_staged(trajectory_paths[name], lambda path, trajectory=trajectory: write_tum(path, trajectory),
+                         staged)
         report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
         errors = [str(failure) if failure is not None else None,
                   f"{out}: {recording.error}" if recording.error is not None else None]
         report["failed"] = any(errors)
         if report["failed"]:
             report["error"] = "; ".join(error for error in errors if error)
-        _write(report_path, lambda path: write_report(path, report), staged)
+        write_staged(report_path, lambda path: write_report(path, report), staged)
         staged.commit()
     for path in set(earlier) - {trajectory_paths[name] for name in trajectories}:
         path.unlink(missing_ok=True)  # the earlier run's, which the report now in place does not list
@@ -322,7 +330,7 @@ def _counts_features(run: Pipeline) -> bool:
     return run.source != "estimate"
 
 
-def _write(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
+def write_staged(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
     """``write`` to ``target``'s temporary file; a failure (a full disk) is one line naming ``target``."""
     try:
         write(staged.path(target))

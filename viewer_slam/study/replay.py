@@ -44,7 +44,7 @@ def score_run(groundtruth_file: Path, poses_file: Path) -> dict:
     evaluation = evaluate(groundtruth, estimate, rpe_mode="tum")
     span = evaluation.coverage.span
     lost = evaluation.coverage.lost_intervals
-    stopped = lost[-1][0] if lost and lost[-1][1] == span.end else None
+    stopped = evaluation.coverage.stopped_at
     stats = lambda series: None if series is None else series.stats()  # noqa: E731
     ate, trans, rot, penalized = (stats(evaluation.ate), stats(evaluation.rpe_trans), stats(evaluation.rpe_rot),
                                   stats(evaluation.penalized_ate))

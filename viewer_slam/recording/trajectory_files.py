@@ -1,0 +1,218 @@
+"""A recording of trajectory files alone: ``viewslam record --groundtruth FILE --estimate NAME=FILE ...``.
+
+With no sequence there are no images and no camera: the recording shows what the files can
+show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.evaluation.trajectory_files`):
+
+- ``world/groundtruth``, and under ``world/<run>`` (whose transform is the run's ATE
+  alignment) the run's ``trajectory`` broken at its lost intervals, its ``poses`` coloured
+  by their ATE error, ``correspondences`` from each pose to its groundtruth pose, a
+  ``camera`` (axes) that moves along the timelines, and while lost a label at the last pose;
+- ``metrics/<run>/...``: the evaluation series of a pipeline's recording (global and
+  segment-aligned ATE, RPE, coverage so far, the lost band) and the tracking state;
+- ``log/<run>``: a line at each loss (when the run stopped, for one that quit) and recovery;
+- ``summary``: the scores and lost intervals of every run as Markdown.
+
+The ``frame`` timeline counts the groundtruth's poses (each instant at the nearest one),
+``time`` is the files' own clock. A run's series are logged at its poses and, inside its
+lost intervals, once per pose interval of the run, so the plots break where it had no
+pose and the lost band runs through that time. Beside ``NAME.rrd`` go ``NAME.json`` (the
+run report, every run an estimate) and ``NAME.<run>.txt`` (TUM), as ``record`` writes them.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from .. import palette
+from ..atomic import StagedFiles, exclusive
+from ..errors import InputError
+from ..evaluation.coverage import MIN_LOST_GAP_S, median_period
+from ..evaluation.files_summary import summary_markdown
+from ..evaluation.imported import check_format, named_estimates
+from ..evaluation.report import write_report
+from ..evaluation.trajectory_files import ScoredFile, ScoredFiles, score_files
+from ..geometry.trajectory import Trajectory, write_tum
+from . import layout
+from .blueprint import files_blueprint
+from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time
+from .rrd_file import RecordingFile
+from .session import (BAG_FLAGS, RecordOptions, RecordResult, check_outputs, earlier_trajectories, report_paths,
+                      write_staged)
+from .sizes import extent, scene_sizes
+from .timelines import log_evaluation, send_frame_columns
+from .viewer import has_display, no_display_problem
+
+POSE_RADIUS = 3.0  # ui points
+CORRESPONDENCE_WIDTH = 0.25  # ui points: a pose a frame makes a dense fan
+CORRESPONDENCE_FADE = 0.8  # share of the background grey mixed into the run's colour
+FILES_ONLY = "a recording of trajectory files alone (--groundtruth without SEQUENCE)"
+
+
+def is_files_only(options: RecordOptions) -> bool:
+    """``--groundtruth`` with no SEQUENCE: trajectory files alone (with a SEQUENCE it is a bag's groundtruth)."""
+    return options.sequence is None and options.bag.get("groundtruth") is not None
+
+
+def check_files_options(options: RecordOptions) -> None:
+    """Refuse, in one line naming the option, what a recording of trajectory files alone cannot use."""
+    if options.pipeline is not None:
+        raise InputError(f"--pipeline: {FILES_ONLY} has no images to run a pipeline on; give SEQUENCE to run one")
+    if not options.estimates:
+        raise InputError(f"--groundtruth {options.bag['groundtruth']}: {FILES_ONLY} needs at least one "
+                         f"--estimate NAME=FILE")
+    frame_options = {"--max-frames": options.max_frames is not None, "--stride": options.stride != 1,
+                     "--param": bool(options.params), "--config": options.config is not None}
+    for flag, given in frame_options.items():
+        if given:
+            raise InputError(f"{flag}: applies to a sequence's frames and pipelines; {FILES_ONLY} has neither")
+    for key, value in options.bag.items():
+        if key != "groundtruth" and value is not None:
+            raise InputError(f"{BAG_FLAGS[key]}: only for a ROS bag given as SEQUENCE")
+
+
+def record_files(options: RecordOptions) -> RecordResult:
+    """`viewslam record --groundtruth FILE --estimate NAME=FILE ...`: the options checked, then recorded.
+
+    ``--out`` defaults to ``recordings/<groundtruth file name without extension>.rrd``.
+    """
+    check_files_options(options)
+    check_format(options.format)
+    groundtruth = Path(options.bag["groundtruth"])
+    out = options.out if options.out is not None else Path("recordings") / f"{groundtruth.stem}.rrd"
+    return record_trajectory_files(groundtruth, named_estimates(options.estimates, []), Path(out),
+                                   format=options.format, spawn=options.spawn, quiet=options.quiet)
+
+
+def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
+                            format: str | None = None, name: str | None = None, spawn: bool = False,
+                            quiet: bool = True) -> RecordResult:
+    """Record the ``(name, file)`` estimates against the groundtruth file into ``out`` (.rrd), the
+    report and trajectories beside it (module docstring).
+
+    ``format`` is every estimate's (default: detected; unless ``quiet``, stderr says which was
+    read); ``name`` names the groundtruth in the report and summary (default: its file name
+    without extension). Outputs are checked before anything is read, never replace an input,
+    and are written under temporary names renamed into place together at the end.
+    """
+    names = [run for run, _ in estimates]
+    inputs = {Path(groundtruth): f"--groundtruth {groundtruth}",
+              **{Path(file): f"--estimate {run}={file}" for run, file in estimates}}
+    check_outputs(out, names, inputs)
+    if spawn and not has_display():
+        raise InputError(f"--spawn: {no_display_problem(out)}")
+    with exclusive([out]):
+        scored = score_files(groundtruth, estimates, format, name)
+        if not quiet:
+            how = "given" if format else "detected"
+            for run in scored.runs:
+                print(f"estimate {run.name}: {run.path} read as {run.format} ({how})", file=sys.stderr)
+        report = scored.report()
+        report_path, trajectory_paths = report_paths(out, names)
+        earlier = earlier_trajectories(out)
+        error_top = max(float(run.evaluation.ate.errors.max()) for run in scored.runs)
+        with StagedFiles() as staged:
+            recording = RecordingFile(staged.path(out), out,
+                                      files_blueprint(names, scored.groundtruth.poses, error_top), spawn)
+            try:
+                log_files(recording.stream, scored, error_top)
+            finally:
+                recording.close()
+            if recording.error is not None:
+                raise InputError(f"{out}: recording not written: {recording.error}")
+            for run in scored.runs:
+                write_staged(trajectory_paths[run.name],
+                             lambda path, trajectory=run.trajectory: write_tum(path, trajectory), staged)
+            write_staged(report_path, lambda path: write_report(path, report), staged)
+            staged.commit()
+    for path in set(earlier) - set(trajectory_paths.values()):
+        path.unlink(missing_ok=True)  # the earlier recording's, which the report now in place does not list
+    return RecordResult(out, report_path, trajectory_paths, report, [out, report_path, *trajectory_paths.values()])
+
+
+def log_files(stream: rr.RecordingStream, scored: ScoredFiles, error_top: float) -> None:
+    """Everything of the module docstring into ``stream``; pose colours saturate at ``error_top`` metres."""
+    groundtruth = scored.groundtruth
+    log_world(stream, groundtruth)
+    stream.log(layout.SUMMARY, rr.TextDocument(summary_markdown(scored), media_type=rr.MediaType.MARKDOWN),
+               static=True)
+    axis_length = scene_sizes(extent(groundtruth.positions)).frustum_depth
+    for position, run in enumerate(scored.runs):
+        colour = palette.run_colour(run.name, position)
+        log_run_styles(stream, run.name, colour)
+        frames, stamps = run_clock(groundtruth.timestamps, run)
+        log_evaluation(stream, run.name, run.evaluation, frames, stamps)
+        log_shape(stream, run, colour, groundtruth, error_top)
+        log_motion(stream, run, colour, groundtruth, axis_length)
+
+
+def nearest_frames(groundtruth_stamps: np.ndarray, stamps: np.ndarray) -> np.ndarray:
+    """The index of the groundtruth pose nearest in time to each of ``stamps``: its place on the frame timeline."""
+    after = np.clip(np.searchsorted(groundtruth_stamps, stamps), 0, len(groundtruth_stamps) - 1)
+    before = np.maximum(after - 1, 0)
+    closer_before = np.abs(stamps - groundtruth_stamps[before]) <= np.abs(groundtruth_stamps[after] - stamps)
+    return np.where(closer_before, before, after).astype(np.int64)
+
+
+def run_clock(groundtruth_stamps: np.ndarray, run: ScoredFile) -> tuple[np.ndarray, np.ndarray]:
+    """Frames and stamps, in time order, at which the run's series are logged: each of its poses and,
+    inside each lost interval, one instant per pose interval of the run up to the interval's end."""
+    stamps = run.trajectory.timestamps
+    period = median_period(stamps) or MIN_LOST_GAP_S
+    lost = [np.append(np.arange(start + period, end - period / 2, period), end)
+            for start, end in run.evaluation.coverage.lost_intervals]
+    lost_stamps = np.concatenate(lost) if lost else np.zeros(0)
+    instants = np.sort(np.concatenate([stamps, lost_stamps[~np.isin(lost_stamps, stamps)]]), kind="stable")
+    return nearest_frames(groundtruth_stamps, instants), instants
+
+
+def log_shape(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory,
+              error_top: float) -> None:
+    """The static geometry of a run in its own frame (``world/<run>`` carries the alignment): the
+    trajectory broken where it was lost, the poses coloured by error and the correspondence lines."""
+    positions = run.trajectory.positions
+    starts = [start for start, _ in run.evaluation.coverage.lost_intervals]
+    breaks = np.flatnonzero(np.isin(run.trajectory.timestamps[:-1], starts)) + 1
+    segments = [segment for segment in np.split(positions, breaks) if len(segment) > 1]
+    if segments:
+        stream.log(layout.trajectory(run.name), rr.LineStrips3D(segments, colors=[colour.rgb],
+                                                                radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)),
+                   static=True)
+    stream.log(layout.poses(run.name), rr.Points3D(positions, colors=palette.error_colours(run.pose_errors(), error_top),
+                                                   radii=rr.Radius.ui_points(POSE_RADIUS)), static=True)
+    gt_index, est_index = run.evaluation.pairs
+    to_estimate = np.linalg.inv(run.evaluation.alignment)
+    reference = groundtruth.positions[gt_index] @ to_estimate[:3, :3].T + to_estimate[:3, 3]
+    stream.log(layout.correspondences(run.name),
+               rr.LineStrips3D(np.stack([positions[est_index], reference], axis=1), colors=[palette.faded(colour, CORRESPONDENCE_FADE, towards=40)],
+                               radii=rr.Radius.ui_points(CORRESPONDENCE_WIDTH)), static=True)
+
+
+def log_motion(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory,
+               axis_length: float) -> None:
+    """What changes along the timelines: the camera axes at each pose, and at each loss and recovery
+    the tracking state, a log line and the label at the last pose."""
+    name, trajectory = run.name, run.trajectory
+    frames = nearest_frames(groundtruth.timestamps, trajectory.timestamps)
+    stream.log(layout.camera(name), rr.TransformAxes3D(axis_length), static=True)
+    send_frame_columns(stream, layout.camera(name), frames, trajectory.timestamps,
+                       rr.Transform3D.columns(translation=trajectory.positions, mat3x3=trajectory.poses[:, :3, :3]))
+    set_frame_time(stream, frames[0], trajectory.timestamps[0])
+    stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["ok"]))
+    lost_intervals = run.evaluation.coverage.lost_intervals
+    for loss, (start, end) in zip(run.losses(groundtruth), lost_intervals):
+        set_frame_time(stream, loss["frame"], loss["timestamp"])
+        stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["lost"]))
+        stream.log(layout.text_log(name), rr.TextLog(f"{loss['text']} ({loss['reason']})", level=rr.TextLogLevel.WARN))
+        last = trajectory.positions[max(int(np.searchsorted(trajectory.timestamps, start, side="right")) - 1, 0)]
+        stream.log(layout.lost_label(name), rr.Points3D([last], colors=[colour.rgb],
+                                                        radii=rr.Radius.ui_points(POSE_RADIUS + 1.0),
+                                                        labels=[f"{name} lost"], show_labels=True))
+        if start == run.evaluation.coverage.stopped_at:
+            continue
+        set_frame_time(stream, int(nearest_frames(groundtruth.timestamps, np.array([end]))[0]), end)
+        stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["ok"]))
+        stream.log(layout.text_log(name), rr.TextLog(f"{name}: poses again after {end - start:.1f} s",
+                                                     level=rr.TextLogLevel.INFO))
+        stream.log(layout.lost_label(name), rr.Clear(recursive=False))
