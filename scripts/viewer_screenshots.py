@@ -1,6 +1,6 @@
 """Takes the viewer screenshots of docs/images/ from recordings made as a user would make them.
 
-    python scripts/viewer_screenshots.py [demo] [fr1_rpy_200] [diff]
+    python scripts/viewer_screenshots.py [demo] [fr1_rpy_200] [diff] [study_kidnap]
 
 Each recording is made by the commands listed in FIGURES (in a temporary folder, with this
 interpreter's viewslam), then opened by the Rerun viewer under Xvfb at 1920x1080 and
@@ -9,7 +9,8 @@ of its own, with RUST_LOG=error: its start-up warnings would otherwise show as n
 the top right of the window). The viewer draws at twice the window's size; the picture is scaled back to the
 window's size and stored with a 256-colour palette. Needs xvfb-run (Debian package xvfb) and,
 for `fr1_rpy_200`, the 200-frame fr1/rpy excerpt beside the repository
-(../shared/data/tum/rgbd_dataset_freiburg1_rpy_200).
+(../shared/data/tum/rgbd_dataset_freiburg1_rpy_200); for `study_kidnap` (a recording of
+trajectory files alone), the study's fr2/360_kidnap runs (../shared/data/study_kasar2018).
 """
 
 import argparse
@@ -30,7 +31,9 @@ IMAGES = REPO / "docs" / "images"
 VIEWSLAM = Path(sys.executable).with_name("viewslam")
 RERUN = Path(sys.executable).with_name("rerun")
 RPY_200 = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy_200"
+KIDNAP = REPO.parent / "shared" / "data" / "study_kasar2018" / "freiburg2_360_kidnap"
 SIZES = ("1920x1080", "1280x800")
+PER_FRAME = ("demo", "fr1_rpy_200")  # recordings of a sequence's frames: their size per frame is reported
 
 # name -> (commands, the recording they write, the image name at 1920x1080)
 FIGURES = {
@@ -44,6 +47,10 @@ FIGURES = {
                "--param", "Odom/ResetCountdown=5", "--out", "runs/reset5.rrd", "--quiet"],
               ["diff", "runs/reset0.json", "runs/reset5.json", "--json", "runs/diff.json", "--out", "runs/diff.rrd"]],
              "runs/diff.rrd", "diff.png"),
+    "study_kidnap": ([["record", "--groundtruth", str(KIDNAP / "rgbd" / "groundtruth.txt"),
+                       "--estimate", f"rgbdslam_v2={KIDNAP / 'rgbd' / 'rgbd_poses.txt'}",
+                       "--estimate", f"rtabmap={KIDNAP / 'rtab' / 'rtabmap_poses.txt'}", "--out", "kidnap.rrd",
+                       "--quiet"]], "kidnap.rrd", "viewer_study_kidnap.png"),
 }
 
 
@@ -98,7 +105,7 @@ def main() -> int:
             for command in commands:
                 subprocess.run([str(VIEWSLAM), *command], cwd=folder, check=True, stdout=subprocess.DEVNULL)
             rrd = Path(folder) / recording
-            frames = json.loads(rrd.with_suffix(".json").read_text())["sequence"]["frames"] if name != "diff" else None
+            frames = json.loads(rrd.with_suffix(".json").read_text())["sequence"]["frames"] if name in PER_FRAME else None
             per_frame = f", {rrd.stat().st_size / frames / 1024:.1f} KiB per frame" if frames else ""
             print(f"{name}: {rrd.stat().st_size} bytes{per_frame}")
             for size in SIZES:

@@ -44,13 +44,14 @@ def _losses(run: ScoredFile) -> str:
 
 
 def summary_markdown(scored: ScoredFiles) -> str:
-    """The title, how the figures were computed, a table of the runs' scores and each run's lost intervals."""
+    """The title, a table of the runs' scores, each run's lost intervals, then how the figures were
+    computed and the groundtruth: the numbers first, where a small window shows them."""
     stamps = scored.groundtruth.timestamps
-    lines = [f"# {scored.name}", "",
-             f"Groundtruth `{scored.groundtruth_path}`: {len(stamps)} poses over {stamps[-1] - stamps[0]:.1f} s.",
-             "", METHOD, "",
+    lines = [f"# {', '.join(run.name for run in scored.runs)} against {scored.name}", "",
              "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     lines += ["| " + " | ".join(_row(run)) + " |" for run in scored.runs]
     lines += ["", "Lost intervals (no pose for longer than the gap rule of docs/metrics.md):", ""]
     lines += [_losses(run) for run in scored.runs]
+    lines += ["", METHOD, "",
+              f"Groundtruth `{scored.groundtruth_path}`: {len(stamps)} poses over {stamps[-1] - stamps[0]:.1f} s."]
     return "\n".join(lines) + "\n"
