@@ -20,7 +20,7 @@ from viewer_slam import palette
 from viewer_slam.cli import main
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.se3 import pose_to_tq
-from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
+from viewer_slam.geometry.trajectory import read_tum, write_tum
 from viewer_slam.recording import layout
 from viewer_slam.schemas import validator
 

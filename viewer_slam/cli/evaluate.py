@@ -16,8 +16,8 @@ from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
-from ..evaluation.evaluation import why_no_pairs
 from ..evaluation.coverage import Span
+from ..evaluation.evaluation import why_no_pairs
 from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum

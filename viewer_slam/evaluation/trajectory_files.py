@@ -22,6 +22,7 @@ from ..pipelines.run import PipelineRun
 from .evaluation import Evaluation, evaluate, why_no_pairs
 from .imported import no_pose_reason
 from .report import pipeline_report, versions
+from .statistics import ErrorSeries
 
 
 @dataclass
@@ -33,6 +34,18 @@ class ScoredFile:
     format: str
     trajectory: Trajectory
     evaluation: Evaluation
+
+    @property
+    def ate(self) -> ErrorSeries:
+        """The per-pose ATE: a scored file has pose pairs (:func:`score_files` refuses one without)."""
+        assert self.evaluation.ate is not None
+        return self.evaluation.ate
+
+    @property
+    def alignment(self) -> np.ndarray:
+        """The rigid transform from the file's frame onto the groundtruth's that its ATE was scored under."""
+        assert self.evaluation.alignment is not None
+        return self.evaluation.alignment
 
     def pose_errors(self) -> np.ndarray:
         """The ATE error of each pose, NaN for a pose without a groundtruth pair."""

@@ -20,6 +20,7 @@ run report, every run an estimate) and ``NAME.<run>.txt`` (TUM), as ``record`` w
 """
 
 import sys
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -38,8 +39,15 @@ from . import layout
 from .blueprint import files_blueprint
 from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time
 from .rrd_file import RecordingFile
-from .session import (BAG_FLAGS, RecordOptions, RecordResult, check_outputs, earlier_trajectories, report_paths,
-                      write_staged)
+from .session import (
+    BAG_FLAGS,
+    RecordOptions,
+    RecordResult,
+    check_outputs,
+    earlier_trajectories,
+    report_paths,
+    write_staged,
+)
 from .sizes import extent, scene_sizes
 from .timelines import log_evaluation, send_frame_columns
 from .viewer import has_display, no_display_problem
@@ -111,7 +119,7 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
         report = scored.report()
         report_path, trajectory_paths = report_paths(out, names)
         earlier = earlier_trajectories(out)
-        error_top = max(float(run.evaluation.ate.errors.max()) for run in scored.runs)
+        error_top = max(float(run.ate.errors.max()) for run in scored.runs)
         with StagedFiles() as staged:
             recording = RecordingFile(staged.path(out), out,
                                       files_blueprint(names, scored.groundtruth.poses, error_top), spawn)
@@ -122,8 +130,7 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
             if recording.error is not None:
                 raise InputError(f"{out}: recording not written: {recording.error}")
             for run in scored.runs:
-                write_staged(trajectory_paths[run.name],
-                             lambda path, trajectory=run.trajectory: write_tum(path, trajectory), staged)
+                write_staged(trajectory_paths[run.name], partial(write_tum, trajectory=run.trajectory), staged)
             write_staged(report_path, lambda path: write_report(path, report), staged)
             staged.commit()
     for path in set(earlier) - set(trajectory_paths.values()):
@@ -182,7 +189,7 @@ def log_shape(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colou
     stream.log(layout.poses(run.name), rr.Points3D(positions, colors=palette.error_colours(run.pose_errors(), error_top),
                                                    radii=rr.Radius.ui_points(POSE_RADIUS)), static=True)
     gt_index, est_index = run.evaluation.pairs
-    to_estimate = np.linalg.inv(run.evaluation.alignment)
+    to_estimate = np.linalg.inv(run.alignment)
     reference = groundtruth.positions[gt_index] @ to_estimate[:3, :3].T + to_estimate[:3, 3]
     stream.log(layout.correspondences(run.name),
                rr.LineStrips3D(np.stack([positions[est_index], reference], axis=1), colors=[palette.faded(colour, CORRESPONDENCE_FADE, towards=40)],
