@@ -10,7 +10,11 @@ or file, exit code 2.
 
 import json
 import shutil
+import subprocess
+import sys
+from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from fixtures_eval import SHARED_DATA, perturbed, random_walk
@@ -235,3 +239,17 @@ def test_bad_input_is_one_line_naming_the_option_or_file(capsys, small, tmp_path
     assert code == 2, err
     assert err.splitlines() == [err.strip()] and err.startswith("viewslam: error: ") and problem in err, err
     assert (folder / "x.orb.txt").read_bytes() == before and not list(folder.glob("*.rrd"))
+
+
+@needs_study
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
+def test_the_viewer_renders_the_recording_with_both_runs(kidnap, tmp_path):
+    shot = tmp_path / "shot.png"
+    subprocess.run(["xvfb-run", "-a", Path(sys.executable).parent / "rerun", "--screenshot-to", shot,
+                    "--window-size", "1600x900", kidnap[0]], capture_output=True, timeout=180, check=True)
+    image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
+    assert image.shape[0] >= 900 and image.shape[1] >= 1600 and image.std() > 20
+    for position, name in enumerate(RUNS):  # each run's colour is drawn
+        distance = np.abs(image.astype(int) - palette.run_colour(name, position).rgb).sum(axis=2)
+        assert np.count_nonzero(distance < 40) > 200, name
