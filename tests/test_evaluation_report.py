@@ -10,8 +10,8 @@ from fixtures_eval import TUM_RPY, perturbed
 
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.report import build_report, pipeline_report, write_report
-from viewer_slam.evaluation.run import evaluate_run
+from viewer_slam.runs.report import build_report, pipeline_report, write_report
+from viewer_slam.runs.scoring import evaluate_run
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
 

@@ -10,7 +10,7 @@ import pytest
 from fixtures_eval import SHARED_DATA
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.run import evaluate_run
+from viewer_slam.runs.scoring import evaluate_run
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines.edges import EdgeClassifier
 from viewer_slam.pipelines.events import GraphEdge, KeyframeAdded, TrajectoryFinal

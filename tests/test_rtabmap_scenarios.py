@@ -15,7 +15,7 @@ from viewer_slam.dataset.resting import RestingStart
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.report import pipeline_report
+from viewer_slam.runs.report import pipeline_report
 from viewer_slam.geometry.trajectory import write_tum
 from viewer_slam.pipelines.events import (FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge, MapUpdated,
                                           TrackingLost, TrackingRecovered)

@@ -5,7 +5,7 @@ from pathlib import Path
 from ..dataset.catalog import resolve_sequence, study_scenarios
 from ..dataset.tum import open_sequence
 from ..errors import InputError
-from ..evaluation.imported import estimate_replay
+from ..runs.replay import estimate_replay
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import params_to_dict, resolve_params
 from .runner import BenchmarkTask

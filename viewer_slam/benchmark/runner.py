@@ -18,9 +18,9 @@ import numpy as np
 
 from ..dataset.tum import open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
-from ..evaluation.imported import replay_estimate
-from ..evaluation.report import pipeline_report, sequence_block
-from ..evaluation.run import evaluate_run
+from ..runs.replay import replay_estimate
+from ..runs.report import pipeline_report, sequence_block
+from ..runs.scoring import evaluate_run
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..pipelines.params import apply_overrides

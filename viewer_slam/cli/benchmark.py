@@ -59,8 +59,8 @@ def benchmark(
     from ..benchmark.tables import print_results
     from ..comparison.results import check_planned_sequences, load_results
     from ..dataset.tum import open_sequence
-    from ..evaluation.report import sequence_block
-    from ..evaluation.imported import check_format, named_estimates
+    from ..runs.report import sequence_block
+    from ..runs.replay import check_format, named_estimates
     from ..pipelines.selection import select_pipelines
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated

@@ -4,11 +4,11 @@ from collections.abc import Sequence as Stamps
 
 import numpy as np
 
+from ..evaluation.coverage import Span
+from ..evaluation.evaluation import Evaluation, evaluate
+from ..evaluation.statistics import ErrorSeries
 from ..geometry.trajectory import Trajectory
 from ..pipelines.run import PipelineRun
-from .coverage import Span
-from .evaluation import Evaluation, evaluate
-from .statistics import ErrorSeries
 
 PROCESSED_FRAMES_RULE = "processed frames"
 MIN_NODE_PAIRS = 3        # a rigid alignment needs three poses
