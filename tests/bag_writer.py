@@ -26,7 +26,7 @@ class BagWriter:
     """One bag being written: ``add(topic, msgtype, stamp_ns, message)`` with connections made on first use."""
 
     def __init__(self, path: Path, ros: int):
-        from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
         self.ros = ros
         self.typestore = get_typestore(Stores.ROS1_NOETIC if ros == 1 else Stores.ROS2_HUMBLE)

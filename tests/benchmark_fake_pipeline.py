@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from viewer_slam.geometry.camera import Camera
-from viewer_slam.geometry.se3 import make_pose, exp_so3, rot_to_quat
+from viewer_slam.geometry.se3 import exp_so3, make_pose, rot_to_quat
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from viewer_slam.pipelines.params import param

@@ -4,8 +4,17 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.geometry.se3 import (exp_so3, invert, make_pose, pose_from_tq, pose_to_tq, quat_to_rot,
-                                      rot_to_quat, rotation_angle, slerp)
+from viewer_slam.geometry.se3 import (
+    exp_so3,
+    invert,
+    make_pose,
+    pose_from_tq,
+    pose_to_tq,
+    quat_to_rot,
+    rot_to_quat,
+    rotation_angle,
+    slerp,
+)
 
 finite = st.floats(-10, 10, allow_nan=False)
 quaternions = arrays(np.float64, 4, elements=st.floats(-1, 1, allow_nan=False)).filter(lambda q: np.linalg.norm(q) > 0.1)

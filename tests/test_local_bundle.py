@@ -5,8 +5,15 @@ import numpy as np
 import pytest
 
 from viewer_slam.backend.bundle_solver import link_error, updated_pose
-from viewer_slam.backend.local_bundle import (FREE_FRAME, BundleSettings, Link, Observations, adjust_frame, edge_chi2,
-                                           link_terms)
+from viewer_slam.backend.local_bundle import (
+    FREE_FRAME,
+    BundleSettings,
+    Link,
+    Observations,
+    adjust_frame,
+    edge_chi2,
+    link_terms,
+)
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, transform_points
 
 FX, FY, CX, CY = 500.0, 510.0, 320.0, 240.0

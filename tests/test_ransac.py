@@ -9,9 +9,10 @@ from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 # errorFunction2: lateral variance (3 tan(58 deg / 640))^2 z, (3 tan(45 deg / 480))^2 z; depth (0.01 z^2)^2.
 RASTER_X = (3 * np.tan(np.radians(58) / 640)) ** 2
 RASTER_Y = (3 * np.tan(np.radians(45) / 480)) ** 2
+IDENTITY = np.eye(4)
 
 
-def distance(source, target, transform=np.eye(4), sigma_depth=0.01):
+def distance(source, target, transform=IDENTITY, sigma_depth=0.01):
     return mahalanobis_squared(transform[None], np.array([source], float), np.array([target], float), sigma_depth)[0, 0]
 
 

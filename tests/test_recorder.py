@@ -28,9 +28,18 @@ from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.edges import EdgeKind
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge,
-                                          MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus,
-                                          TrajectoryFinal)
+from viewer_slam.pipelines.events import (
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from viewer_slam.pipelines.params import param
 from viewer_slam.recording.budget import SnapshotBudget
 from viewer_slam.recording.console import print_summary
@@ -61,7 +70,7 @@ def write_tum_folder(folder: Path) -> Path:
     (folder / "depth").mkdir()
     rng = np.random.default_rng(7)
     stamps = START + np.arange(FRAMES) / RATE_HZ
-    for index, stamp in enumerate(stamps):
+    for stamp in stamps:
         rgb = rng.integers(0, 255, (CAMERA.height, CAMERA.width, 3), dtype=np.uint8)
         depth = np.full((CAMERA.height, CAMERA.width), 2.0 * 5000, dtype=np.uint16)
         cv2.imwrite(str(folder / "rgb" / f"{stamp:.6f}.png"), rgb)

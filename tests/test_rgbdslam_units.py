@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from binary_descriptors import descriptors
+
 from viewer_slam.backend.pose_graph import CHOLESKY, PCG, PoseGraph, information_from_sigmas
 from viewer_slam.errors import InputError
 from viewer_slam.frontend.features import Features
@@ -13,14 +13,20 @@ from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.events import GraphOptimized
 from viewer_slam.pipelines.params import apply_overrides, params_to_dict
 from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
-from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, PREDECESSOR, SAMPLED, edge_targets,
-                                                       graph_neighbourhood, neighbour_weights, weighted_sample)
-from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
-from viewer_slam.pipelines.rgbdslam.motion import edge_information, match
-from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
+from viewer_slam.pipelines.rgbdslam.candidates import (
+    NEIGHBOUR,
+    PREDECESSOR,
+    SAMPLED,
+    edge_targets,
+    graph_neighbourhood,
+    neighbour_weights,
+    weighted_sample,
+)
 from viewer_slam.pipelines.rgbdslam.emm import observability
-from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures
+from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
+from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures, edge_information, match
 from viewer_slam.pipelines.rgbdslam.node import MAP_STEP, Node
+from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
 from viewer_slam.pipelines.rgbdslam.segments import Segments
 
 CAMERA = Camera(262.5, 262.5, 159.5, 119.5, 320, 240)

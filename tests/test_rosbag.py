@@ -6,16 +6,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_writer import BagWriter, write_tum_bag
 from fixtures_eval import TUM_RPY, tum_excerpt
+
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.rosbag import BagSequence, open_bag
 from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
 from viewer_slam.errors import InputError
-from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
 from viewer_slam.evaluation import evaluate
+from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 FRAMES = 6

@@ -4,13 +4,19 @@ import cv2
 import numpy as np
 import pytest
 
+from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
+from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 from viewer_slam.pipelines.params import apply_overrides, resolve_params
 from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
-from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
-from viewer_slam.geometry.camera import Camera
-from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
-                                                 highest_hypothesis, prediction_matrix)
+from viewer_slam.pipelines.rtabmap.bayes import (
+    PREDICTION_LC,
+    VIRTUAL_PLACE,
+    BayesFilter,
+    adjusted_likelihood,
+    highest_hypothesis,
+    prediction_matrix,
+)
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity

@@ -11,6 +11,7 @@ from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
 
 RESOLUTION = (320, 240)
+IDENTITY = np.eye(4)
 # Paths span the whole run, so short runs move fast: 100 frames for the events (coverings,
 # featureless stretch) and for the long round; 40 for the rest.
 FRAMES = {"360_kidnap": 100, "360_kidnap_norevisit": 100, "nostructure_notexture_near_withloop": 100, "nostructure_texture_near_withloop": 100,
@@ -51,7 +52,7 @@ def world_points(sequence, j):
     return points @ pose[0, :3, :3].T + pose[0, :3, 3]
 
 
-def project(sequence, points, stamp, perturbation=np.eye(4)):
+def project(sequence, points, stamp, perturbation=IDENTITY):
     """Sub-pixel positions ``(N, 2)`` (NaN outside the image) and depths of world points seen
     from the ground-truth pose at ``stamp`` (moved by ``perturbation``: a wrong pose must
     break the agreement)."""
@@ -132,7 +133,7 @@ def test_depth_warped_with_groundtruth_agrees(generated, name):
     assert checked >= 3
 
 
-def colour_error(sequence, i, j, perturbation=np.eye(4)):
+def colour_error(sequence, i, j, perturbation=IDENTITY):
     """Median grey-level difference of ``j``'s points seen in colour images ``i`` and ``j``
     (each at its colour stamp; ``perturbation`` moves ``i``'s pose), over textured points
     (strong gradient), where a wrong pose shows.

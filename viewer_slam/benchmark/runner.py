@@ -18,13 +18,13 @@ import numpy as np
 
 from ..dataset.tum import open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
-from ..runs.replay import replay_estimate
-from ..runs.report import pipeline_report, sequence_block
-from ..runs.scoring import evaluate_run
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..pipelines.params import apply_overrides
 from ..pipelines.run import run_pipeline
+from ..runs.replay import replay_estimate
+from ..runs.report import pipeline_report, sequence_block
+from ..runs.scoring import evaluate_run
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,11 @@ from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
-from ..runs.report import write_report
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import read_trajectory
 from ..pipelines.params import INT_MAX
+from ..runs.report import write_report
 from ..terminal import print_table
 from .app import app
 

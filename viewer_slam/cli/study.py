@@ -55,8 +55,8 @@ def study(
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
     written = write_all(out, runs, found, base, command)
     if record:
+        from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
         from ..study.recording import record_sequence
-        from ..study.manifest import groundtruth_path, poses_path, SYSTEMS
 
         for sequence in selected:
             target = out / f"{sequence.name}.rrd"

@@ -2,9 +2,8 @@
 
 import json
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
-
 from functools import cache
+from pathlib import Path
 from typing import Annotated
 
 import numpy as np

@@ -42,7 +42,7 @@ class Pipeline(ABC):
         self.params = params if params is not None else self.Params()
         self.seed = seed
 
-    def prefetch(self, frame: Frame) -> None:
+    def prefetch(self, frame: Frame) -> None:  # noqa: B027  (a hook: subclasses may override it, need not)
         """Shown each frame, in order, before :meth:`process` gets it (one frame ahead), so that
         work which does not depend on the map can start early; by default nothing is done."""
 

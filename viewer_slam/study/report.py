@@ -102,7 +102,7 @@ def findings(runs: list[Run], found: list[dict]) -> list[str]:
 
 def write_report(path: Path, runs: list[Run], found: list[dict], mirror: str, command: str) -> None:
     unverified = sorted({run.sequence.alias for run in runs if not run.verified})
-    lines = [f"# The study replayed from its own runs", "",
+    lines = ["# The study replayed from its own runs", "",
              f"Runs, groundtruth, result logs and chart scripts of {REPOSITORY} at commit `{COMMIT}`, fetched from "
              f"{mirror}. ATE as TUM's evaluate_ate.py; RPE as evaluate_rpe.py's default under Python 2.7 "
              f"(`--rpe-mode tum`). Coverage and penalised ATE by viewslam's rules. Written by `{command}`.", "",
