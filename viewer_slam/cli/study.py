@@ -55,13 +55,13 @@ def study(
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
     written = write_all(out, runs, found, base, command)
     if record:
+        from ..recording.trajectory_files import record_trajectory_files
         from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
-        from ..study.recording import record_sequence
 
         for sequence in selected:
             target = out / f"{sequence.name}.rrd"
-            record_sequence(target, sequence, files[groundtruth_path(sequence)][0],
-                            {system.name: files[poses_path(sequence, system)][0] for system in SYSTEMS})
+            record_trajectory_files(target, f"viewslam study {sequence.alias}", files[groundtruth_path(sequence)][0],
+                                    {system.name: files[poses_path(sequence, system)][0] for system in SYSTEMS})
             written.append(target)
     from ..study.report import table
 

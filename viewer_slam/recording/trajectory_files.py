@@ -1,6 +1,6 @@
-"""One Rerun recording per study sequence: the groundtruth and both published runs aligned onto it.
+"""A Rerun recording of trajectory files alone: a groundtruth and runs aligned onto it (the study's).
 
-The study's runs come without images, so the recording shows what a trajectory file can:
+Runs that come without images (the study's published ones) show what a trajectory file can:
 the groundtruth, each run aligned as its ATE saw it with its poses coloured by their error,
 the per-pose ATE on the dataset's time, and the intervals each run was lost.
 """
@@ -12,15 +12,15 @@ import numpy as np
 from .. import palette
 from ..evaluation import evaluate
 from ..geometry.trajectory import read_tum
-from .manifest import StudySequence
 
 
-def record_sequence(target: Path, sequence: StudySequence, groundtruth_file: Path, runs: dict[str, Path]) -> None:
-    """Write ``target`` (.rrd): ``world/groundtruth``, ``world/<run>`` and ``metrics/<run>/ate``."""
+def record_trajectory_files(target: Path, name: str, groundtruth_file: Path, runs: dict[str, Path]) -> None:
+    """Write ``target`` (.rrd), the recording ``name``: ``world/groundtruth``, ``world/<run>`` and
+    ``metrics/<run>/ate``."""
     import rerun as rr
 
     groundtruth = read_tum(groundtruth_file)
-    stream = rr.RecordingStream(f"viewslam study {sequence.alias}")
+    stream = rr.RecordingStream(name)
     partial = target.with_name(f".{target.name}.part")
     stream.save(str(partial))
     stream.log("world/groundtruth", rr.LineStrips3D([groundtruth.positions], colors=[(160, 160, 160)]), static=True)
