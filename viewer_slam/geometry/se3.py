@@ -20,13 +20,15 @@ def make_pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 def pose_from_tq(t: np.ndarray, q: np.ndarray) -> np.ndarray:
     """4x4 poses from translations ``(..., 3)`` and xyzw quaternions ``(..., 4)`` (normalised here)."""
-    return make_pose(Rotation.from_quat(q).as_matrix(), t)
+    rotations: np.ndarray = Rotation.from_quat(q).as_matrix()
+    return make_pose(rotations, t)
 
 
 def pose_to_tq(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Translations ``(..., 3)`` and xyzw quaternions ``(..., 4)``, ``qw >= 0``, of 4x4 poses."""
     T = np.asarray(T, dtype=np.float64)
-    return T[..., :3, 3].copy(), Rotation.from_matrix(T[..., :3, :3]).as_quat(canonical=True)
+    quaternions: np.ndarray = Rotation.from_matrix(T[..., :3, :3]).as_quat(canonical=True)
+    return T[..., :3, 3].copy(), quaternions
 
 
 def invert(T: np.ndarray) -> np.ndarray:
@@ -38,7 +40,8 @@ def invert(T: np.ndarray) -> np.ndarray:
 
 def transform_points(T: np.ndarray, points: np.ndarray) -> np.ndarray:
     """Apply one 4x4 transform to points ``(N, 3)``."""
-    return points @ T[:3, :3].T + T[:3, 3]
+    moved: np.ndarray = points @ T[:3, :3].T + T[:3, 3]
+    return moved
 
 
 def rotation_angle(R: np.ndarray) -> np.ndarray:
@@ -55,4 +58,5 @@ def rotation_angle(R: np.ndarray) -> np.ndarray:
     skew = np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]], axis=-1)
     sine = 0.5 * np.linalg.norm(skew, axis=-1)
     cosine = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
-    return np.arctan2(sine, cosine)
+    angle: np.ndarray = np.arctan2(sine, cosine)
+    return angle
