@@ -1,5 +1,6 @@
 """Turn command-line choices into the list of (sequence, pipeline) tasks."""
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..dataset.catalog import resolve_sequence, study_scenarios
@@ -17,9 +18,9 @@ SCENARIO_SEED = 0
 
 def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int | None = None,
                scenario_frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-               assignments: list[str] = (), config: Path | None = None, seed: int = 0,
+               assignments: Sequence[str] = (), config: Path | None = None, seed: int = 0,
                timeout_s: float | None = None, recordings: Path | None = None,
-               estimates: list[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
+               estimates: Sequence[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
     """One task per sequence and pipeline, sequence-major; ``specs`` None means the synthetic scenarios.
 
     ``estimates`` (name, file) are trajectories of one sequence: each is one more task after

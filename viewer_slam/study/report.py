@@ -7,6 +7,7 @@ say, not what was expected of them.
 
 import json
 from pathlib import Path
+from typing import Any
 
 from ..atomic import StagedFiles
 from ..benchmark.plots import plot_metric
@@ -70,7 +71,7 @@ def findings(runs: list[Run], found: list[dict]) -> list[str]:
     agreeing = [(run, figure) for run, figure in checked if run.log[figure].agrees(run.reproduced[figure])]
     sentences.append(f"{len(agreeing)} of the {len(checked)} ATE and RPE figures of the result logs print exactly "
                      f"as their runs give them (RPE as evaluate_rpe.py's default under Python 2.7).")
-    by_sequence = {}
+    by_sequence: dict[str, dict[str, Any]] = {}
     for run in runs:
         by_sequence.setdefault(run.sequence.alias, {})[run.system] = run
     for alias, pair in by_sequence.items():
