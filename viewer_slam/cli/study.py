@@ -69,5 +69,5 @@ def study(
     typer.echo(f"{len(found)} discrepancies between the published figures and the runs:")
     for entry in found:
         typer.echo(f"  {entry['text']}")
-    for path in written:
-        typer.echo(f"wrote {path}", err=True)
+    for output in written:
+        typer.echo(f"wrote {output}", err=True)

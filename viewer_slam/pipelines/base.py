@@ -85,9 +85,9 @@ def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
         problem = f"called sys.exit({error.code!r})" if isinstance(error, SystemExit) else \
             f"{type(error).__name__}: {' '.join(str(error).split())}"
         raise InputError(f"{where}: cannot be imported: {problem}") from None
-    problem = interface_problem(loaded)
-    if problem is not None:
-        raise InputError(f"{where}: {problem}")
+    unusable = interface_problem(loaded)
+    if unusable is not None:
+        raise InputError(f"{where}: {unusable}")
     return loaded
 
 
