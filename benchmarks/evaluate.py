@@ -17,7 +17,6 @@ import time
 import numpy as np
 from evo.core import metrics, sync
 from evo.core.trajectory import PoseTrajectory3D
-
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.evaluation import evaluate

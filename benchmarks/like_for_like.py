@@ -42,15 +42,15 @@ sys.path.insert(0, str(ROOT))
 from viewer_slam.comparison.compare import compare_reports  # noqa: E402
 from viewer_slam.comparison.output import print_comparison  # noqa: E402
 from viewer_slam.dataset.tum import open_sequence  # noqa: E402
-from viewer_slam.evaluation.imported import replay_estimate  # noqa: E402
-from viewer_slam.evaluation.report import build_report, pipeline_report, write_report  # noqa: E402
-from viewer_slam.evaluation.run import evaluate_run  # noqa: E402
 from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
 from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
 from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered  # noqa: E402
 from viewer_slam.pipelines.params import apply_overrides  # noqa: E402
 from viewer_slam.pipelines.rtabmap import RtabmapParams  # noqa: E402
 from viewer_slam.pipelines.run import drive  # noqa: E402
+from viewer_slam.runs.replay import replay_estimate  # noqa: E402
+from viewer_slam.runs.report import build_report, pipeline_report, write_report  # noqa: E402
+from viewer_slam.runs.scoring import evaluate_run  # noqa: E402
 
 REFERENCE = ROOT.parent / "shared" / "data" / "reference" / "rtabmap-0.23.8"
 TUM = ROOT.parent / "shared" / "data" / "tum"

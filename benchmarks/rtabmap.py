@@ -24,7 +24,6 @@ from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.run import run_pipeline
 
-
 REST_FRAMES = 60
 
 

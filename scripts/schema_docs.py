@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from viewer_slam.schemas import load_schema, schema_id, schema_names
+from viewer_slam.schemas import load_schema, schema_id, schema_names  # noqa: E402  (after the path is set)
 
 PAGE = ROOT / "docs" / "report-schema.md"
 ORDER = ("report", "evaluate", "benchmark_results")  # then any other schema, by name

@@ -11,22 +11,23 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from viewer_slam.geometry.camera import TUM_DEPTH_FACTOR
-from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, pose_to_tq
+from viewer_slam.geometry.se3 import invert, make_pose, pose_to_tq
 from viewer_slam.geometry.trajectory import read_tum
 
 ROS1_TF = "tf/msg/tfMessage"  # the type name in TUM's (ROS Fuerte) bags
 ROS2_TF = "tf2_msgs/msg/TFMessage"
 OPTICAL_FRAME = "/openni_rgb_optical_frame"
-KINECT_TO_OPTICAL = make_pose(exp_so3(np.array([0.3, -1.2, 0.5])), np.array([0.02, -0.05, 0.1]))
+KINECT_TO_OPTICAL = make_pose(Rotation.from_rotvec(np.array([0.3, -1.2, 0.5])).as_matrix(), np.array([0.02, -0.05, 0.1]))
 
 
 class BagWriter:
     """One bag being written: ``add(topic, msgtype, stamp_ns, message)`` with connections made on first use."""
 
     def __init__(self, path: Path, ros: int):
-        from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
         self.ros = ros
         self.typestore = get_typestore(Stores.ROS1_NOETIC if ros == 1 else Stores.ROS2_HUMBLE)

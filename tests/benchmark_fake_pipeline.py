@@ -15,9 +15,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from viewer_slam.geometry.camera import Camera
-from viewer_slam.geometry.se3 import make_pose, exp_so3, rot_to_quat
+from viewer_slam.geometry.se3 import make_pose, pose_to_tq
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from viewer_slam.pipelines.params import param
@@ -30,7 +31,7 @@ START_S = 1000.0
 def groundtruth_pose(t: float) -> np.ndarray:
     """A camera walking along x while turning slowly about y."""
     dt = t - START_S
-    return make_pose(exp_so3(np.array([0.0, 0.2 * dt, 0.0])), np.array([0.5 * dt, 0.1 * np.sin(dt), 0.0]))
+    return make_pose(Rotation.from_rotvec(np.array([0.0, 0.2 * dt, 0.0])).as_matrix(), np.array([0.5 * dt, 0.1 * np.sin(dt), 0.0]))
 
 
 def write_tum_folder(folder: Path, frames: int = 30, size: tuple[int, int] = (32, 24)) -> Path:
@@ -50,7 +51,7 @@ def write_tum_folder(folder: Path, frames: int = 30, size: tuple[int, int] = (32
     truth = []
     for t in stamps:
         pose = groundtruth_pose(t)
-        qx, qy, qz, qw = rot_to_quat(pose[:3, :3])
+        qx, qy, qz, qw = pose_to_tq(pose)[1]
         truth.append(f"{t:.4f} {pose[0, 3]:.6f} {pose[1, 3]:.6f} {pose[2, 3]:.6f} {qx:.6f} {qy:.6f} {qz:.6f} {qw:.6f}")
     (folder / "groundtruth.txt").write_text("\n".join(truth) + "\n")
     Camera(40.0, 40.0, width / 2 - 0.5, height / 2 - 0.5, width, height).save(folder / "camera.json")

@@ -4,8 +4,9 @@ import shutil
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from viewer_slam.geometry.se3 import exp_so3, make_pose
+from viewer_slam.geometry.se3 import make_pose
 from viewer_slam.geometry.trajectory import Trajectory
 
 # The shared data sits beside the checkout (``/work/shared`` for ``/work/main``, also for a
@@ -23,7 +24,7 @@ def random_walk(count: int, seed: int, rate_hz: float = 30.0, start: float = 100
     pose = np.eye(4)
     for i in range(count):
         poses[i] = pose
-        step = make_pose(exp_so3(rng.normal(scale=0.02, size=3)), rng.normal(scale=0.01, size=3))
+        step = make_pose(Rotation.from_rotvec(rng.normal(scale=0.02, size=3)).as_matrix(), rng.normal(scale=0.01, size=3))
         pose = pose @ step
     return Trajectory(start + np.arange(count) / rate_hz, poses)
 
@@ -31,7 +32,7 @@ def random_walk(count: int, seed: int, rate_hz: float = 30.0, start: float = 100
 def perturbed(trajectory: Trajectory, seed: int, sigma_m: float = 0.005, sigma_rad: float = 0.005) -> Trajectory:
     """The same stamps with every pose disturbed independently."""
     rng = np.random.default_rng(seed)
-    noise = [make_pose(exp_so3(rng.normal(scale=sigma_rad, size=3)), rng.normal(scale=sigma_m, size=3))
+    noise = [make_pose(Rotation.from_rotvec(rng.normal(scale=sigma_rad, size=3)).as_matrix(), rng.normal(scale=sigma_m, size=3))
              for _ in range(len(trajectory))]
     return Trajectory(trajectory.timestamps, trajectory.poses @ np.array(noise))
 

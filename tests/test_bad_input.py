@@ -8,16 +8,16 @@ three-frame excerpt of the shared fr1/rpy sequence.
 import json
 import os
 import shutil
-import subprocess
 import struct
+import subprocess
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-
 from fixtures_eval import TUM_RPY, tum_excerpt
+
 from viewer_slam.cli import main
 
 pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")

@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-
 from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, write_tum_folder
+
 from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
 from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task

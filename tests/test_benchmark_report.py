@@ -5,8 +5,8 @@ import json
 from pathlib import Path
 
 import pytest
-
 from benchmark_fake_pipeline import MODULE, write_tum_folder
+
 from viewer_slam.benchmark.plots import CHARTS
 from viewer_slam.benchmark.report import findings, write_outputs
 from viewer_slam.benchmark.runner import BenchmarkTask, TaskResult, execute_task

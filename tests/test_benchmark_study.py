@@ -6,8 +6,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from benchmark_fake_pipeline import MODULE
+
 from viewer_slam.benchmark.executors import LocalExecutor, RayExecutor, run_tasks
 from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.plots import CHARTS

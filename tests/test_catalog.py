@@ -3,8 +3,8 @@
 from collections import Counter
 
 import pytest
-
 from benchmark_fake_pipeline import write_tum_folder
+
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import TUM_SEQUENCES, known_tum_sequence, resolve_sequence, tum_cache_dir, tum_sequence
 from viewer_slam.dataset.download import TUM_MIRROR, archive_url

@@ -64,7 +64,7 @@ def table_rows(out: str) -> dict[str, list[str]]:
 @pytest.mark.parametrize("picture", ["png", "svg", "pdf"])
 def test_output_is_byte_identical_across_runs(capsys, tmp_path, monkeypatch, picture):
     for name, second in (("a", 1_700_000_000.0), ("b", 1_700_000_100.0)):  # a date in the file would differ
-        monkeypatch.setattr("time.time", lambda: second)
+        monkeypatch.setattr("time.time", lambda second=second: second)
         assert run(capsys, GROUNDTRUTH, ESTIMATE, "--all-deltas", "--json", tmp_path / f"{name}.json",
                    "--plot", tmp_path / f"{name}.{picture}")[0] == 0
     assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()

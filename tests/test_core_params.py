@@ -7,7 +7,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from viewer_slam.errors import InputError
 from viewer_slam.pipelines.params import INT_MAX, apply_overrides, param, param_fields, params_to_dict, resolve_params

@@ -10,8 +10,14 @@ from viewer_slam.geometry.camera import Camera
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.base import Pipeline, make_pipeline
 from viewer_slam.pipelines.edges import EdgeKind
-from viewer_slam.pipelines.events import (FrameTracked, KeyframeAdded, GraphEdge, TrackingLost, TrackingStatus,
-                                          TrajectoryFinal)
+from viewer_slam.pipelines.events import (
+    FrameTracked,
+    GraphEdge,
+    KeyframeAdded,
+    TrackingLost,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from viewer_slam.pipelines.params import param
 from viewer_slam.pipelines.run import drive, run_pipeline
 
@@ -67,13 +73,11 @@ class FakeSequence:
         return self.n
 
     def frames(self, max_frames=None, stride=1):
-        yielded = 0
-        for index in range(0, self.n, stride):
+        for yielded, index in enumerate(range(0, self.n, stride)):
             if max_frames is not None and yielded >= max_frames:
                 return
             if index == self.interrupt_at:
                 raise KeyboardInterrupt
-            yielded += 1
             yield Frame(index, 100.0 + index / 30, np.zeros((24, 32, 3), np.uint8), np.zeros((24, 32), np.float32))
 
 

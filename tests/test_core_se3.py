@@ -4,40 +4,25 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.geometry.se3 import (exp_so3, invert, make_pose, pose_from_tq, pose_to_tq, quat_to_rot,
-                                      rot_to_quat, rotation_angle, slerp)
+from viewer_slam.geometry.interpolation import interpolate_poses
+from viewer_slam.geometry.se3 import invert, make_pose, pose_from_tq, pose_to_tq, rotation_angle
+from viewer_slam.geometry.trajectory import Trajectory
 
 finite = st.floats(-10, 10, allow_nan=False)
-quaternions = arrays(np.float64, 4, elements=st.floats(-1, 1, allow_nan=False)).filter(lambda q: np.linalg.norm(q) > 0.1)
-
-
-@given(quaternions)
-def test_quaternion_matches_scipy(q):
-    np.testing.assert_allclose(quat_to_rot(q), Rotation.from_quat(q).as_matrix(), atol=1e-12)
 
 
 @settings(max_examples=200)
-@given(arrays(np.float64, 3, elements=st.floats(-3, 3, allow_nan=False)))
-def test_rotation_quaternion_round_trip(rotvec):
-    R = exp_so3(rotvec)
-    np.testing.assert_allclose(R, Rotation.from_rotvec(rotvec).as_matrix(), atol=1e-12)
-    q = rot_to_quat(R)
+@given(arrays(np.float64, 3, elements=finite), arrays(np.float64, 3, elements=st.floats(-3, 3, allow_nan=False)))
+def test_pose_quaternion_round_trip_keeps_qw_non_negative(t, rotvec):
+    T = make_pose(Rotation.from_rotvec(rotvec).as_matrix(), t)
+    t2, q = pose_to_tq(T)
     assert q[3] >= 0
-    np.testing.assert_allclose(quat_to_rot(q), R, atol=1e-12)
-
-
-def test_rot_to_quat_covers_every_branch():
-    angles = [np.pi, np.pi - 1e-9, 0.0, 1e-9]
-    axes = np.eye(3)
-    for angle in angles:
-        for axis in axes:
-            R = Rotation.from_rotvec(axis * angle).as_matrix()
-            np.testing.assert_allclose(quat_to_rot(rot_to_quat(R)), R, atol=1e-9)
+    np.testing.assert_allclose(pose_from_tq(t2, q), T, atol=1e-12)
 
 
 @given(arrays(np.float64, 3, elements=finite), arrays(np.float64, 3, elements=st.floats(-3, 3, allow_nan=False)))
 def test_invert_is_inverse(t, rotvec):
-    T = make_pose(exp_so3(rotvec), t)
+    T = make_pose(Rotation.from_rotvec(rotvec).as_matrix(), t)
     np.testing.assert_allclose(invert(T) @ T, np.eye(4), atol=1e-9)
 
 
@@ -52,10 +37,17 @@ def test_vectorised_pose_round_trip():
     np.testing.assert_allclose(invert(T) @ T, np.broadcast_to(np.eye(4), T.shape), atol=1e-12)
 
 
-def test_rotation_angle_and_slerp():
-    q0 = rot_to_quat(np.eye(3))[None]
-    q1 = rot_to_quat(exp_so3([0, 0, 1.2]))[None]
-    halfway = quat_to_rot(slerp(q0, q1, np.array([0.5])))[0]
-    assert np.isclose(rotation_angle(halfway), 0.6)
-    assert np.isclose(rotation_angle(exp_so3([0.3, -0.4, 0])), 0.5)
-    np.testing.assert_allclose(slerp(q1, q1, np.array([0.3])), q1, atol=1e-12)
+def test_rotation_angle_is_exact_from_tiny_angles_to_pi():
+    for angle in (1e-12, 1e-9, 1e-3, 0.5, np.pi - 1e-9):
+        R = Rotation.from_rotvec(np.array([0.48, -0.6, 0.64]) * angle).as_matrix()
+        assert abs(rotation_angle(R) - angle) <= 1e-15 * max(angle, 1.0)
+
+
+def test_interpolation_slerps_between_poses():
+    turned = make_pose(Rotation.from_rotvec([0, 0, 1.2]).as_matrix(), [1.0, 2.0, 0.0])
+    trajectory = Trajectory(np.array([0.0, 0.1]), np.stack([np.eye(4), turned]))
+    poses, covered = interpolate_poses(trajectory, np.array([0.05, 0.1]))
+    assert covered.all()
+    np.testing.assert_allclose(poses[0], make_pose(Rotation.from_rotvec([0, 0, 0.6]).as_matrix(), [0.5, 1.0, 0.0]),
+                               atol=1e-12)
+    np.testing.assert_array_equal(poses[1], turned)

@@ -15,11 +15,11 @@ import pytest
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.diagnosis import SignalRecorder, diagnose_losses
-from viewer_slam.evaluation.imported import replay_estimate
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.runs.replay import replay_estimate
 
 pytestmark = pytest.mark.slow
 REAL = Path("/work/shared/data/tum/rgbd_dataset_freiburg1_rpy")

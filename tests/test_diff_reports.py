@@ -5,8 +5,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from benchmark_fake_pipeline import MODULE, write_tum_folder
+
 from viewer_slam.cli import main
 from viewer_slam.pipelines import base
 

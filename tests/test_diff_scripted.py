@@ -4,8 +4,8 @@ import json
 
 import numpy as np
 import pytest
-
 from benchmark_fake_pipeline import MODULE, write_tum_folder
+
 from viewer_slam.cli import main
 from viewer_slam.comparison import compare_reports
 from viewer_slam.comparison.output import frame_ranges

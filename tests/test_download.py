@@ -11,10 +11,10 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-
 from bag_writer import write_tum_bag
 from benchmark_fake_pipeline import write_tum_folder
 from fixtures_eval import TUM_RPY, tum_excerpt
+
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.tum import open_sequence

@@ -17,15 +17,15 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from rerun.chunk import RrdReader
-
 from bag_writer import write_tum_bag
 from fixtures_eval import TUM_RPY, tum_excerpt
+from rerun.chunk import RrdReader
+
+from viewer_slam import palette
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
-from viewer_slam import palette
 from viewer_slam.recording import layout
 from viewer_slam.recording.session import output_path
 

@@ -5,10 +5,11 @@ import pytest
 from evo.core import metrics
 from evo.core.trajectory import PoseTrajectory3D
 from fixtures_eval import TRAJECTORIES, perturbed, random_walk
+from scipy.spatial.transform import Rotation
 
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.association import associate
-from viewer_slam.geometry.se3 import exp_so3, make_pose
+from viewer_slam.geometry.se3 import make_pose
 from viewer_slam.geometry.trajectory import Trajectory, read_tum
 
 
@@ -25,7 +26,7 @@ def random_pair(seed: int) -> tuple[Trajectory, Trajectory]:
     groundtruth = random_walk(300, seed)
     estimate = perturbed(groundtruth, seed + 1)
     rng = np.random.default_rng(seed)
-    moved = make_pose(exp_so3(rng.normal(size=3)), rng.normal(scale=3.0, size=3))  # the estimate's own frame
+    moved = make_pose(Rotation.from_rotvec(rng.normal(size=3)).as_matrix(), rng.normal(scale=3.0, size=3))  # the estimate's own frame
     return groundtruth, Trajectory(estimate.timestamps, moved @ estimate.poses)
 
 

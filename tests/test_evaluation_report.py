@@ -10,10 +10,10 @@ from fixtures_eval import TUM_RPY, perturbed
 
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.report import build_report, pipeline_report, write_report
-from viewer_slam.evaluation.run import evaluate_run
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
+from viewer_slam.runs.report import build_report, pipeline_report, write_report
+from viewer_slam.runs.scoring import evaluate_run
 
 PIPELINE_KEYS = {"source", "frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",
                  "odometry_ate", "node_ate", "loop_closures", "edges", "edges_by_detection",

@@ -11,8 +11,8 @@ import time
 from pathlib import Path
 
 import pytest
-
 from fixtures_eval import TUM_RPY, tum_excerpt
+
 from viewer_slam.atomic import exclusive, lock_path
 from viewer_slam.cli import main
 
@@ -240,6 +240,7 @@ def test_an_unexpected_error_is_one_line_with_a_log_and_keeps_what_was_recorded(
 
 def test_an_interrupted_benchmark_writes_the_finished_rows(tmp_path, monkeypatch, capsys):
     from benchmark_fake_pipeline import MODULE, write_tum_folder
+
     import viewer_slam.benchmark.suite as suite
     from viewer_slam.benchmark.runner import execute_task
     from viewer_slam.pipelines import base
@@ -264,6 +265,7 @@ def test_an_interrupted_benchmark_writes_the_finished_rows(tmp_path, monkeypatch
 
 def test_benchmark_prints_its_table_with_full_numbers_when_piped(tmp_path, monkeypatch, capsys):
     from benchmark_fake_pipeline import MODULE, write_tum_folder
+
     from viewer_slam.pipelines import base
 
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
@@ -356,6 +358,7 @@ def test_a_plugin_that_calls_sys_exit_at_import_is_that_plugins_one_line(tmp_pat
 def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_are_kept(tmp_path, monkeypatch,
                                                                                           capsys):
     from benchmark_fake_pipeline import MODULE, write_tum_folder
+
     from viewer_slam.pipelines import base
 
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
@@ -377,6 +380,7 @@ def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_ar
 
 def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(tmp_path, monkeypatch):
     from benchmark_fake_pipeline import MODULE, write_tum_folder
+
     from viewer_slam.pipelines import base
 
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)

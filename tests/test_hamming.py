@@ -2,8 +2,8 @@
 by image position) against distances counted by hand."""
 
 import numpy as np
-
 from binary_descriptors import descriptors
+
 from viewer_slam.frontend.hamming import hamming_nearest_matches, hamming_ratio_matches, nearest_within_radius
 
 

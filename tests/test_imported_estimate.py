@@ -4,15 +4,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from benchmark_fake_pipeline import groundtruth_pose, write_tum_folder
+
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.errors import InputError
-from viewer_slam.evaluation.imported import parse_estimate, replay_estimate
-from viewer_slam.evaluation.report import pipeline_report
-from viewer_slam.evaluation.run import evaluate_run
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
+from viewer_slam.runs.replay import parse_estimate, replay_estimate
+from viewer_slam.runs.report import pipeline_report
+from viewer_slam.runs.scoring import evaluate_run
 
 FRAMES = 30
 OFFSET_M = 0.03

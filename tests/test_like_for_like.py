@@ -6,15 +6,15 @@ import json
 
 import numpy as np
 import pytest
-
 from fixtures_eval import SHARED_DATA
+
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.run import evaluate_run
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines.edges import EdgeClassifier
 from viewer_slam.pipelines.events import GraphEdge, KeyframeAdded, TrajectoryFinal
 from viewer_slam.pipelines.run import PipelineRun
+from viewer_slam.runs.scoring import evaluate_run
 
 REFERENCE = SHARED_DATA / "reference" / "rtabmap-0.23.8"
 PER_FRAME = REFERENCE / "rgbd_dataset_freiburg1_rpy_200-perframe"

@@ -3,11 +3,19 @@
 import gtsam
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from viewer_slam.backend.bundle_solver import link_error, updated_pose
-from viewer_slam.backend.local_bundle import (FREE_FRAME, BundleSettings, Link, Observations, adjust_frame, edge_chi2,
-                                           link_terms)
-from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, transform_points
+from viewer_slam.backend.local_bundle import (
+    FREE_FRAME,
+    BundleSettings,
+    Link,
+    Observations,
+    adjust_frame,
+    edge_chi2,
+    link_terms,
+)
+from viewer_slam.geometry.se3 import invert, make_pose, transform_points
 
 FX, FY, CX, CY = 500.0, 510.0, 320.0, 240.0
 K = np.array([[FX, 0, CX], [0, FY, CY], [0, 0, 1]])
@@ -23,8 +31,8 @@ def scene(pixel_noise: float, seed: int = 0):
     """200 points 2-4 m away seen by four held key frames and the adjusted frame."""
     rng = np.random.default_rng(seed)
     world = rng.uniform([-1, -1, 2], [1, 1, 4], (200, 3))
-    held = {frame: make_pose(exp_so3([0, 0.02 * frame, 0]), [0.05 * frame, 0, 0]) for frame in range(4)}
-    truth = make_pose(exp_so3([0.01, 0.1, 0]), [0.22, 0.01, 0])
+    held = {frame: make_pose(Rotation.from_rotvec([0, 0.02 * frame, 0]).as_matrix(), [0.05 * frame, 0, 0]) for frame in range(4)}
+    truth = make_pose(Rotation.from_rotvec([0.01, 0.1, 0]).as_matrix(), [0.22, 0.01, 0])
     rows = []
     for frame, pose in [*held.items(), (FREE_FRAME, truth)]:
         pixels, depth = project(pose, world)
@@ -36,7 +44,7 @@ def scene(pixel_noise: float, seed: int = 0):
 
 def test_chi2_of_an_edge_is_gtsams_unwhitened_error_over_the_pixel_variance():
     rng = np.random.default_rng(1)
-    pose = make_pose(exp_so3([0.1, 0.05, 0.02]), [0.1, 0.2, 0.0])
+    pose = make_pose(Rotation.from_rotvec([0.1, 0.05, 0.02]).as_matrix(), [0.1, 0.2, 0.0])
     points = rng.uniform([-1, -1, 2], [1, 1, 4], (4, 3))
     observations = Observations(np.arange(4), np.zeros(4, int), rng.uniform(0, 480, (4, 2)),
                                 np.array([2.0, 3.0, np.nan, 0.0]))
@@ -58,7 +66,7 @@ def test_chi2_of_an_edge_is_gtsams_unwhitened_error_over_the_pixel_variance():
 
 def test_adjustment_brings_a_perturbed_pose_back_to_the_truth():
     rng, world, held, truth, observations = scene(pixel_noise=0.5)
-    guess = truth @ make_pose(exp_so3([0.005, -0.005, 0.003]), [0.02, -0.01, 0.015])
+    guess = truth @ make_pose(Rotation.from_rotvec([0.005, -0.005, 0.003]).as_matrix(), [0.02, -0.01, 0.015])
     noisy_points = world + rng.normal(0, 0.01, world.shape)
     result = adjust_frame(guess, noisy_points, observations, held, Link(3, invert(held[3]) @ guess, 1e-3, 1e-3), K,
                           BundleSettings())
@@ -93,17 +101,17 @@ def test_without_a_kernel_one_pass_drops_nothing():
 
 
 def test_the_camera_moves_as_g2os_sbacam_update_translation_added_rotation_by_a_quaternion_on_the_right():
-    pose = make_pose(exp_so3([0.2, -0.1, 0.3]), [1.0, 2.0, 3.0])
+    pose = make_pose(Rotation.from_rotvec([0.2, -0.1, 0.3]).as_matrix(), [1.0, 2.0, 3.0])
     vector_part = np.sin(0.05) * np.array([0.0, 0.0, 1.0])     # quaternion of a 0.1 rad turn about z
     moved = updated_pose(pose, np.r_[0.1, 0.0, -0.2, vector_part])
     np.testing.assert_allclose(moved[:3, 3], [1.1, 2.0, 2.8])
-    np.testing.assert_allclose(moved[:3, :3], pose[:3, :3] @ exp_so3([0, 0, 0.1]), atol=1e-12)
+    np.testing.assert_allclose(moved[:3, :3], pose[:3, :3] @ Rotation.from_rotvec([0, 0, 0.1]).as_matrix(), atol=1e-12)
 
 
 def test_the_link_error_is_the_relative_translation_and_quaternion_vector_part_as_g2os_edgesbacam():
-    key = make_pose(exp_so3([0.1, 0.0, 0.2]), [0.5, 0.0, 0.0])
+    key = make_pose(Rotation.from_rotvec([0.1, 0.0, 0.2]).as_matrix(), [0.5, 0.0, 0.0])
     measured = make_pose(np.eye(3), [0.1, 0.0, 0.0])
-    adjusted = key @ measured @ make_pose(exp_so3([0.0, 0.3, 0.0]), [0.0, 0.02, 0.0])
+    adjusted = key @ measured @ make_pose(Rotation.from_rotvec([0.0, 0.3, 0.0]).as_matrix(), [0.0, 0.02, 0.0])
     to_measured, information = link_terms(key, Link(0, measured, translation_variance=0.01, rotation_variance=0.04))
     np.testing.assert_allclose(link_error(to_measured, adjusted), [0.0, 0.02, 0.0, 0.0, np.sin(0.15), 0.0], atol=1e-12)
     np.testing.assert_allclose(information, [100.0] * 3 + [25.0] * 3)

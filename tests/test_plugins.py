@@ -9,8 +9,8 @@ from importlib.metadata import EntryPoint
 from pathlib import Path
 
 import pytest
-
 from benchmark_fake_pipeline import FakeParams, FakePipeline, write_tum_folder
+
 from viewer_slam.errors import InputError
 from viewer_slam.pipelines.base import ENTRY_POINT_GROUP, Pipeline, load_plugin
 

@@ -20,17 +20,27 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 from rich.console import Console
+from scipy.spatial.transform import Rotation
 
 from viewer_slam.cli import main
 from viewer_slam.geometry.camera import Camera
-from viewer_slam.geometry.se3 import exp_so3, invert, make_pose, pose_to_tq
+from viewer_slam.geometry.se3 import invert, make_pose, pose_to_tq
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.edges import EdgeKind
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge,
-                                          MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus,
-                                          TrajectoryFinal)
+from viewer_slam.pipelines.events import (
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from viewer_slam.pipelines.params import param
 from viewer_slam.recording.budget import SnapshotBudget
 from viewer_slam.recording.console import print_summary
@@ -46,14 +56,14 @@ RATE_HZ = 30.0
 START = 1305031100.0
 LOST = range(12, 18)  # frames without a pose
 NOISE_M = 0.004
-MAP_FROM_WORLD = make_pose(exp_so3(np.array([0.1, -0.3, 0.6])), np.array([0.5, -1.0, 0.2]))
+MAP_FROM_WORLD = make_pose(Rotation.from_rotvec(np.array([0.1, -0.3, 0.6])).as_matrix(), np.array([0.5, -1.0, 0.2]))
 
 
 def true_pose(timestamp: float) -> np.ndarray:
     """A camera on a 1 m circle, looking outwards."""
     angle = 0.5 * (timestamp - START)
     position = np.array([np.cos(angle), np.sin(angle), 0.3 * angle])
-    return make_pose(exp_so3(np.array([0.0, 0.0, angle])), position)
+    return make_pose(Rotation.from_rotvec(np.array([0.0, 0.0, angle])).as_matrix(), position)
 
 
 def write_tum_folder(folder: Path) -> Path:
@@ -61,7 +71,7 @@ def write_tum_folder(folder: Path) -> Path:
     (folder / "depth").mkdir()
     rng = np.random.default_rng(7)
     stamps = START + np.arange(FRAMES) / RATE_HZ
-    for index, stamp in enumerate(stamps):
+    for stamp in stamps:
         rgb = rng.integers(0, 255, (CAMERA.height, CAMERA.width, 3), dtype=np.uint8)
         depth = np.full((CAMERA.height, CAMERA.width), 2.0 * 5000, dtype=np.uint16)
         cv2.imwrite(str(folder / "rgb" / f"{stamp:.6f}.png"), rgb)

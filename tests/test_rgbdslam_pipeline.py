@@ -12,8 +12,18 @@ from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import write_tum
 from viewer_slam.pipelines.edges import EdgeKind
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge,
-                                          MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+from viewer_slam.pipelines.events import (
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from viewer_slam.pipelines.rgbdslam import RgbdSlamParams
 from viewer_slam.pipelines.run import run_pipeline
 

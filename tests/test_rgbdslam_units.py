@@ -2,25 +2,32 @@
 
 import numpy as np
 import pytest
-
 from binary_descriptors import descriptors
+from scipy.spatial.transform import Rotation
+
 from viewer_slam.backend.pose_graph import CHOLESKY, PCG, PoseGraph, information_from_sigmas
 from viewer_slam.errors import InputError
 from viewer_slam.frontend.features import Features
 from viewer_slam.geometry.camera import Camera
-from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
+from viewer_slam.geometry.se3 import invert, make_pose
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.events import GraphOptimized
 from viewer_slam.pipelines.params import apply_overrides, params_to_dict
 from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
-from viewer_slam.pipelines.rgbdslam.candidates import (NEIGHBOUR, PREDECESSOR, SAMPLED, edge_targets,
-                                                       graph_neighbourhood, neighbour_weights, weighted_sample)
-from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
-from viewer_slam.pipelines.rgbdslam.motion import edge_information, match
-from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
+from viewer_slam.pipelines.rgbdslam.candidates import (
+    NEIGHBOUR,
+    PREDECESSOR,
+    SAMPLED,
+    edge_targets,
+    graph_neighbourhood,
+    neighbour_weights,
+    weighted_sample,
+)
 from viewer_slam.pipelines.rgbdslam.emm import observability
-from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures
+from viewer_slam.pipelines.rgbdslam.graph import NodeGraph
+from viewer_slam.pipelines.rgbdslam.motion import MeasuredFeatures, edge_information, match
 from viewer_slam.pipelines.rgbdslam.node import MAP_STEP, Node
+from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
 from viewer_slam.pipelines.rgbdslam.segments import Segments
 
 CAMERA = Camera(262.5, 262.5, 159.5, 119.5, 320, 240)
@@ -159,7 +166,7 @@ def test_the_final_optimisation_prunes_above_5_then_1_then_a_quarter_as_v2s_batc
 
 def test_joining_segments_moves_the_newer_one_onto_the_older():
     graph = PoseGraph()
-    old = make_pose(exp_so3([0.0, 0.3, 0.0]), [1.0, 0.0, 0.0])
+    old = make_pose(Rotation.from_rotvec([0.0, 0.3, 0.0]).as_matrix(), [1.0, 0.0, 0.0])
     graph.add_node(0, np.eye(4))
     graph.add_node(1, old)
     guess = make_pose(np.eye(3), [5.0, 5.0, 0.0])
@@ -171,7 +178,7 @@ def test_joining_segments_moves_the_newer_one_onto_the_older():
     segments.add(0)
     segments.add(2)
     node_segment = {0: 0, 1: 0, 2: 2, 3: 2}
-    relative = make_pose(exp_so3([0.1, 0.0, 0.0]), [0.0, 0.2, 0.0])  # node 1 sees node 3 here
+    relative = make_pose(Rotation.from_rotvec([0.1, 0.0, 0.0]).as_matrix(), [0.0, 0.2, 0.0])  # node 1 sees node 3 here
     assert segments.join(graph, node_segment, 1, 3, relative)
     np.testing.assert_allclose(invert(graph.poses[1]) @ graph.poses[3], relative, atol=1e-12)
     np.testing.assert_allclose(invert(graph.poses[2]) @ graph.poses[3],
@@ -240,7 +247,7 @@ def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_
     from viewer_slam.pipelines.rgbdslam.motion import estimate_motion
     rng = np.random.default_rng(3)
     node_points = rng.uniform([-1, -1, 1], [1, 1, 3], (100, 3))
-    frame_from_node = make_pose(exp_so3(np.array([0.02, -0.03, 0.01])), np.array([0.05, 0.0, -0.02]))
+    frame_from_node = make_pose(Rotation.from_rotvec(np.array([0.02, -0.03, 0.01])).as_matrix(), np.array([0.05, 0.0, -0.02]))
     frame_points = node_points @ frame_from_node[:3, :3].T + frame_from_node[:3, 3]
     frame_points[25:] = rng.uniform([-1, -1, 1], [1, 1, 3], (75, 3))  # 25 true matches among 100
     matches = (np.arange(100), np.arange(100))

@@ -6,16 +6,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from bag_writer import BagWriter, write_tum_bag
 from fixtures_eval import TUM_RPY, tum_excerpt
+from scipy.spatial.transform import Rotation
+
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.rosbag import BagSequence, open_bag
 from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
 from viewer_slam.errors import InputError
-from viewer_slam.geometry.se3 import exp_so3, make_pose, pose_to_tq
 from viewer_slam.evaluation import evaluate
+from viewer_slam.geometry.se3 import make_pose, pose_to_tq
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 FRAMES = 6
@@ -189,7 +190,7 @@ def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, st
 
 @pytest.mark.parametrize("ros", [1, 2])
 def test_groundtruth_from_a_pose_topic(tmp_path, ros):
-    expected = [make_pose(exp_so3(np.array([0.1 * k, 0.0, 0.2])), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
+    expected = [make_pose(Rotation.from_rotvec(np.array([0.1 * k, 0.0, 0.2])).as_matrix(), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
 
     def poses(bag):
         write_poses(bag, "/mocap/pose", expected)
@@ -304,7 +305,7 @@ def test_a_tum_bag_as_evaluate_groundtruth_scores_as_its_folder(bag, excerpt, tm
 
 @pytest.mark.parametrize("ros", [1, 2])
 def test_a_bag_of_poses_alone_is_groundtruth_as_the_same_poses_in_a_file(tmp_path, capsys, ros):
-    truth = [make_pose(exp_so3(np.array([0.0, 0.05 * k, 0.0])), np.array([0.1 * k, 0.0, 0.02 * k]))
+    truth = [make_pose(Rotation.from_rotvec(np.array([0.0, 0.05 * k, 0.0])).as_matrix(), np.array([0.1 * k, 0.0, 0.02 * k]))
              for k in range(30)]
     path = tmp_path / ("mocap.bag" if ros == 1 else "mocap")
     with BagWriter(path, ros) as bag:
@@ -338,7 +339,7 @@ def test_a_bag_without_a_pose_topic_is_one_line_as_evaluate_groundtruth(tmp_path
 @pytest.mark.parametrize("ros", [1, 2])
 def test_a_bag_as_an_estimate_is_its_pose_topic(tmp_path, capsys, ros):
     stamps = 5 + np.arange(30) * 0.05
-    truth = np.array([make_pose(exp_so3(np.array([0.02 * k, 0.0, 0.0])), np.array([0.0, 0.1 * k, 0.0]))
+    truth = np.array([make_pose(Rotation.from_rotvec(np.array([0.02 * k, 0.0, 0.0])).as_matrix(), np.array([0.0, 0.1 * k, 0.0]))
                       for k in range(30)])
     write_tum(tmp_path / "truth.txt", Trajectory(stamps, truth))
     estimate = truth.copy()

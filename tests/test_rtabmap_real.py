@@ -3,8 +3,8 @@ set from the figures of docs/pipelines/rtabmap.md with a margin, so that they ca
 back, not noise."""
 
 import pytest
-
 from fixtures_eval import TUM_RPY
+
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.params import apply_overrides

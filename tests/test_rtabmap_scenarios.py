@@ -15,13 +15,20 @@ from viewer_slam.dataset.resting import RestingStart
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
-from viewer_slam.evaluation.report import pipeline_report
 from viewer_slam.geometry.trajectory import write_tum
-from viewer_slam.pipelines.events import (FrameTracked, GraphOptimized, KeyframeAdded, GraphEdge, MapUpdated,
-                                          TrackingLost, TrackingRecovered)
+from viewer_slam.pipelines.events import (
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+)
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.runs.report import pipeline_report
 
 pytestmark = pytest.mark.slow
 FRAMES = 300

@@ -3,14 +3,21 @@
 import cv2
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
-from viewer_slam.geometry.se3 import exp_so3, invert, make_pose
-from viewer_slam.pipelines.params import apply_overrides, resolve_params
-from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
 from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
 from viewer_slam.geometry.camera import Camera
-from viewer_slam.pipelines.rtabmap.bayes import (PREDICTION_LC, VIRTUAL_PLACE, BayesFilter, adjusted_likelihood,
-                                                 highest_hypothesis, prediction_matrix)
+from viewer_slam.geometry.se3 import invert, make_pose
+from viewer_slam.pipelines.params import apply_overrides, resolve_params
+from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
+from viewer_slam.pipelines.rtabmap.bayes import (
+    PREDICTION_LC,
+    VIRTUAL_PLACE,
+    BayesFilter,
+    adjusted_likelihood,
+    highest_hypothesis,
+    prediction_matrix,
+)
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
@@ -317,13 +324,13 @@ def test_a_guess_window_of_zero_registers_every_frame_against_the_whole_local_ma
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Vis/CorGuessWinSize": 0}, "test"))
     monkeypatch.setattr(odometry, "guided_matches", lambda *_: pytest.fail("guided matching with a window of 0"))
     for step in range(3):
-        pose = make_pose(exp_so3([0, np.radians(step), 0]), [0.01 * step, 0, 0])
+        pose = make_pose(Rotation.from_rotvec([0, np.radians(step), 0]).as_matrix(), [0.01 * step, 0, 0])
         assert np.allclose(odometry.process(view(world, pose, words), step / 30).pose, pose, atol=1e-3)
 
 
 def z_y_x(yaw: float, pitch: float, roll: float) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll), the convention of RTAB-Map's Euler angles."""
-    return exp_so3([0, 0, yaw]) @ exp_so3([0, pitch, 0]) @ exp_so3([roll, 0, 0])
+    return Rotation.from_rotvec([0, 0, yaw]).as_matrix() @ Rotation.from_rotvec([0, pitch, 0]).as_matrix() @ Rotation.from_rotvec([roll, 0, 0]).as_matrix()
 
 
 def test_the_motion_guess_is_the_last_velocity_times_the_time_since_the_last_frame(monkeypatch):
@@ -354,7 +361,7 @@ def test_after_a_loss_odometry_registers_against_the_whole_local_map():
     assert blocked.pose is None and odometry.velocity is None
     # The camera comes back 0.4 m and 15 degrees away: far outside the 40-pixel window
     # around the last pose, found by matching the whole map.
-    moved = make_pose(exp_so3([0, np.radians(15), 0]), [0.4, 0.1, 0.2])
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(15), 0]).as_matrix(), [0.4, 0.1, 0.2])
     back = odometry.process(view(world, moved, words), 2 / 30)
     assert back.pose is not None and np.allclose(back.pose, moved, atol=1e-3) and not back.new_session
 
@@ -362,7 +369,7 @@ def test_after_a_loss_odometry_registers_against_the_whole_local_map():
 def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"))
-    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     odometry.process(view(world, np.eye(4), words), 0 / 30)
     assert np.allclose(odometry.process(view(world, moved, words), 1 / 30).pose, moved, atol=1e-3)
     other = np.random.default_rng(4)
@@ -375,7 +382,7 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
     odometry.process(view(world, np.eye(4), words), 0 / 30)
-    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     features = view(world, moved, words)
     # 30 depths moved along their rays by 8 px of disparity on the fake g2o/Baseline of
     # 7.5 cm: PnP, which only reprojects, takes them; in the bundle each point splits the
@@ -404,7 +411,7 @@ def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
     odometry.process(view(world, np.eye(4), words), 0 / 30)
-    moved = make_pose(exp_so3([0, np.radians(2), 0]), [0.02, 0, 0.01])
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     new_rng = np.random.default_rng(5)
     seen = view(np.r_[world[100:240], scene(30, new_rng)], moved, np.r_[words[100:240], descriptors(30, new_rng)])
     seen.keypoints[:20, 0] += 12.0           # map points 100..119 matched 12 px off: outliers of PnP
@@ -420,14 +427,14 @@ def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
     graph = LocationGraph(iterations=50, max_error=max_error)
     for i in range(10):
         angle = 2 * np.pi * i / 10
-        truth = make_pose(exp_so3([0, angle, 0]), [np.sin(angle), 0, np.cos(angle)])
+        truth = make_pose(Rotation.from_rotvec([0, angle, 0]).as_matrix(), [np.sin(angle), 0, np.cos(angle)])
         graph.add_location(i, 0, truth @ make_pose(np.eye(3), [drift * i, 0, 0]), variance=Variance(1e-4, 1e-4))
     return graph
 
 
 def test_a_consistent_loop_closure_is_accepted_and_pulls_the_chain_together():
     graph = chain_graph(drift=0.002)
-    truth_9 = make_pose(exp_so3([0, 2 * np.pi * 0.9, 0]), [np.sin(2 * np.pi * 0.9), 0, np.cos(2 * np.pi * 0.9)])
+    truth_9 = make_pose(Rotation.from_rotvec([0, 2 * np.pi * 0.9, 0]).as_matrix(), [np.sin(2 * np.pi * 0.9), 0, np.cos(2 * np.pi * 0.9)])
     truth_0 = make_pose(np.eye(3), [0, 0, 1])
     before = np.linalg.norm(graph.poses[9][:3, 3] - truth_9[:3, 3])
     outcome = graph.close_loop(0, 9, invert(truth_0) @ truth_9, variance=Variance(1e-4, 1e-4))
@@ -466,7 +473,7 @@ def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     ([0, 0, 1], 150, False),      # about the optical axis: roll, not checked
 ])
 def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_believed(axis, degrees, rejected):
-    relative = make_pose(exp_so3(np.radians(degrees) * np.array(axis, float)), [0.1, 0, 0])
+    relative = make_pose(Rotation.from_rotvec(np.radians(degrees) * np.array(axis, float)).as_matrix(), [0.1, 0, 0])
     assert too_large_rotation(relative) == rejected
 
 

@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from fixtures_eval import perturbed, random_walk
+
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.se3 import pose_to_tq

@@ -29,11 +29,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 from test_recorder import MAP_FROM_WORLD, ScriptedPipeline, write_tum_folder
 
 from viewer_slam import palette
 from viewer_slam.cli.view import free_port
-from viewer_slam.geometry.se3 import exp_so3, make_pose, transform_points
+from viewer_slam.geometry.se3 import make_pose, transform_points
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.events import FrameTracked, MapUpdated
 from viewer_slam.recording import blueprint
@@ -230,7 +231,7 @@ def path(scale: float, heading_deg: float = 30.0) -> np.ndarray:
     """Camera poses along a curved path of about ``scale`` metres, looking ``heading_deg`` off +x."""
     t = np.linspace(0.0, 1.0, 50)
     positions = scale * np.stack([t, 0.4 * np.sin(3 * t), 0.1 * t], axis=1)
-    rotation = exp_so3(np.array([0.0, 0.0, np.radians(heading_deg)])) @ exp_so3(np.array([0.0, np.pi / 2, 0.0]))
+    rotation = Rotation.from_rotvec(np.array([0.0, 0.0, np.radians(heading_deg)])).as_matrix() @ Rotation.from_rotvec(np.array([0.0, np.pi / 2, 0.0])).as_matrix()
     return np.stack([make_pose(rotation, p) for p in positions])
 
 

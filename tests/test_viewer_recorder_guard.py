@@ -8,8 +8,14 @@ from viewer_slam import palette
 from viewer_slam.dataset.frame import Frame
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import make_pose
-from viewer_slam.pipelines.events import (FeatureMatches, FrameTracked, GraphOptimized, MapUpdated,
-                                          TrackingStatus, TrajectoryFinal)
+from viewer_slam.pipelines.events import (
+    FeatureMatches,
+    FrameTracked,
+    GraphOptimized,
+    MapUpdated,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from viewer_slam.recording.recorder import PipelineRecorder
 from viewer_slam.recording.sizes import scene_sizes
 

@@ -51,7 +51,8 @@ def run_colour(name: str, position: int = 0) -> Colour:
 
 def faded(colour: Colour, share: float = 0.55, towards: int = 90) -> tuple[int, int, int]:
     """``colour`` mixed with a dark grey: the same hue, in the background."""
-    return tuple(int((1 - share) * c + share * towards) for c in colour.rgb)
+    red, green, blue = (int((1 - share) * c + share * towards) for c in colour.rgb)
+    return red, green, blue
 
 
 def error_colours(errors: np.ndarray, top: float) -> np.ndarray:

@@ -1,13 +1,14 @@
 """Turn command-line choices into the list of (sequence, pipeline) tasks."""
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from ..dataset.catalog import resolve_sequence, study_scenarios
 from ..dataset.tum import open_sequence
 from ..errors import InputError
-from ..evaluation.imported import estimate_replay
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import params_to_dict, resolve_params
+from ..runs.replay import estimate_replay
 from .runner import BenchmarkTask
 
 # Synthetic scenarios are always generated with this seed, so every benchmark scores the
@@ -17,9 +18,9 @@ SCENARIO_SEED = 0
 
 def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int | None = None,
                scenario_frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-               assignments: list[str] = (), config: Path | None = None, seed: int = 0,
+               assignments: Sequence[str] = (), config: Path | None = None, seed: int = 0,
                timeout_s: float | None = None, recordings: Path | None = None,
-               estimates: list[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
+               estimates: Sequence[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
     """One task per sequence and pipeline, sequence-major; ``specs`` None means the synthetic scenarios.
 
     ``estimates`` (name, file) are trajectories of one sequence: each is one more task after
@@ -39,17 +40,19 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
     for spec in specs or study_scenarios():
         folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
-        def recording(run: str) -> Path | None:
-            return recordings / f"{name.replace('/', '_')}.{run}.rrd" if recordings is not None else None
-
         for pipeline in pipelines:
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
                                        parameters=params_to_dict(params[pipeline]), seed=seed, max_frames=max_frames,
-                                       timeout_s=timeout_s, recording=recording(pipeline)))
+                                       timeout_s=timeout_s, recording=_recording(recordings, name, pipeline)))
         for estimate, file in estimates:
             # Read now: a file that is no trajectory fails before any task runs, and its format is settled.
             replay = estimate_replay(open_sequence(folder), file, estimate_format, max_frames=max_frames)
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=estimate, max_frames=max_frames,
-                                       timeout_s=timeout_s, recording=recording(estimate), estimate=file,
+                                       timeout_s=timeout_s, recording=_recording(recordings, name, estimate), estimate=file,
                                        estimate_format=replay.params.format))
     return tasks
+
+
+def _recording(recordings: Path | None, name: str, run: str) -> Path | None:
+    """Where a task records its run, when the benchmark records: one .rrd per sequence and run."""
+    return recordings / f"{name.replace('/', '_')}.{run}.rrd" if recordings is not None else None

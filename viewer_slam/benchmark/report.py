@@ -14,7 +14,7 @@ from ..atomic import StagedFiles
 from ..comparison.output import markdown_comparison
 from ..comparison.results import RUNS_FOLDER, BenchmarkResults, compare_results, load_results, runs_report_path
 from ..errors import InputError
-from ..evaluation.report import versions, write_report
+from ..runs.report import versions, write_report
 from .plots import CHARTS, plot_all
 from .runner import TaskResult
 from .tables import result_row, write_csv, write_json

@@ -18,13 +18,13 @@ import numpy as np
 
 from ..dataset.tum import open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
-from ..evaluation.imported import replay_estimate
-from ..evaluation.report import pipeline_report, sequence_block
-from ..evaluation.run import evaluate_run
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..pipelines.params import apply_overrides
 from ..pipelines.run import run_pipeline
+from ..runs.replay import replay_estimate
+from ..runs.report import pipeline_report, sequence_block
+from ..runs.scoring import evaluate_run
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,7 @@ def _run(task: BenchmarkTask) -> TaskResult:
         frames = len(sequence) if task.max_frames is None else min(len(sequence), task.max_frames)
     else:
         signals = SignalRecorder()
-        sinks = {"sinks": [signals], "frame_sinks": [signals.frame]}
+        sinks: dict[str, Any] = {"sinks": [signals], "frame_sinks": [signals.frame]}
         if task.estimate is not None:
             run = replay_estimate(sequence, task.pipeline, task.estimate, task.estimate_format,
                                   max_frames=task.max_frames, **sinks)
@@ -162,6 +162,7 @@ def _record(task: BenchmarkTask) -> tuple[dict[str, Any], str]:
     """Run through `viewslam record` (recording, report and trajectory beside it); the run's block and poses."""
     from ..recording.session import RecordOptions, record  # Rerun is loaded only by tasks that record
 
+    runs: dict[str, Any]
     if task.estimate is not None:
         runs = {"estimates": [f"{task.pipeline}={task.estimate}"], "format": task.estimate_format}
     else:

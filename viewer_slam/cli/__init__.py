@@ -46,7 +46,7 @@ def _run(argv: list[str] | None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
-        import typer
+        import typer  # noqa: F401  (loaded first: the except clauses below look its exceptions up)
 
         from . import benchmark, datasets, diff, evaluate, pipelines, record, study, synth, view  # noqa: F401  (register commands)
         from .app import app

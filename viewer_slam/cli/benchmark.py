@@ -59,9 +59,9 @@ def benchmark(
     from ..benchmark.tables import print_results
     from ..comparison.results import check_planned_sequences, load_results
     from ..dataset.tum import open_sequence
-    from ..evaluation.report import sequence_block
-    from ..evaluation.imported import check_format, named_estimates
     from ..pipelines.selection import select_pipelines
+    from ..runs.replay import check_format, named_estimates
+    from ..runs.report import sequence_block
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     chosen = pipelines + pipeline

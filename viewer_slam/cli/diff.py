@@ -6,7 +6,7 @@ import typer
 
 from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..errors import InputError
-from ..evaluation.report import write_report
+from ..runs.report import write_report
 from .app import app
 
 

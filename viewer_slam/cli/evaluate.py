@@ -18,11 +18,11 @@ from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.coverage import Span
 from ..evaluation.evaluation import why_no_pairs
-from ..evaluation.report import write_report
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import read_trajectory
 from ..pipelines.params import INT_MAX
+from ..runs.report import write_report
 from ..terminal import print_table
 from .app import app
 

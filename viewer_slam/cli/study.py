@@ -57,7 +57,7 @@ def study(
     written = write_all(out, runs, found, base, command)
     if record:
         from ..recording.trajectory_files import record_trajectory_files
-        from ..study.manifest import groundtruth_path, poses_path, SYSTEMS
+        from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
 
         for sequence in selected:
             recorded = record_trajectory_files(
@@ -71,5 +71,5 @@ def study(
     typer.echo(f"{len(found)} discrepancies between the published figures and the runs:")
     for entry in found:
         typer.echo(f"  {entry['text']}")
-    for path in written:
-        typer.echo(f"wrote {path}", err=True)
+    for output in written:
+        typer.echo(f"wrote {output}", err=True)

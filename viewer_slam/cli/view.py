@@ -9,6 +9,7 @@ from ..errors import InputError
 from ..recording.viewer import LOCALHOST, free_port, has_display, no_display_problem, viewer_binary
 from .app import app
 
+
 def web_viewer_command(recording: Path, web_port: int, grpc_port: int) -> list[str]:
     """Rerun serving its web viewer on ``web_port`` and the recording over gRPC on ``grpc_port``,
     both on 127.0.0.1 only."""

@@ -348,7 +348,7 @@ def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--grou
     stamps, poses = [], []
     for connection, _, raw in _messages(path, reader, connections):
         message = _deserialize(path, reader, raw, connection)
-        pose = getattr(message, "transform", None) or getattr(message, "pose")
+        pose = getattr(message, "transform", None) or message.pose
         pose = getattr(pose, "pose", pose)  # the ...WithCovariance wrappers
         stamps.append(_stamp_ns(message.header.stamp))
         poses.append(_pose(path, topic, stamps[-1], getattr(pose, "translation", None) or pose.position,

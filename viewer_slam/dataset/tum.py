@@ -162,7 +162,7 @@ def _decode(path: Path, data: bytes, colour: bool, size: Callable[[int, int], No
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
         try:
-            image = Image.open(io.BytesIO(data))
+            image: Image.Image = Image.open(io.BytesIO(data))
         except Image.UnidentifiedImageError:
             return None
         except Image.DecompressionBombError:  # more pixels than any camera has: never decoded

@@ -43,7 +43,7 @@ class ImageSignals:
     valid_depth_share: float
 
 
-_CORNERS = cv2.FastFeatureDetector_create(threshold=CORNER_CONTRAST, nonmaxSuppression=True)
+_CORNERS = cv2.FastFeatureDetector.create(threshold=CORNER_CONTRAST, nonmaxSuppression=True)
 
 
 def measure_image(frame: Frame) -> ImageSignals:

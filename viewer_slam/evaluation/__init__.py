@@ -1,4 +1,4 @@
-"""Trajectory metrics (ATE, RPE, coverage-aware scores) and reports."""
+"""Trajectory metrics (ATE, RPE, coverage-aware scores): pure, on geometry alone."""
 
 from .coverage import Coverage
 from .evaluation import Evaluation, evaluate

@@ -11,4 +11,5 @@ def absolute_errors(reference_positions: np.ndarray, estimate_positions: np.ndar
     for every pair, or ``(N, 4, 4)``, one per pair (each tracked segment aligned on its own).
     """
     aligned = np.einsum("...ij,...j->...i", alignment[..., :3, :3], estimate_positions) + alignment[..., :3, 3]
-    return np.linalg.norm(aligned - reference_positions, axis=1)
+    errors: np.ndarray = np.linalg.norm(aligned - reference_positions, axis=1)
+    return errors

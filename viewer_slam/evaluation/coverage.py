@@ -19,7 +19,7 @@ nothing about a rate, and are judged at the frame rate.
 """
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -43,7 +43,7 @@ class Span(NamedTuple):
     end: float
     rule: str = "given"
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"start": self.start, "end": self.end, "rule": self.rule}
 
 
@@ -79,7 +79,7 @@ class Coverage:
             return self.lost_intervals[-1][0]
         return None
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"ratio": self.ratio, "lost_intervals": [[start, end] for start, end in self.lost_intervals],
                 "span": self.span.to_dict()}
 

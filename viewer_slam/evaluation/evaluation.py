@@ -1,6 +1,7 @@
 """Evaluate an estimated trajectory against groundtruth: ATE, RPE and coverage-aware scores."""
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -48,7 +49,7 @@ class Evaluation:
     rpe_mode: str = "delta"
     node_ate: ErrorSeries | None = None
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         """The report blocks ``alignment``, ``ate``, ``ate_segments``, ``rpe``, ``coverage`` and ``penalized_ate``."""
         return {
             "alignment": self.alignment_name,
@@ -73,7 +74,8 @@ class Evaluation:
         if self.pose_alignment is None:
             return None
         rotations, translations = self.pose_alignment[:, :3, :3], self.pose_alignment[:, :3, 3]
-        return np.einsum("nij,nj->ni", rotations, estimate.positions) + translations
+        aligned: np.ndarray = np.einsum("nij,nj->ni", rotations, estimate.positions) + translations
+        return aligned
 
 
 def evaluate(
@@ -145,15 +147,16 @@ def evaluate(
         first, second = pairs_by_frames(len(stamps), int(delta))
     else:
         first, second = pairs_by_seconds(stamps, delta)
+    sim3_scale = float(np.linalg.norm(fitted.transform[:3, 0])) \
+        if align == "sim3" and fitted.transform is not None else 1.0
     metric_scale = matched.copy()  # RPE is alignment-free, but a similarity's scale must apply
     if align == "sim3":
-        metric_scale[:, :3, 3] *= np.linalg.norm(fitted.transform[:3, 0])
+        metric_scale[:, :3, 3] *= sim3_scale
     rpe_trans, rpe_rot = relative_errors(reference, metric_scale, first, second)
     has_pairs = len(first) > 0
     rpe_stamps = stamps[second]
     if rpe_mode == "tum":
-        rpe_stamps, rpe_trans, rpe_rot = _tum_rpe(groundtruth, estimate, offset,
-                                                  np.linalg.norm(fitted.transform[:3, 0]) if align == "sim3" else 1.0)
+        rpe_stamps, rpe_trans, rpe_rot = _tum_rpe(groundtruth, estimate, offset, sim3_scale)
         has_pairs = len(rpe_stamps) > 0
 
     penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, fitted.per_pose,

@@ -18,7 +18,6 @@ from ..geometry.trajectory import Trajectory  # noqa: E402
 from .coverage import lost_gap_threshold  # noqa: E402
 from .evaluation import Evaluation  # noqa: E402
 
-
 # Metadata that differs from run to run (a date, the writer's version), left out so the same
 # evaluation gives the same file.
 VOLATILE_METADATA = {"png": {"Software": None}, "svg": {"Date": None}, "pdf": {"CreationDate": None}}

@@ -13,6 +13,10 @@ Pure Python with no dependency: a few thousand draws take milliseconds.
 """
 
 import math
+from collections.abc import Sequence
+from typing import Any, TypeVar
+
+Item = TypeVar("Item")
 
 _N = 624
 _M = 397
@@ -146,22 +150,22 @@ class Python27Random:
         """An integer in [a, b], both ends included."""
         return self.randrange(a, b + 1)
 
-    def choice(self, seq):
+    def choice(self, seq: Sequence[Item]) -> Item:
         """``seq[int(random() * len(seq))]``."""
         return seq[int(self.random() * len(seq))]
 
-    def shuffle(self, x: list) -> None:
+    def shuffle(self, x: list[Any]) -> None:
         """2.7's in-place shuffle: ``j = int(random() * (i + 1))`` from the end."""
         for i in reversed(range(1, len(x))):
             j = int(self.random() * (i + 1))
             x[i], x[j] = x[j], x[i]
 
-    def sample(self, population, k: int) -> list:
+    def sample(self, population: Sequence[Item], k: int) -> list[Item]:
         """2.7's ``sample``: a pool for small populations, else redraws against a set of picks."""
         n = len(population)
         if not 0 <= k <= n:
             raise ValueError("sample larger than population")
-        result = [None] * k
+        result: list[Any] = [None] * k
         setsize = 21
         if k > 5:
             setsize += 4 ** math.ceil(math.log(k * 3, 4))
@@ -172,7 +176,7 @@ class Python27Random:
                 result[i] = pool[j]
                 pool[j] = pool[n - i - 1]
         else:
-            selected = set()
+            selected: set[int] = set()
             for i in range(k):
                 j = int(self.random() * n)
                 while j in selected:

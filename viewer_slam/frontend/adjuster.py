@@ -43,7 +43,7 @@ ADJUSTABLE = {"ORB": ORB_THRESHOLD, "SIFT": SIFT_THRESHOLD}
 
 def _cell_detector(kind: str):
     # v2's AORB: ORB with 10000 features, FAST threshold adjusted; SIFT with no feature limit.
-    return cv2.ORB_create(nfeatures=10000) if kind == "ORB" else cv2.SIFT_create(nfeatures=0)
+    return cv2.ORB.create(nfeatures=10000) if kind == "ORB" else cv2.SIFT.create(nfeatures=0)
 
 
 class AdjustedDetector:

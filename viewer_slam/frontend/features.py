@@ -54,19 +54,19 @@ def _make_detector(kind: str, max_features: int):
         raise InputError("feature detector SURF is patented and absent from the pip OpenCV builds; "
                          f"choose one of {', '.join(DETECTORS)}")
     if kind == "ORB":
-        return cv2.ORB_create(nfeatures=max_features * 2, fastThreshold=ORB_THRESHOLD.start), None
+        return cv2.ORB.create(nfeatures=max_features * 2, fastThreshold=int(ORB_THRESHOLD.start)), None
     if kind == "SIFT":
-        return cv2.SIFT_create(nfeatures=max_features * 2, contrastThreshold=SIFT_THRESHOLD.start), None
+        return cv2.SIFT.create(nfeatures=max_features * 2, contrastThreshold=SIFT_THRESHOLD.start), None
     if kind == "AKAZE":
-        return cv2.AKAZE_create(threshold=0.0005), None
+        return cv2.AKAZE.create(threshold=0.0005), None
     if kind == "BRISK":
-        return cv2.BRISK_create(thresh=20), None
+        return cv2.BRISK.create(thresh=20), None
     # RTAB-Map defaults: GFTT/QualityLevel 0.001, GFTT/MinDistance 7, GFTT/BlockSize 3.
-    gftt = cv2.GFTTDetector_create(maxCorners=max_features, qualityLevel=0.001, minDistance=7, blockSize=3)
+    gftt = cv2.GFTTDetector.create(maxCorners=max_features, qualityLevel=0.001, minDistance=7, blockSize=3)
     if kind == "GFTT_ORB":
-        return gftt, cv2.ORB_create(edgeThreshold=19, patchSize=31)
+        return gftt, cv2.ORB.create(edgeThreshold=19, patchSize=31)
     if kind == "GFTT_BRIEF":
-        return gftt, cv2.xfeatures2d.BriefDescriptorExtractor_create(32)
+        return gftt, cv2.xfeatures2d.BriefDescriptorExtractor.create(32)
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
 
 
@@ -120,7 +120,7 @@ class FeatureExtractor:
         gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
         keypoints = self._detect(gray, depth)
         describer = self.describer or self.detector
-        keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ((), None)
+        keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ([], None)
         if descriptors is None or not len(keypoints):
             width = 128 if not self.binary else 32
             return Features(np.zeros((0, 2), np.float32), np.zeros((0, width), np.float32 if not self.binary else np.uint8),
@@ -143,7 +143,7 @@ class FeatureExtractor:
         cols = np.clip(np.rint(xy[:, 0]).astype(int), 0, depth.shape[1] - 1)
         rows = np.clip(np.rint(xy[:, 1]).astype(int), 0, depth.shape[0] - 1)
         z = (smoothed_depth(depth, rows, cols) if self.depth_smoothing else depth[rows, cols]).astype(np.float64)
-        pixels = xy.astype(np.float64)
+        pixels: np.ndarray = xy.astype(np.float64)
         if any(self.camera.distortion) and len(pixels):  # OpenCV 4 returns None for no points
             pixels = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion),
                                          P=self.camera.K).reshape(-1, 2)

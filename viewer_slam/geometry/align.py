@@ -53,7 +53,8 @@ def align_umeyama(source: np.ndarray, target: np.ndarray, with_scale: bool = Fal
     if len(source) == 0:
         raise ValueError("cannot align empty point sets")
     if not with_scale:
-        return rigid_transforms(source[None], target[None])[0]
+        rigid: np.ndarray = rigid_transforms(source[None], target[None])[0]
+        return rigid
     mean_source, mean_target = source.mean(axis=0), target.mean(axis=0)
     centred_source, centred_target = source - mean_source, target - mean_target
     rotations, singular, sign = _rotations((centred_target.T @ centred_source / len(source))[None])
@@ -72,4 +73,5 @@ def align_origin(source_pose: np.ndarray, target_pose: np.ndarray) -> np.ndarray
     Anchoring the first poses (evo's ``--align_origin``) leaves all later error to show as
     drift from the start, where a least-squares fit would spread it over the trajectory.
     """
-    return np.asarray(target_pose, dtype=np.float64) @ invert(source_pose)
+    anchored: np.ndarray = np.asarray(target_pose, dtype=np.float64) @ invert(source_pose)
+    return anchored

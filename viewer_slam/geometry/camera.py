@@ -2,14 +2,16 @@
 
 import json
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
-
 from functools import cache
-from typing import Annotated
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 
 from ..errors import InputError
+
+if TYPE_CHECKING:
+    import pydantic
 
 TUM_DEPTH_FACTOR = 5000.0
 # The image sizes a sequence may have, pixels a side (a budget checked before any image is decoded).
@@ -69,7 +71,7 @@ class Camera:
         uv = np.stack([cols, rows], axis=1).astype(np.float64)
         return self.backproject(uv, z), np.stack([rows, cols], axis=1)
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         data = asdict(self)
         data["distortion"] = list(self.distortion)
         return data
@@ -87,7 +89,7 @@ class Camera:
         return cls.checked(data, path)
 
     @classmethod
-    def checked(cls, data, where) -> "Camera":
+    def checked(cls, data: Any, where: Path | str) -> "Camera":
         """A camera from ``data`` (the keys of camera.json), every value checked to be one a lens can
         have; :class:`InputError` naming ``where`` otherwise."""
         import pydantic  # only where a calibration is read: it adds to every command's start-up
@@ -99,7 +101,7 @@ class Camera:
         return cls(**checked.model_dump())
 
 
-def _problem(error) -> str:
+def _problem(error: "pydantic.ValidationError") -> str:
     """The missing keys, else ``FIELD must be ..., got VALUE`` for the first problem of a pydantic
     ValidationError."""
     missing = [str(detail["loc"][0]) for detail in error.errors() if detail["type"] == "missing"]
@@ -117,7 +119,7 @@ def _problem(error) -> str:
 
 
 @cache
-def _camera_schema():
+def _camera_schema() -> type["pydantic.BaseModel"]:
     """The schema of camera.json: focal lengths of a lens, the principal point within the image,
     a size within the image budget, a depth unit of at most a metre, finite numbers throughout."""
     import pydantic
@@ -128,7 +130,7 @@ def _camera_schema():
     coefficient = Annotated[float, pydantic.Field(ge=-MAX_DISTORTION, le=MAX_DISTORTION, allow_inf_nan=False)]
     per_metre = Annotated[float, pydantic.Field(ge=1, le=1e6, allow_inf_nan=False)]
 
-    def principal_point(camera):
+    def principal_point(camera: Any) -> Any:
         for axis, size in (("cx", camera.width), ("cy", camera.height)):
             if not 0 <= getattr(camera, axis) <= size:
                 raise ValueError(f"{axis} must lie within the image (0 to {size}), got {getattr(camera, axis)!r}")
@@ -136,7 +138,8 @@ def _camera_schema():
 
     return pydantic.create_model(
         "CameraFile", __config__=pydantic.ConfigDict(extra="ignore"),
-        __validators__={"principal_point": pydantic.model_validator(mode="after")(principal_point)},
+        # pydantic's annotation asks for plain functions, though it documents decorated ones here.
+        __validators__={"principal_point": pydantic.model_validator(mode="after")(principal_point)},  # type: ignore[dict-item]
         fx=(focal, ...), fy=(focal, ...), cx=(offset, ...), cy=(offset, ...), width=(pixels, ...),
         height=(pixels, ...), depth_factor=(per_metre, TUM_DEPTH_FACTOR),
         distortion=(tuple[coefficient, ...], (0.0,) * 5))

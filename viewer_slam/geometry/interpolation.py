@@ -1,8 +1,9 @@
 """Poses of a trajectory at arbitrary times: linear in translation, slerp in rotation."""
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from .se3 import make_pose, quat_to_rot, rot_to_quat, slerp
+from .se3 import make_pose
 from .trajectory import Trajectory
 
 DEFAULT_MAX_GAP_S = 0.1
@@ -34,6 +35,10 @@ def interpolate_poses(
     fraction = (stamps[between] - times[i]) / (times[j] - times[i])
     start, end = trajectory.poses[i], trajectory.poses[j]
     translation = start[:, :3, 3] + fraction[:, None] * (end[:, :3, 3] - start[:, :3, 3])
-    rotation = quat_to_rot(slerp(rot_to_quat(start[:, :3, :3]), rot_to_quat(end[:, :3, :3]), fraction))
+    # Slerp of each pair (as scipy's Slerp computes it between two keys): start, turned by the
+    # fraction of the rotation from start to end.
+    first = Rotation.from_matrix(start[:, :3, :3])
+    step = (first.inv() * Rotation.from_matrix(end[:, :3, :3])).as_rotvec()
+    rotation = (first * Rotation.from_rotvec(fraction[:, None] * step)).as_matrix()
     poses[between] = make_pose(rotation, translation)
     return poses, exact | between

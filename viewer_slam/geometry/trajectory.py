@@ -1,6 +1,7 @@
 """Timestamped pose sequences and the TUM trajectory file format."""
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,7 +18,7 @@ class Trajectory:
     timestamps: np.ndarray
     poses: np.ndarray
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.timestamps = np.asarray(self.timestamps, dtype=np.float64).reshape(-1)
         self.poses = np.asarray(self.poses, dtype=np.float64).reshape(-1, 4, 4)
         if len(self.timestamps) != len(self.poses):
@@ -30,7 +31,7 @@ class Trajectory:
     def positions(self) -> np.ndarray:
         return self.poses[:, :3, 3]
 
-    def subset(self, index) -> "Trajectory":
+    def subset(self, index: np.ndarray | slice) -> "Trajectory":
         return Trajectory(self.timestamps[index], self.poses[index])
 
     @classmethod
@@ -67,7 +68,7 @@ def parse_numbers(path: Path, fields: list[str], line: int) -> list[float]:
 MAX_COORDINATE_M = 1e8
 
 
-def pose_problem(translation, quaternion=None) -> str | None:
+def pose_problem(translation: Sequence[float] | np.ndarray, quaternion: Sequence[float] | np.ndarray | None = None) -> str | None:
     """What keeps a position (and an xyzw quaternion) read from a file from being a pose, or None:
     a value that is not finite, a coordinate beyond :data:`MAX_COORDINATE_M`, a zero quaternion
     or one too large to normalise."""
@@ -94,7 +95,7 @@ def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
     """
     path = Path(path)
     text = read_text(path)
-    rows = []
+    rows: list[list[float]] = []
     for number, line in enumerate(text.splitlines(), start=1):
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):

@@ -16,7 +16,7 @@ line mean ``kitti``; anything else is read as ``tum``.
 """
 
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -70,7 +70,7 @@ def detect_format(path: Path, text: str | None = None) -> str:
     return "kitti" if len(first_data.replace(",", " ").split()) == KITTI_FIELDS else "tum"
 
 
-def _lines(text: str):
+def _lines(text: str) -> Iterator[tuple[int, str]]:
     """``(line number, stripped line)`` of the lines that are not blank."""
     for number, line in enumerate(text.splitlines(), start=1):
         if line.strip():
@@ -92,7 +92,7 @@ def _check_increasing(path: Path, stamps: list[float], numbers: list[int]) -> No
                                 f"(previous {stamps[k - 1]:.9f})", numbers[k])
 
 
-def _read_kitti(path: Path, text: str, timestamps) -> Trajectory:
+def _read_kitti(path: Path, text: str, timestamps: Sequence[float] | np.ndarray | Path | None) -> Trajectory:
     rows = [(number, line.split()) for number, line in _lines(text) if not line.startswith("#")]
     if not rows:
         raise InputError.at(path, "no poses in trajectory file")
@@ -163,7 +163,7 @@ def _read_euroc(path: Path, text: str) -> Trajectory:
     return Trajectory(np.array(stamps), pose_from_tq(data[:, :3], data[:, 3:]))
 
 
-def _column(path: Path, header_number: int, names: list[str], candidates: tuple[str, ...], what: str) -> int:
+def _column(path: Path, header_number: int | None, names: list[str], candidates: tuple[str, ...], what: str) -> int:
     for candidate in candidates:
         if candidate in names:
             return names.index(candidate)

@@ -42,7 +42,7 @@ class Pipeline(ABC):
         self.params = params if params is not None else self.Params()
         self.seed = seed
 
-    def prefetch(self, frame: Frame) -> None:
+    def prefetch(self, frame: Frame) -> None:  # noqa: B027  (a hook: subclasses may override it, need not)
         """Shown each frame, in order, before :meth:`process` gets it (one frame ahead), so that
         work which does not depend on the map can start early; by default nothing is done."""
 
@@ -85,9 +85,9 @@ def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
         problem = f"called sys.exit({error.code!r})" if isinstance(error, SystemExit) else \
             f"{type(error).__name__}: {' '.join(str(error).split())}"
         raise InputError(f"{where}: cannot be imported: {problem}") from None
-    problem = interface_problem(loaded)
-    if problem is not None:
-        raise InputError(f"{where}: {problem}")
+    unusable = interface_problem(loaded)
+    if unusable is not None:
+        raise InputError(f"{where}: {unusable}")
     return loaded
 
 

@@ -18,6 +18,6 @@ def rebuilt_map(frame_index: int, clouds: Iterable[tuple[np.ndarray, np.ndarray,
         colors.append(node_colors)
     if not points:
         return MapUpdated(frame_index, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), replace=True)
-    points, colors = np.concatenate(points), np.concatenate(colors)
-    stride = max(1, -(-len(points) // max_points))
-    return MapUpdated(frame_index, points[::stride].astype(np.float32), colors[::stride], replace=True)
+    merged_points, merged_colors = np.concatenate(points), np.concatenate(colors)
+    stride = max(1, -(-len(merged_points) // max_points))
+    return MapUpdated(frame_index, merged_points[::stride].astype(np.float32), merged_colors[::stride], replace=True)

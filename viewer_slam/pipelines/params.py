@@ -9,6 +9,7 @@ import dataclasses
 import difflib
 import tomllib
 import typing
+from collections.abc import Sequence
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -201,7 +202,7 @@ def load_config(path: Path) -> dict[str, Any]:
         raise InputError.at(path, f"cannot read config: {error}") from None
 
 
-def resolve_params(params_types: dict[str, type], assignments: list[str] = (), config: Path | None = None) -> dict[str, Any]:
+def resolve_params(params_types: dict[str, type], assignments: Sequence[str] = (), config: Path | None = None) -> dict[str, Any]:
     """Parameters per pipeline from defaults, then ``config``, then ``--param`` assignments.
 
     A config table named after a pipeline applies to it alone; flat keys and ``--param``

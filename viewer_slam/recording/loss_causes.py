@@ -9,8 +9,8 @@ cause from the loss until the run has a pose again ("tracking").
 import numpy as np
 import rerun as rr
 
-from ..diagnosis import Cause, FrameSignals
 from .. import palette
+from ..diagnosis import Cause, FrameSignals
 from . import layout
 from .timelines import send_frame_columns
 

@@ -33,14 +33,14 @@ from ..dataset.frame import Frame, Sequence
 from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
-from ..evaluation.imported import check_format, estimate_replay, named_estimates
-from ..evaluation.run import evaluate_run
-from ..evaluation.report import build_report, pipeline_report, write_report
 from ..geometry.trajectory import Trajectory, write_tum
 from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
-from ..pipelines.selection import BOTH, select_pipelines
 from ..pipelines.run import drive
+from ..pipelines.selection import BOTH, select_pipelines
+from ..runs.replay import check_format, estimate_replay, named_estimates
+from ..runs.report import build_report, pipeline_report, write_report
+from ..runs.scoring import evaluate_run
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest

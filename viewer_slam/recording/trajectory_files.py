@@ -1,7 +1,7 @@
 """A recording of trajectory files alone: ``viewslam record --groundtruth FILE --estimate NAME=FILE ...``.
 
 With no sequence there are no images and no camera: the recording shows what the files can
-show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.evaluation.trajectory_files`):
+show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajectory_files`):
 
 - ``world/groundtruth``, and under ``world/<run>`` (whose transform is the run's ATE
   alignment) the run's ``trajectory`` broken at its lost intervals, its ``poses`` coloured
@@ -30,11 +30,11 @@ from .. import palette
 from ..atomic import StagedFiles, exclusive
 from ..errors import InputError
 from ..evaluation.coverage import MIN_LOST_GAP_S, median_period
-from ..evaluation.files_summary import summary_markdown
-from ..evaluation.imported import check_format, named_estimates
-from ..evaluation.report import write_report
-from ..evaluation.trajectory_files import ScoredFile, ScoredFiles, score_files
 from ..geometry.trajectory import Trajectory, write_tum
+from ..runs.files_summary import summary_markdown
+from ..runs.replay import check_format, named_estimates
+from ..runs.report import write_report
+from ..runs.trajectory_files import ScoredFile, ScoredFiles, score_files
 from . import layout
 from .blueprint import files_blueprint
 from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time

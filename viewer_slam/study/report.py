@@ -7,6 +7,7 @@ say, not what was expected of them.
 
 import json
 from pathlib import Path
+from typing import Any
 
 from ..atomic import StagedFiles
 from ..benchmark.plots import plot_metric
@@ -70,7 +71,7 @@ def findings(runs: list[Run], found: list[dict]) -> list[str]:
     agreeing = [(run, figure) for run, figure in checked if run.log[figure].agrees(run.reproduced[figure])]
     sentences.append(f"{len(agreeing)} of the {len(checked)} ATE and RPE figures of the result logs print exactly "
                      f"as their runs give them (RPE as evaluate_rpe.py's default under Python 2.7).")
-    by_sequence = {}
+    by_sequence: dict[str, dict[str, Any]] = {}
     for run in runs:
         by_sequence.setdefault(run.sequence.alias, {})[run.system] = run
     for alias, pair in by_sequence.items():
@@ -102,7 +103,7 @@ def findings(runs: list[Run], found: list[dict]) -> list[str]:
 
 def write_report(path: Path, runs: list[Run], found: list[dict], mirror: str, command: str) -> None:
     unverified = sorted({run.sequence.alias for run in runs if not run.verified})
-    lines = [f"# The study replayed from its own runs", "",
+    lines = ["# The study replayed from its own runs", "",
              f"Runs, groundtruth, result logs and chart scripts of {REPOSITORY} at commit `{COMMIT}`, fetched from "
              f"{mirror}. ATE as TUM's evaluate_ate.py; RPE as evaluate_rpe.py's default under Python 2.7 "
              f"(`--rpe-mode tum`). Coverage and penalised ATE by viewslam's rules. Written by `{command}`.", "",

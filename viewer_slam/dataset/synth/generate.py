@@ -29,8 +29,8 @@ from ...errors import InputError
 from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
 from . import writer
-from .render import Renderer
 from .catalog import MAX_FRAMES, SCENARIOS
+from .render import Renderer
 from .scenarios import SCENARIOS_BY_NAME, Plan
 from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing

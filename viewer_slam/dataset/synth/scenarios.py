@@ -13,8 +13,20 @@ import numpy as np
 
 from . import textures
 from .catalog import SCENARIO_INFO, ScenarioInfo
-from .scenes import (Mover, Scene, Surface, box, cylinder, desk, person_parts, quad, room, transformed,
-                     wall_poster, yaw_pose)
+from .scenes import (
+    Mover,
+    Scene,
+    Surface,
+    box,
+    cylinder,
+    desk,
+    person_parts,
+    quad,
+    room,
+    transformed,
+    wall_poster,
+    yaw_pose,
+)
 from .trajectories import CAMERA_RATE, Path, Tremor, look_angles
 
 TAU = 2 * np.pi
@@ -115,8 +127,8 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     centre = np.array([x + w / 2, y + d / 2])
     forward, side = np.array([c, s]), np.array([-s, c])
 
-    def at(f, l):
-        return centre + forward * f * d / 2 + side * l * w / 2
+    def at(along, across):
+        return centre + forward * along * d / 2 + side * across * w / 2
 
     surfaces = box(rng, (*at(0.6, -0.3), top + 0.25), (0.05, 0.55, 0.34), _flat((30, 30, 32)), 0.003,
                    yaw=facing_yaw)

@@ -10,8 +10,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
-from ...geometry.se3 import exp_so3, make_pose
+from ...geometry.se3 import make_pose
 from . import textures
 
 # Largest side of a texture in texels; larger surfaces get coarser texels.
@@ -76,7 +77,7 @@ def box(rng, centre, size, painter: Painter, texel: float, yaw: float = 0.0,
     """
     centre = np.asarray(centre, np.float64)
     half = np.asarray(size, np.float64) / 2
-    R = exp_so3([0.0, 0.0, yaw])
+    R = Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix()
     ex, ey, ez = (R[:, i] * 2 * half[i] for i in range(3))
     low = centre - (ex + ey + ez) / 2
     # Each face from its top-left corner as seen from outside, so that text reads the right way.
@@ -173,4 +174,4 @@ def transformed(surfaces: Sequence[Surface], T: np.ndarray) -> list[Surface]:
 
 def yaw_pose(x: float, y: float, z: float, yaw: float, pitch: float = 0.0) -> np.ndarray:
     """Object pose from a position, a turn about the vertical and a tilt about the object's y axis."""
-    return make_pose(exp_so3([0.0, 0.0, yaw]) @ exp_so3([0.0, pitch, 0.0]), [x, y, z])
+    return make_pose(Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix() @ Rotation.from_rotvec([0.0, pitch, 0.0]).as_matrix(), [x, y, z])

@@ -35,7 +35,7 @@ def neighbour_weights(neighbourhood: Sequence[int], predecessor: int, sequential
 def weighted_sample(weights: Mapping[int, int], count: int, rng: np.random.Generator) -> list[int]:
     """``count`` ids drawn without replacement, each draw with probability weight / remaining total."""
     remaining = dict(sorted(weights.items()))
-    drawn = []
+    drawn: list[int] = []
     while len(drawn) < count and remaining and sum(remaining.values()) > 0:
         pick = int(rng.integers(sum(remaining.values())))
         for node, weight in remaining.items():

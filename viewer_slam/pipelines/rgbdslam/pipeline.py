@@ -37,8 +37,19 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeKind
-from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded, MapUpdated,
-                      TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
+from ..events import (
+    Event,
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from .candidates import PREDECESSOR, edge_targets
@@ -346,10 +357,10 @@ class RgbdSlam(Pipeline):
                 events.append(event)
         if no_motion:
             graph.connect(newest.node_id, node.node_id, np.eye(4), no_motion_information(gap_s))
-        if not any(a.motion is not None and a.node_id in graph.keyframes for a in attempts):
-            # v2: a node matching no keyframe makes its predecessor one, so keyframes stay connected.
-            if node.node_id - 1 not in graph.keyframes:
-                graph.keyframes.append(node.node_id - 1)
+        # v2: a node matching no keyframe makes its predecessor one, so keyframes stay connected.
+        unanchored = not any(a.motion is not None and a.node_id in graph.keyframes for a in attempts)
+        if unanchored and node.node_id - 1 not in graph.keyframes:
+            graph.keyframes.append(node.node_id - 1)
 
         self.nodes_since_optimisation += 1
         self.loop_closed_since_optimisation = loop_closed

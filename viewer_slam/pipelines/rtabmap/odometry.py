@@ -25,9 +25,9 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ...backend.local_bundle import BundleSettings, Link, adjust_frame
 from ...frontend.features import Features, match_descriptors
 from ...frontend.hamming import nearest_within_radius
-from ...backend.local_bundle import BundleSettings, Link, adjust_frame
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points

@@ -12,13 +12,24 @@ from ...geometry.camera import Camera
 from ...geometry.se3 import invert, rotation_angle, transform_points
 from ..base import Pipeline
 from ..edges import EdgeClassifier
+from ..events import (
+    Event,
+    FeatureMatches,
+    FrameTracked,
+    GraphEdge,
+    GraphOptimized,
+    KeyframeAdded,
+    MapUpdated,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from ..maps import rebuilt_map
 from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
-from ..events import (Event, FeatureMatches, FrameTracked, GraphOptimized, GraphEdge, KeyframeAdded,
-                      MapUpdated, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal)
-from .graph import LocationGraph, Variance
 from .bayes import Hypothesis
+from .graph import LocationGraph, Variance
 from .loop_closure import AppearanceDetector, proximity_candidates, register
 from .memory import Link, Location, Memory, similarity
 from .odometry import FrameToMapOdometry, OdometryResult

@@ -5,8 +5,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from viewer_slam.pipelines.base import Pipeline
-from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, \
-    TrajectoryFinal
+from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from viewer_slam.pipelines.params import param
 
 

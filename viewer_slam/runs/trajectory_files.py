@@ -16,13 +16,13 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..evaluation.evaluation import Evaluation, evaluate, why_no_pairs
+from ..evaluation.statistics import ErrorSeries
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import detect_format, read_trajectory
 from ..pipelines.run import PipelineRun
-from .evaluation import Evaluation, evaluate, why_no_pairs
-from .imported import no_pose_reason
+from .replay import no_pose_reason
 from .report import pipeline_report, versions
-from .statistics import ErrorSeries
 
 
 @dataclass

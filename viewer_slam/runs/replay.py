@@ -20,13 +20,13 @@ import numpy as np
 
 from ..dataset.frame import Frame, Sequence
 from ..errors import InputError
+from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
 from ..geometry.trajectory_formats import FORMATS, read_trajectory
 from ..pipelines.base import Pipeline
 from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from ..pipelines.params import param
 from ..pipelines.run import PipelineRun, Sink, drive
-from .coverage import coverage, median_period
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 # An estimate's name becomes entity paths and a file name.

@@ -5,7 +5,7 @@ file each run is, its scores, and when it was lost or stopped. It says how every
 computed, since a figure without its alignment and pairs cannot be compared with another.
 """
 
-from .statistics import ErrorSeries, stats_or_none
+from ..evaluation.statistics import ErrorSeries, stats_or_none
 from .trajectory_files import ScoredFile, ScoredFiles
 
 METHOD = ("Each estimate is scored as `viewslam evaluate` scores it: ATE and penalised ATE after one rigid "

@@ -1,4 +1,4 @@
-"""The JSON report of a run: sequence, versions and one block per pipeline (DESIGN.md)."""
+"""The JSON report of a run: sequence, versions and one block per pipeline (docs/report-schema.md)."""
 
 import json
 import math
@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from ..evaluation.evaluation import Evaluation
+from ..evaluation.statistics import stats_or_none
 from ..pipelines.run import PipelineRun
-from .evaluation import Evaluation
-from .statistics import stats_or_none
 
 # Distribution names per component; the first one installed wins (OpenCV ships under several).
 _DISTRIBUTIONS = {

@@ -4,18 +4,18 @@ from collections.abc import Sequence as Stamps
 
 import numpy as np
 
+from ..evaluation.coverage import Span
+from ..evaluation.evaluation import Evaluation, evaluate
+from ..evaluation.statistics import ErrorSeries
 from ..geometry.trajectory import Trajectory
 from ..pipelines.run import PipelineRun
-from .coverage import Span
-from .evaluation import Evaluation, evaluate
-from .statistics import ErrorSeries
 
 PROCESSED_FRAMES_RULE = "processed frames"
 MIN_NODE_PAIRS = 3        # a rigid alignment needs three poses
 
 
 def evaluate_run(groundtruth: Trajectory | None, run: PipelineRun,
-                 frame_timestamps: Stamps[float]) -> tuple[Evaluation | None, Evaluation | None]:
+                 frame_timestamps: Stamps[float] | np.ndarray) -> tuple[Evaluation | None, Evaluation | None]:
     """The run's scores and its raw odometry's.
 
     Coverage spans the first to the last processed frame (a run given the first N frames
