@@ -33,12 +33,12 @@ def session_cache(tmp_path_factory) -> Path:
 
 def _rendered_once(cached_scenario):
     @functools.wraps(cached_scenario)
-    def locked(name, *, frames=None, resolution=(640, 480), seed=0):
+    def locked(name, *, frames=None, resolution=(640, 480), seed=0, **options):
         from viewer_slam.cache import cache_dir
 
         lock = cache_dir("locks") / f"{name}-{frames}-{resolution[0]}x{resolution[1]}-s{seed}.lock"
         with FileLock(lock):
-            return cached_scenario(name, frames=frames, resolution=resolution, seed=seed)
+            return cached_scenario(name, frames=frames, resolution=resolution, seed=seed, **options)
 
     return locked
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from viewer_slam.cli import main
-from viewer_slam.dataset.synth import GENERATOR_VERSION, SCENARIOS, cached_scenario, read_info
+from viewer_slam.dataset.synth import GENERATOR_VERSION, SCENARIOS, cached_scenario, generate_scenario, read_info
 from viewer_slam.dataset.tum import open_sequence
 
 TINY = ["--frames", "6", "--resolution", "64x48"]
@@ -67,3 +67,37 @@ def test_cached_scenario_generates_once(tmp_path, monkeypatch):
     assert (folder / "scenario.json").stat().st_mtime_ns == stamp
     assert [p.name for p in (tmp_path / "synth").iterdir()] == [folder.name]
     assert np.mean(open_sequence(folder).frame(0).depth > 0) > 0.97  # the plane fills the view
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {f"{kind}/{path.name}": path.read_bytes() for kind in ("rgb", "depth")
+            for path in sorted((folder / kind).iterdir())}
+
+
+def test_a_cut_renders_only_its_frames_byte_identical_to_the_whole_run(tmp_path, monkeypatch):
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
+    size = {"frames": 10, "resolution": (64, 48), "seed": 1}
+    cut = cached_scenario("360_kidnap", **size, first=4)
+    assert cut.name.endswith("-first4") and len(open_sequence(cut)) == 4
+    assert read_info(cut)["frames"] == 10 and read_info(cut)["rendered_frames"] == 4
+    whole = generate_scenario("360_kidnap", tmp_path / "whole", **size)
+    cut_files, whole_files = _files(cut), _files(whole)
+    assert len(cut_files) == 8 and all(whole_files[name] == data for name, data in cut_files.items())
+    assert (cut / "groundtruth.txt").read_bytes() == (whole / "groundtruth.txt").read_bytes()
+    np.testing.assert_array_equal(open_sequence(cut).timestamps, open_sequence(whole).timestamps[:4])
+    assert cached_scenario("360_kidnap", **size, first=3) == cut  # a longer cut serves a shorter one
+    longer = cached_scenario("360_kidnap", **size, first=6)
+    assert longer != cut and len(open_sequence(longer)) == 6  # never a short cut for a longer request
+    complete = cached_scenario("360_kidnap", **size)
+    assert "first" not in complete.name and len(open_sequence(complete)) == 10
+    assert "rendered_frames" not in read_info(complete)
+    assert cached_scenario("360_kidnap", **size, first=6) == complete  # the whole run serves every cut
+
+
+def test_rendering_shows_frames_rate_and_time_left_unless_quiet(tmp_path, capsys):
+    generate_scenario("sitting_static", tmp_path / "a", frames=5, resolution=(64, 48), progress=True)
+    captured = capsys.readouterr()
+    assert "rendering sitting_static" in captured.err and "5/5" in captured.err and "frames/s" in captured.err
+    assert captured.out == ""
+    assert main(["synth", "sitting_static", "--out", str(tmp_path / "b"), *TINY, "--quiet"]) == 0
+    assert "rendering" not in capsys.readouterr().err

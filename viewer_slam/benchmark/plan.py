@@ -20,7 +20,8 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
                scenario_frames: int | None = None, resolution: tuple[int, int] = (640, 480),
                assignments: Sequence[str] = (), config: Path | None = None, seed: int = 0,
                timeout_s: float | None = None, recordings: Path | None = None,
-               estimates: Sequence[tuple[str, Path]] = (), estimate_format: str | None = None) -> list[BenchmarkTask]:
+               estimates: Sequence[tuple[str, Path]] = (), estimate_format: str | None = None,
+               progress: bool = False) -> list[BenchmarkTask]:
     """One task per sequence and pipeline, sequence-major; ``specs`` None means the synthetic scenarios.
 
     ``estimates`` (name, file) are trajectories of one sequence: each is one more task after
@@ -28,7 +29,8 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
 
     ``max_frames`` cuts every sequence, recorded or synthetic, to its first frames (as
     `viewslam record --max-frames` does); ``scenario_frames`` is the length synthetic
-    scenarios are rendered at (default: each scenario's own). Parameters come from the
+    scenarios are rendered at (default: each scenario's own), of which only the first
+    ``max_frames`` are rendered, with ``progress`` on stderr. Parameters come from the
     pipelines' defaults, then ``config``, then ``assignments`` (``KEY=VALUE``), and are
     resolved here so a bad key fails before anything runs.
     """
@@ -38,7 +40,8 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
                          f"(got {len(specs or study_scenarios())})")
     tasks = []
     for spec in specs or study_scenarios():
-        folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED)
+        folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED,
+                                  first=max_frames, progress=progress)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
         for pipeline in pipelines:
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,

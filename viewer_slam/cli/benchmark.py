@@ -77,7 +77,7 @@ def benchmark(
         tasks = plan_tasks(sequences or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
                            timeout_s=timeout, recordings=out / "recordings" if record else None,
-                           estimates=estimates, estimate_format=format)
+                           estimates=estimates, estimate_format=format, progress=not quiet)
         refuse_inputs_as_outputs(planned_outputs(out, tasks),
                                  {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
                                      if task.estimate is not None},

@@ -6,7 +6,7 @@ import typer
 
 from ..dataset.synth.catalog import MAX_FRAMES
 from .app import app
-from .options import SEED_MAX, parse_resolution
+from .options import QUIET_HELP, SEED_MAX, parse_resolution
 
 
 @app.command()
@@ -19,12 +19,13 @@ def synth(
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the scene, the motion's tremor and the sensor noise."),
     camera: str = typer.Option("fr3", help="Intrinsics of TUM's freiburg camera: fr1, fr2 or fr3."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing non-empty folder."),
+    quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Render a synthetic scenario (rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt, camera.json)."""
     from ..dataset.synth import generate_scenario, read_info
 
     folder = generate_scenario(scenario, out, frames=frames, resolution=parse_resolution(resolution), seed=seed,
-                               camera=camera, force=force)
+                               camera=camera, force=force, progress=not quiet)
     info = read_info(folder)
     typer.echo(f"{folder}: {info['frames']} frames of {info['scenario']} at "
                f"{info['resolution'][0]}x{info['resolution'][1]} ({info['notes']})")

@@ -143,11 +143,12 @@ def study_scenarios() -> tuple[str, ...]:
 
 
 def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                     seed: int = 0) -> Path:
+                     seed: int = 0, first: int | None = None, progress: bool = False) -> Path:
     """The folder of the TUM sequence ``spec`` names (see the module docstring for the forms).
 
-    ``frames``, ``resolution`` and ``seed`` size a synthetic scenario; they do not apply to
-    recorded sequences.
+    ``frames``, ``resolution`` and ``seed`` size a synthetic scenario, ``first`` the frames of
+    it that will be read (only those are rendered), ``progress`` shows the rendering on
+    stderr; they do not apply to recorded sequences.
     """
     path = Path(spec).expanduser()
     if path.is_dir() or (path.suffix == ".bag" and path.is_file()):
@@ -156,7 +157,7 @@ def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[
     if spec in scenarios:
         from .synth import cached_scenario
 
-        return cached_scenario(spec, frames=frames, resolution=resolution, seed=seed)
+        return cached_scenario(spec, frames=frames, resolution=resolution, seed=seed, first=first, progress=progress)
     info = tum_sequence(spec)
     if info is not None:
         folder, bag = tum_cache_dir() / info.name, tum_cache_dir() / f"{info.name}.bag"

@@ -124,16 +124,22 @@ def check_outputs(out: Path, pipelines: list[str], inputs: dict[Path, str] | Non
         check_writable(path)
 
 
-def open_input(sequence: str | None, bag: BagOptions | None = None) -> TumSequence:
-    """The sequence to record; ``bag`` options (set ones only) for a ROS bag, an error for anything else."""
+def open_input(sequence: str | None, bag: BagOptions | None = None, first: int | None = None,
+               progress: bool = False) -> TumSequence:
+    """The sequence to record; ``bag`` options (set ones only) for a ROS bag, an error for anything else.
+
+    A synthetic scenario (or the demo) is rendered up to frame ``first`` only, showing
+    ``progress`` on stderr.
+    """
     from ..dataset.rosbag import is_bag
 
     if sequence is None:
         from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
 
-        path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION)
+        path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION, first=first,
+                               progress=progress)
     else:
-        path = resolve_sequence(sequence)
+        path = resolve_sequence(sequence, first=first, progress=progress)
     bag = {key: value for key, value in (bag or {}).items() if value is not None}
     if bag and not is_bag(path):
         flag = BAG_FLAGS[next(iter(bag))]
@@ -207,7 +213,8 @@ def record(options: RecordOptions) -> RecordResult:
         inputs[Path(options.sequence)] = f"the sequence {options.sequence}"
     check_outputs(out, [*pipelines, *(name for name, _ in estimates)], inputs)
     with exclusive([out]):
-        sequence = open_input(options.sequence, options.bag)
+        read = None if options.max_frames is None else (options.max_frames - 1) * options.stride + 1
+        sequence = open_input(options.sequence, options.bag, first=read, progress=not options.quiet)
         runs: dict[str, Pipeline] = {name: make_pipeline(name, sequence.camera, params[name], options.seed)
                                      for name in pipelines}
         replays = {name: estimate_replay(sequence, file, options.format, max_frames=options.max_frames,

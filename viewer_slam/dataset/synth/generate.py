@@ -7,6 +7,10 @@ with a pool of worker processes, each building the scene once from the seed and 
 and encoding whole frames; this process writes the PNGs in frame order. Short runs stay
 in-process (starting a worker costs more than rendering them), with PNGs encoded on a
 thread while the next frame renders (OpenCV's encoder releases the GIL).
+
+A run may be rendered only up to its first frames (``first``): frame i depends on the seed,
+the scenario's length and i alone, so those frames are the full run's, byte for byte, and a
+benchmark cut with ``--max-frames`` renders no frame it does not read.
 """
 
 import contextlib
@@ -17,6 +21,7 @@ import os
 import shutil
 import tempfile
 from collections import deque
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
@@ -28,6 +33,7 @@ from ...cache import cache_dir
 from ...errors import InputError
 from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
+from ...progress import counted
 from . import writer
 from .catalog import MAX_FRAMES, SCENARIOS
 from .render import Renderer
@@ -82,8 +88,13 @@ def _check(frames: int, resolution: tuple[int, int], seed: int) -> None:
 
 
 def generate_scenario(name: str, out_dir, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                      seed: int = 0, camera: str = "fr3", force: bool = False, workers: int | None = None) -> Path:
+                      seed: int = 0, camera: str = "fr3", force: bool = False, workers: int | None = None,
+                      first: int | None = None, progress: bool = False) -> Path:
     """Render scenario ``name`` into the TUM folder ``out_dir`` and return it.
+
+    With ``first`` below ``frames``, only the run's first ``first`` frames are rendered and
+    listed (the groundtruth stays whole, and scenario.json names them ``rendered_frames``).
+    ``progress`` shows frames done, rate and time left on stderr.
 
     ``workers`` processes render the frames: this one and ``workers - 1`` spawned ones (at
     most one per frame); by default one per CPU, or only this one for a short run. The files
@@ -97,8 +108,11 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     frames = scenario.default_frames if frames is None else int(frames)
     resolution = (int(resolution[0]), int(resolution[1]))
     _check(frames, resolution, seed)
+    rendered = frames if first is None else min(int(first), frames)
+    if rendered < 1:
+        raise InputError(f"first must be at least 1, got {first}")
     cam = camera_model(camera, resolution)
-    workers = _worker_count(workers, frames, resolution)
+    workers = _worker_count(workers, rendered, resolution)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError.at(out, "exists and is not a folder")
@@ -112,7 +126,9 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
         raise InputError.at(out, f"cannot write: {error.strerror or error}") from None
     try:
         # Embree on one thread when workers share the cores (its hits do not depend on it).
-        _Run(scenario, frames, cam, seed, threads=1 if workers > 1 else 0).write(staging, camera, workers)
+        run = _Run(scenario, frames, cam, seed, threads=1 if workers > 1 else 0)
+        with counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance:
+            run.write(staging, camera, workers, rendered, advance)
         if out.is_dir():
             for entry in _WRITTEN:
                 target = out / entry
@@ -132,8 +148,12 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
 
 
 def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                    seed: int = 0) -> Path:
+                    seed: int = 0, first: int | None = None, progress: bool = False) -> Path:
     """The folder of scenario ``name`` in the cache, generated on first use (fr3 camera).
+
+    ``first`` asks for the run's first frames only: a complete run in the cache serves, else a
+    cut of at least that many frames, else the cut is rendered into a folder of its own
+    (``<run>-first<N>``), so a longer request never takes a short cut for the whole run.
 
     The run is rendered into a temporary folder and renamed into place, so a folder in the
     cache is always complete; when two processes race, the first rename wins.
@@ -141,12 +161,19 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
     frames = _scenario(name).default_frames if frames is None else int(frames)
     width, height = resolution
     root = cache_dir("synth")
-    final = root / f"{name}-{frames}-{width}x{height}-s{seed}-v{GENERATOR_VERSION}"
-    if final.is_dir():
-        return final
+    complete = root / f"{name}-{frames}-{width}x{height}-s{seed}-v{GENERATOR_VERSION}"
+    if complete.is_dir():
+        return complete
+    cut = first is not None and first < frames
+    if cut:
+        longer = sorted(found for found in cached_cuts(complete) if found[0] >= first)
+        if longer:
+            return longer[0][1]
+    final = complete.with_name(f"{complete.name}-first{first}") if cut else complete
     staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=root))
     try:
-        generate_scenario(name, staging / "run", frames=frames, resolution=resolution, seed=seed)
+        generate_scenario(name, staging / "run", frames=frames, resolution=resolution, seed=seed,
+                          first=first if cut else None, progress=progress)
         try:
             os.rename(staging / "run", final)
         except OSError:
@@ -155,6 +182,13 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
     finally:
         shutil.rmtree(staging, ignore_errors=True)
     return final
+
+
+def cached_cuts(complete: Path) -> list[tuple[int, Path]]:
+    """``(frames rendered, folder)`` of every cut of the run whose complete folder is ``complete``."""
+    prefix = f"{complete.name}-first"
+    return [(int(folder.name[len(prefix):]), folder) for folder in complete.parent.glob(f"{prefix}*")
+            if folder.name[len(prefix):].isdigit() and folder.is_dir()]
 
 
 def _worker_count(workers: int | None, frames: int, resolution: tuple[int, int]) -> int:
@@ -204,50 +238,52 @@ class _Run:
     def encoded_frame(self, i: int) -> tuple[bytes, bytes]:
         return writer.encode_frame(*self.frame(i), self.camera.depth_factor)
 
-    def encoded_frames(self, workers: int):
-        """The PNGs of every frame, in order."""
+    def encoded_frames(self, workers: int, count: int):
+        """The PNGs of the first ``count`` frames, in order."""
         if workers == 1:
-            yield from self._encoded_in_process()
+            yield from self._encoded_in_process(count)
             return
         # Spawned, not forked: a fork would inherit OpenCV's and Embree's thread pools mid-state.
         with (_one_opencv_thread(),
               ProcessPoolExecutor(workers - 1, mp_context=multiprocessing.get_context("spawn"),
                                   initializer=_start_worker,
                                   initargs=(self.scenario.name, self.frames, self.camera, self.seed)) as pool):
-            yield from self._encoded_with(pool, workers - 1)
+            yield from self._encoded_with(pool, workers - 1, count)
 
-    def _encoded_with(self, pool: ProcessPoolExecutor, size: int):
+    def _encoded_with(self, pool: ProcessPoolExecutor, size: int, count: int):
         """Frames from the pool's ``size`` processes and from this one, which renders the next
         frame not yet handed out whenever the frame due is not ready: it works from the start,
         while the workers still import and build the scene, and takes over when they lag."""
         queued, ready, handed = {}, {}, 0
-        for i in range(self.frames):
+        for i in range(count):
             while i not in ready:
-                while handed < self.frames and sum(not f.done() for f in queued.values()) < 2 * size:
+                while handed < count and sum(not f.done() for f in queued.values()) < 2 * size:
                     queued[handed] = pool.submit(_worker_frame, handed)
                     handed += 1
-                if i in queued and (queued[i].done() or handed == self.frames):
+                if i in queued and (queued[i].done() or handed == count):
                     ready[i] = queued.pop(i).result()
                 else:
                     ready[handed] = self.encoded_frame(handed)
                     handed += 1
             yield ready.pop(i)
 
-    def _encoded_in_process(self):
+    def _encoded_in_process(self, count: int):
         with ThreadPoolExecutor(max_workers=2) as pool:
             pending = deque()
-            for i in range(self.frames):
+            for i in range(count):
                 pending.append(pool.submit(writer.encode_frame, *self.frame(i), self.camera.depth_factor))
                 if len(pending) > 3:
                     yield pending.popleft().result()
             while pending:
                 yield pending.popleft().result()
 
-    def write(self, folder: Path, camera_name: str, workers: int = 1) -> None:
+    def write(self, folder: Path, camera_name: str, workers: int, count: int, done: Callable[[], None]) -> None:
+        """The first ``count`` frames and the index files listing them; ``done`` after each frame."""
         timing, plan = self.timing, self.plan
         writer.prepare(folder)
-        for i, (rgb_png, depth_png) in enumerate(self.encoded_frames(workers)):
+        for i, (rgb_png, depth_png) in enumerate(self.encoded_frames(workers, count)):
             writer.write_frame(folder, timing.colour[i], rgb_png, timing.depth[i], depth_png)
+            done()
         gt_poses = noisy_groundtruth(np.random.default_rng([self.seed, _GROUNDTRUTH]),
                                      plan.path.poses(timing.groundtruth - timing.start))
         info = {
@@ -263,9 +299,11 @@ class _Run:
             "notes": plan.notes,
             "generator_version": GENERATOR_VERSION,
         }
+        if count < self.frames:
+            info["rendered_frames"] = count
         source = f"viewslam synth {self.scenario.name} --frames {self.frames} --seed {self.seed}"
-        writer.write_index(folder, source, timing.colour, timing.depth, Trajectory(timing.groundtruth, gt_poses),
-                           self.camera, info)
+        writer.write_index(folder, source, timing.colour[:count], timing.depth[:count],
+                           Trajectory(timing.groundtruth, gt_poses), self.camera, info)
 
 
 _worker_run: _Run | None = None  # the run a pool worker renders frames of
