@@ -10,11 +10,10 @@ from pathlib import Path
 from typing import Any
 
 from ..atomic import StagedFiles
-from ..benchmark.plots import plot_metric
+from ..benchmark.plots import plot_all
 from .manifest import COMMIT, REPOSITORY, SYSTEMS
 from .replay import Run
 
-CHART_METRICS = ("ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s", "coverage", "penalized_ate_rmse")
 TITLES = {system.name: system.title for system in SYSTEMS}
 
 
@@ -124,8 +123,6 @@ def write_all(out: Path, runs: list[Run], found: list[dict], mirror: str, comman
     with StagedFiles() as staged:
         staged.path(written[0]).write_text(json.dumps(results(runs, found, mirror), indent=2) + "\n")
         write_report(staged.path(written[1]), runs, found, mirror, command)
-        rows = chart_rows(runs)
-        for metric in CHART_METRICS:
-            written += plot_metric(rows, metric, out, prefix="study_", staged=staged)
+        written += plot_all(chart_rows(runs), out, staged, prefix="study_")
         staged.commit()
     return written
