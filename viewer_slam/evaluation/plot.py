@@ -9,7 +9,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (the backend must be chosen first)
 from matplotlib.backend_bases import FigureCanvasBase  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
 from .. import palette  # noqa: E402
@@ -47,18 +47,39 @@ def estimate_color(label: str, position: int) -> str:
 
 
 def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored], format: str | None = None) -> None:
-    """Write the picture: top view (x-y) of groundtruth and every aligned estimate, and their errors over time.
+    """Write :func:`draw_evaluation`'s picture; ``format`` (png, svg, pdf, ...) defaults to the
+    extension of ``path``."""
+    figure = draw_evaluation(groundtruth, scored)
+    format = format or path.suffix.lstrip(".").lower()
+    with plt.rc_context({"svg.hashsalt": "viewslam"}):  # SVG element ids from a fixed salt, not a random one
+        figure.savefig(path, format=format, dpi=100, metadata=VOLATILE_METADATA.get(format, {}))
+    plt.close(figure)
 
-    Each estimate has one colour (the top view's legend), each metric one line style (the
-    error plot's legend): ATE solid, segment-aligned ATE dotted, penalised ATE dashed, lost
-    time shaded. Lines break where an estimate has no pose for longer than the lost-gap
-    threshold, so a jump never looks like motion. ``format`` (png, svg, pdf, ...) defaults to
-    the extension of ``path``.
+
+def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
+    """The picture: top view (x-y) of groundtruth and every aligned estimate, and beside it one
+    panel per error series over time (ATE, segment-aligned ATE, penalised ATE).
+
+    Each estimate has one colour throughout. The series get panels of their own rather than
+    line styles in one plot: where an estimate never lost track the three coincide, and
+    solid, dotted and dashed lines on top of one another read as one hatched line. Lost
+    time is shaded in the estimate's colour on every panel. Lines break where an estimate
+    has no pose for longer than the lost-gap threshold, so a jump never looks like motion.
+    The legend, below the panels, names only what is drawn.
     """
-    figure, (top, errors) = plt.subplots(1, 2, figsize=(12, 5), layout="constrained")
+    alignment = scored[0].evaluation.alignment_name if scored else "rigid"
+    panels = [(title, attribute) for title, attribute in (
+        (f"ATE ({alignment} alignment)", "ate"), ("ATE, each tracked segment aligned on its own", "segment_ate"),
+        ("penalised ATE (while lost, the last pose is held)", "penalized_ate"))
+        if any(getattr(item.evaluation, attribute) is not None for item in scored)]
+    figure = plt.figure(figsize=(12, 2.2 + 1.6 * max(len(panels), 1)), layout="constrained")
+    left, right = figure.subfigures(1, 2, width_ratios=(1, 1.35))
+    top = left.subplots()
+    errors = right.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0]
     top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex,
              label="groundtruth")
     origin = groundtruth.timestamps[0]  # the error plot's x axis is groundtruth time from its first pose
+    lost = False
     for position, item in enumerate(scored):
         color, evaluation = estimate_color(item.label, position), item.evaluation
         gap = lost_gap_threshold(item.estimate.timestamps)
@@ -66,26 +87,29 @@ def plot_evaluation(path: Path, groundtruth: Trajectory, scored: list[Scored], f
         if aligned is not None:
             top.plot(*_broken(item.estimate.timestamps, aligned[:, :2], gap).T[1:], color=color,
                      label=f"{item.label} ({evaluation.alignment_name})")
-        for start, end in evaluation.coverage.lost_intervals:
-            errors.axvspan(start - origin, end - origin, color=color, alpha=0.12)
-        for series, style in ((evaluation.penalized_ate, "--"), (evaluation.segment_ate, ":"), (evaluation.ate, "-")):
+        for axes, (_, attribute) in zip(errors, panels):
+            for start, end in evaluation.coverage.lost_intervals:
+                axes.axvspan(start - origin, end - origin, color=color, alpha=0.12, linewidth=0)
+                lost = True
+            series = getattr(evaluation, attribute)
             if series is not None:
                 stamps, values = _broken(series.timestamps + evaluation.offset, series.errors[:, None], gap).T
-                errors.plot(stamps - origin, values, color=color, linestyle=style, linewidth=1.0)
-    top.set(title="Top view", xlabel="x [m]", ylabel="y [m]", aspect="equal")
-    top.legend(loc="best", fontsize="small")
-    alignment = scored[0].evaluation.alignment_name if scored else "rigid"
-    styles = [Line2D([], [], color="0.2", linestyle="-", label=f"ATE ({alignment})"),
-              Line2D([], [], color="0.2", linestyle=":", label="ATE, each segment aligned"),
-              Line2D([], [], color="0.2", linestyle="--", label="penalised ATE"),
-              Patch(color="0.2", alpha=0.12, label="lost")]
-    errors.set(title="Error over time", xlabel="groundtruth time [s]", ylabel="error [m]")
-    errors.set_xlim(0, groundtruth.timestamps[-1] - origin)
-    errors.legend(handles=styles, loc="best", fontsize="small")
-    format = format or path.suffix.lstrip(".").lower()
-    with plt.rc_context({"svg.hashsalt": "viewslam"}):  # SVG element ids from a fixed salt, not a random one
-        figure.savefig(path, format=format, dpi=100, metadata=VOLATILE_METADATA.get(format, {}))
-    plt.close(figure)
+                axes.plot(stamps - origin, values, color=color, linewidth=1.0)
+    top.set(title="Top view", xlabel="x [m]", ylabel="y [m]")
+    top.set_aspect("equal", adjustable="datalim")
+    for axes, (title, _) in zip(errors, panels):
+        axes.set_title(title, fontsize="medium", loc="left")
+        axes.set_ylabel("error [m]")
+        axes.set_ylim(bottom=0)
+        axes.grid(alpha=0.3)
+    errors[-1].set_xlabel("groundtruth time [s]")
+    errors[-1].set_xlim(0, groundtruth.timestamps[-1] - origin)
+    handles, labels = top.get_legend_handles_labels()
+    if lost:
+        handles.append(Patch(color="0.2", alpha=0.12, label="lost (shaded in the estimate's colour)"))
+    figure.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small",
+                  frameon=False)
+    return figure
 
 
 def _broken(stamps: np.ndarray, values: np.ndarray, gap: float) -> np.ndarray:
