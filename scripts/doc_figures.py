@@ -129,6 +129,28 @@ def scenario() -> str:
     return "```json\n{\n" + keys + "\n}\n```"
 
 
+def cache_need() -> str:
+    """What the default benchmark's rendered scenarios take in the cache: each scenario's PNGs
+    as the generator writes them, measured on frames spread over its run, times its length."""
+    from viewer_slam.dataset.synth import STUDY_SCENARIOS, default_frames, preview_frames
+    from viewer_slam.dataset.synth.writer import encode_frame
+
+    fractions = np.linspace(0, 1, 5)
+    colour = depth = frames = total = 0
+    for name in STUDY_SCENARIOS:
+        sizes = np.array([[len(png) for png in encode_frame(rgb, metres, 5000.0)]
+                          for _, rgb, metres in preview_frames(name, fractions)])
+        colour, depth = colour + sizes[:, 0].sum(), depth + sizes[:, 1].sum()
+        frames += default_frames(name)
+        total += default_frames(name) * sizes.sum(axis=1).mean()
+    sampled = len(STUDY_SCENARIOS) * len(fractions)
+    return (f"The default `viewslam benchmark` renders the seven scenarios at 640x480 and their own lengths, "
+            f"{frames:,} frames,\ninto about {total / 1e9:.1f} GB of cache: "
+            f"{total / frames / 1e6:.2f} MB a frame (colour {colour / sampled / 1e3:.0f} kB, stored "
+            f"uncompressed; depth {depth / sampled / 1e3:.0f} kB\non average), measured on "
+            f"{len(fractions)} frames spread over each run.")
+
+
 def estimate() -> str:
     """rgbdslam on the 87-frame excerpt, then its own trajectory file replayed beside it."""
     work = scratch()
@@ -197,6 +219,7 @@ class Figures:
 FIGURES = {
     "demo": Figures("README.md", demo),
     "estimate": Figures("README.md", estimate),
+    "cache": Figures("README.md", cache_need),
     "study-table": Figures("README.md", study_table),
     "study": Figures("docs/study.md", study),
     "segments": Figures("docs/metrics.md", segments),

@@ -4,6 +4,7 @@ from collections import Counter
 
 import pytest
 from benchmark_fake_pipeline import write_tum_folder
+from rich.filesize import decimal
 
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import TUM_SEQUENCES, known_tum_sequence, resolve_sequence, tum_cache_dir, tum_sequence
@@ -90,7 +91,8 @@ def test_sequences_command_lists_scenarios_and_downloads(cache, capsys):
     assert main(["sequences"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert all(f"  {name}" in lines for name in SCENARIOS)
-    rows = [line.split() for line in lines[2 + len(SCENARIOS):-1]]
+    rows = [line.split() for line in lines[2 + len(SCENARIOS):lines.index(
+        "frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either.")]]
     assert ["fr1/xyz", "testing", "groundtruth", "downloaded"] in rows
     assert ["fr1/xyz_validation", "validation", "no-groundtruth"] in rows
     assert sum(row[-1] == "downloaded" for row in rows) == 1
@@ -112,3 +114,25 @@ def test_the_cache_follows_xdg_unless_viewslam_cache_is_set(tmp_path, monkeypatc
     assert cache_dir("synth") == tmp_path / "xdg" / "viewslam" / "synth"
     monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "own"))
     assert cache_dir("synth") == tmp_path / "own" / "synth"
+
+
+def test_sequences_shows_the_cache_entry_by_entry_and_clears_all_but_the_downloads(cache, capsys):
+    write_tum_folder(cache / "tum" / "rgbd_dataset_freiburg1_xyz", frames=2)
+    render = cache / "synth" / "360_kidnap-6-64x48-s0-v1"
+    render.mkdir(parents=True)
+    (render / "frame.png").write_bytes(bytes(3000))
+    (cache / "benchmark").mkdir()
+    (cache / "benchmark" / "result.json").write_bytes(bytes(500))
+    assert main(["sequences"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    total = sum(path.stat().st_size for path in cache.rglob("*") if path.is_file())
+    heading = next(i for i, line in enumerate(lines) if line.startswith("Cache "))
+    assert lines[heading] == f"Cache {cache} ($VIEWSLAM_CACHE): {decimal(total)}"
+    entries = {line.split()[0]: " ".join(line.split()[1:]) for line in lines[heading + 1:-1]}
+    assert entries == {"benchmark": "500 bytes", "synth/360_kidnap-6-64x48-s0-v1": "3.0 kB",
+                       "tum/rgbd_dataset_freiburg1_xyz": decimal(total - 3500)}
+    assert main(["sequences", "--clear-cache"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("Removed 2 cache entries, 3.5 kB.\n")
+    assert not render.exists() and not (cache / "benchmark").exists()
+    assert (cache / "tum" / "rgbd_dataset_freiburg1_xyz" / "rgb.txt").is_file()

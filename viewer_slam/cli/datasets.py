@@ -1,8 +1,10 @@
 """`viewslam download` and `viewslam sequences`."""
 
+import os
 from pathlib import Path
 
 import typer
+from rich.filesize import decimal
 
 from .app import app
 from .options import QUIET_HELP
@@ -31,11 +33,22 @@ def download(
 
 
 @app.command()
-def sequences() -> None:
-    """List the synthetic scenarios and the TUM RGB-D sequences, and which are downloaded."""
+def sequences(
+    clear_cache: bool = typer.Option(False, "--clear-cache",
+                                     help="Remove the rendered scenarios, benchmark results and study files from the "
+                                          "cache (downloaded TUM sequences stay), then list."),
+) -> None:
+    """List the synthetic scenarios and the TUM RGB-D sequences, which are downloaded, and what
+    the cache holds (location, size of each entry and in all)."""
+    from ..cache import cache_root
+    from ..cache import clear_cache as clear
     from ..dataset.catalog import TUM_SEQUENCES, synthetic_scenarios, tum_cache_dir
 
-    typer.echo("Synthetic scenarios (generated on first use):")
+    if clear_cache:
+        removed = clear()
+        typer.echo(f"Removed {len(removed)} cache entr{'y' if len(removed) == 1 else 'ies'}, "
+                   f"{decimal(sum(entry.size for entry in removed))}.")
+    typer.echo(f"Synthetic scenarios (generated on first use into {cache_root() / 'synth'}):")
     for scenario in synthetic_scenarios():
         typer.echo(f"  {scenario}")
     folder = tum_cache_dir()
@@ -46,6 +59,20 @@ def sequences() -> None:
         typer.echo(f"  {info.alias:<{alias_width}}  {info.category:<21}  {groundtruth:<14}  "
                    f"{_state(folder, info.name)}".rstrip())
     typer.echo("frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either.")
+    _print_cache()
+
+
+def _print_cache() -> None:
+    """The cache's folder and total, then each entry's size."""
+    from ..cache import cache_entries, cache_root
+
+    entries = cache_entries()
+    source = "$VIEWSLAM_CACHE" if os.environ.get("VIEWSLAM_CACHE") else "default; set VIEWSLAM_CACHE to move it"
+    typer.echo(f"Cache {cache_root()} ({source}): {decimal(sum(entry.size for entry in entries))}")
+    width = max((len(entry.name) for entry in entries), default=0)
+    for entry in entries:
+        typer.echo(f"  {entry.name:<{width}}  {decimal(entry.size):>9}")
+    typer.echo("`viewslam sequences --clear-cache` removes all of it but the downloads (tum/).")
 
 
 def _state(folder: Path, name: str) -> str:
