@@ -8,6 +8,7 @@ from rerun.chunk import RrdReader
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.recording import layout
+from viewer_slam.recording.fit import CONTINUATION
 
 pytestmark = pytest.mark.slow
 
@@ -49,7 +50,8 @@ def test_the_recording_logs_the_cause_at_each_loss_and_the_recovery(recorded):
     causes = sorted((frame, state[0]) for frame, state in states)
     assert [frame for frame, state in causes if state == "sensor blocked"] == [loss["frame"] for loss in losses]
     assert all(later[1] == "tracking" for earlier, later in zip(causes, causes[1:]) if earlier[1] != "tracking")
-    assert all(any(line.startswith(f"{loss['text']}; the pipeline: ") for line in lines) for loss in losses)
+    text = " ".join(line.removeprefix(CONTINUATION) for line in lines)  # a message's rows joined back
+    assert all(f"{loss['text']}; the pipeline: " in text for loss in losses)
 
 
 def test_the_summary_prints_the_causes(tmp_path, capsys, monkeypatch):

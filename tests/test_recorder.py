@@ -44,6 +44,7 @@ from viewer_slam.pipelines.events import (
 from viewer_slam.pipelines.params import param
 from viewer_slam.recording.budget import SnapshotBudget
 from viewer_slam.recording.console import print_summary
+from viewer_slam.recording.fit import CONTINUATION, LOG_LINE_CHARS
 from viewer_slam.recording.images import depth_png
 from viewer_slam.recording.session import RecordOptions, record
 from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
@@ -263,7 +264,7 @@ def test_coverage_tracking_state_and_log_show_the_loss(recorded):
     log = column(recorded.recording, f"/log/{name}", "TextLog:text")
     levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
     loss = recorded.report["pipelines"][name]["tracking_lost"][0]
-    assert log[LOST[0]] == [f"{loss['text']}; the pipeline: sensor covered"] and levels[LOST[0]] == ["WARN"]
+    assert messages_of(log[LOST[0]], levels[LOST[0]]) == [("WARN", f"{loss['text']}; the pipeline: sensor covered")]
     assert loss["text"].startswith(f"{name} lost at ") and loss["cause"] in loss["text"]
     assert log[LOST[-1] + 1] == [f"{name}: tracking recovered (relocalised on keyframe 0)"]
     assert levels[LOST[-1] + 1] == ["WARN"]
@@ -274,11 +275,24 @@ def test_the_log_has_one_line_per_verdict_for_a_frame_s_loop_closures_and_no_oth
     log = column(recorded.recording, f"/log/{name}", "TextLog:text")
     levels = column(recorded.recording, f"/log/{name}", "TextLog:level")
     assert sorted(log) == [LOST[0], LOST[-1] + 1, loop_frame]  # nothing for the sequential and local edges
-    assert levels[loop_frame] == ["INFO", "DEBUG"]
-    accepted, rejected = log[loop_frame]
+    messages = messages_of(log[loop_frame], levels[loop_frame])
+    assert [level for level, _ in messages] == ["INFO", "DEBUG"]
+    (_, accepted), (_, rejected) = messages
     assert accepted.startswith(f"{name}: 2 loop closures accepted: KF6 -> KF0 ")
     assert "KF6 -> KF1 (appearance, geometric check passed, score 0.8, 30 inliers)" in accepted
     assert rejected == f"{name}: loop closure rejected: KF6 -> KF2 (appearance, too few inliers, score 0.2, 4 inliers)"
+    assert all(len(row) <= LOG_LINE_CHARS for row in log[loop_frame])
+
+
+def messages_of(rows: list[str], levels: list[str]) -> list[tuple[str, str]]:
+    """The log's rows joined back into messages (a continued row is indented), with their levels."""
+    messages = []
+    for row, level in zip(rows, levels):
+        if row.startswith(CONTINUATION):
+            messages[-1] = (level, f"{messages[-1][1]} {row.removeprefix(CONTINUATION)}")
+        else:
+            messages.append((level, row))
+    return messages
 
 
 def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(recorded):

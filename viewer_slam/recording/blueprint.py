@@ -3,7 +3,8 @@
 Plots carry no legend inside the curves: each view's title names what its colours are
 (every run has one colour, :mod:`viewer_slam.palette`), and every error plot holds, per run,
 a thick bar at zero across the frames where that run had no pose, so a plot and the
-playhead agree where tracking was lost.
+playhead agree where tracking was lost. Titles are short enough to show whole at 1280x800
+(:mod:`.fit`).
 """
 
 import numpy as np
@@ -14,6 +15,7 @@ from rerun.blueprint.api import EntityPathLike, VisualizerLike
 from .. import palette
 from ..pipelines.edges import EdgeKind
 from . import layout
+from .fit import LEFT_SHARE, RIGHT_SHARE, column_px, title_chars
 from .sizes import MIN_EXTENT_M, extent
 
 # The eye: a camera path of this extent or less is framed as one of this extent (a desk scene
@@ -129,7 +131,7 @@ def whole_timeline() -> rrb.TimeAxis:
 def error_plot(title: str, pipelines: list[str], series: str, axis_x: rrb.TimeAxis | None = None) -> rrb.TimeSeriesView:
     """One series of every run and the runs' lost bands, its colours named in the title."""
     bands = lost_band_overrides(_series(pipelines, LOST_BAND))
-    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)}; bar at 0: no pose",
+    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)} · bar at 0: no pose",
                               contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
                               plot_legend=hidden_legend(), overrides=bands, axis_x=axis_x)
 
@@ -143,8 +145,16 @@ def log_columns() -> rrb.archetypes.TextLogColumns:
 
 
 def scene_title(pipelines: list[str]) -> str:
+    """The 3D view's colours: groundtruth, each run (dim while lost), loop closures (bright while recent)."""
     return (f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(pipelines)}, dim when lost · "
-            f"loop closures {palette.ACCEPTED.name}, bright for {RECENT_LOOP_S:g} s · other edges faint")
+            f"loops {palette.ACCEPTED.name}, bright {RECENT_LOOP_S:g} s")
+
+
+def matches_title(name: str, side_by_side: int) -> str:
+    """A run's matches view: with the inlier and outlier colours where the title has the room
+    (one of ``side_by_side`` views in the right column)."""
+    full = f"{name}: matches (inliers {palette.INLIER.name}, outliers {palette.OUTLIER.name})"
+    return full if len(full) <= title_chars(column_px(RIGHT_SHARE, side_by_side)) else f"{name} matches"
 
 
 def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = None,
@@ -168,13 +178,13 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
                               overrides=overrides)
     matches = rrb.Horizontal(*[
         rrb.Spatial2DView(origin=layout.matches(name), contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
-                          name=f"{name}: matches (inliers {palette.INLIER.name}, outliers {palette.OUTLIER.name})")
+                          name=matches_title(name, len(pipelines)))
         for name in pipelines])
-    ate = error_plot("ATE [m], one alignment for the run", pipelines, "ate")
+    ate = error_plot("ATE [m]", pipelines, "ate")
     details = rrb.Tabs(
-        error_plot("ATE [m], each tracked segment aligned on its own", pipelines, "ate_segments"),
-        error_plot("RPE translation [m], Δ=1 s", pipelines, "rpe_trans"),
-        error_plot("RPE rotation [deg], Δ=1 s", pipelines, "rpe_rot"),
+        error_plot("ATE per segment [m]", pipelines, "ate_segments"),
+        error_plot("RPE trans. [m], Δ=1 s", pipelines, "rpe_trans"),
+        error_plot("RPE rot. [deg], Δ=1 s", pipelines, "rpe_rot"),
         error_plot("coverage so far", pipelines, "coverage"),
         rrb.TimeSeriesView(name=f"features (thin) / inliers (thick) · {colour_legend(counted)}",
                            contents=_series(counted, "features") + _series(counted, "inliers"),
@@ -194,7 +204,7 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
     state_share = 1.0 + 0.9 * len(pipelines)  # every run's two rows stay in view
     side = rrb.Vertical(matches, ate, details, state, row_shares=[2.4, 2, 2, state_share])
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(scene, log, row_shares=[3.2, 1]), side, column_shares=[1.35, 1]),
+        rrb.Horizontal(rrb.Vertical(scene, log, row_shares=[3.2, 1]), side, column_shares=[LEFT_SHARE, RIGHT_SHARE]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),

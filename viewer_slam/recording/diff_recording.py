@@ -25,8 +25,9 @@ from .blueprint import (
     lost_band_overrides,
     overview_eye,
 )
+from .fit import LEFT_SHARE, RIGHT_SHARE
 from .recorder import log_world, lost_colour, transform
-from .timelines import gap_starts, log_lost_band, send_frame_columns
+from .timelines import gap_starts, log_lost_band, send_frame_columns, send_log_messages
 
 SIDE_COLORS = {"A": (255, 140, 0), "B": (40, 150, 255)}
 DIFFERENCE_COLOR = (200, 80, 220)
@@ -65,7 +66,7 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
                                    plot_legend=hidden_legend(), overrides=overrides),
                 rrb.TextLogView(origin="log", name="losses and their causes", columns=log_columns()),
                 row_shares=[2, 1.4, 2, 1.2]),
-            column_shares=[1.35, 1]),
+            column_shares=[LEFT_SHARE, RIGHT_SHARE]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),
@@ -103,10 +104,9 @@ def _log_run(stream: rr.RecordingStream, run: RunComparison) -> None:
                    static=True)
         log_lost_band(stream, layout.metric(label, LOST_BAND), frames, stamps, ~np.asarray(tracked, dtype=bool))
         losses = recorded.block["tracking_lost"]
-        send_frame_columns(stream, layout.text_log(label), np.array([loss["frame"] for loss in losses], dtype=np.int64),
-                           np.array([loss["timestamp"] for loss in losses], dtype=np.float64),
-                           rr.TextLog.columns(text=[f"{side}: {loss.get('text') or loss['reason']}" for loss in losses],
-                                              level=[rr.TextLogLevel.WARN] * len(losses)))
+        send_log_messages(stream, layout.text_log(label), np.array([loss["frame"] for loss in losses], dtype=np.int64),
+                          np.array([loss["timestamp"] for loss in losses], dtype=np.float64),
+                          [f"{side}: {loss.get('text') or loss['reason']}" for loss in losses], rr.TextLogLevel.WARN)
     _log_series(stream, layout.metric(difference_label(run), "ate"), frames, stamps, run.ate_difference,
                 DIFFERENCE_COLOR, "B - A")
 

@@ -12,7 +12,7 @@ import rerun as rr
 from .. import palette
 from ..diagnosis import Cause, FrameSignals
 from . import layout
-from .timelines import send_frame_columns
+from .timelines import send_frame_columns, send_log_messages
 
 TRACKING = "tracking"
 CAUSE_COLORS = {TRACKING: palette.STATUS["ok"].rgb,
@@ -36,9 +36,8 @@ def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], s
                                                        colors=list(CAUSE_COLORS.values())), static=True)
     frames = np.array([loss["frame"] for loss in diagnosed], dtype=np.int64)
     stamps = np.array([loss["timestamp"] for loss in diagnosed], dtype=np.float64)
-    send_frame_columns(stream, layout.text_log(name), frames, stamps,
-                       rr.TextLog.columns(text=[f"{loss['text']}; the pipeline: {loss['reason']}" for loss in diagnosed],
-                                          level=[rr.TextLogLevel.WARN] * len(diagnosed)))
+    send_log_messages(stream, layout.text_log(name), frames, stamps,
+                      [f"{loss['text']}; the pipeline: {loss['reason']}" for loss in diagnosed], rr.TextLogLevel.WARN)
     changes = [(frame, stamp, loss["cause"]) for frame, stamp, loss in zip(frames, stamps, diagnosed)]
     changes += _recoveries(frames, signals)
     changes.sort(key=lambda change: change[0])

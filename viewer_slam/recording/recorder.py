@@ -7,6 +7,8 @@ pipeline's map frame and are logged under ``world/<pipeline>``, whose transform 
 ``world`` is set once the run has been evaluated.
 """
 
+import re
+
 import cv2
 import numpy as np
 import rerun as rr
@@ -31,6 +33,7 @@ from ..pipelines.events import (
 from . import layout
 from .blueprint import LOST_BAND, LOST_BAND_WIDTH
 from .budget import SnapshotBudget
+from .fit import log_rows
 from .images import depth_png, jpeg, jpeg_bytes
 from .sizes import SceneSizes, extent, scene_sizes
 from .voxel_map import VoxelMap
@@ -111,11 +114,19 @@ def evenly_spaced(count: int, limit: int) -> np.ndarray:
 
 
 def loop_closure_line(edges: list[GraphEdge], verdict: str) -> str:
-    """One log line for all the loop-closure hypotheses of one frame that share a verdict."""
-    details = "; ".join(f"KF{edge.from_keyframe} -> KF{edge.to_keyframe} ({edge.detection}, {edge.reason}, "
-                        f"score {edge.score:.3g}, {edge.inliers} inliers)" for edge in edges)
+    """One log message for all the loop-closure hypotheses of one frame that share a verdict:
+    for each, its keyframes, how it was found and the pipeline's reason, with the score and
+    the inlier count where the reason does not already say them."""
+    def detail(edge: GraphEdge) -> str:
+        parts = [edge.detection, edge.reason]
+        if edge.score != edge.inliers:
+            parts.append(f"score {edge.score:.3g}")
+        if not re.search(r"\d+ inliers", edge.reason):
+            parts.append(f"{edge.inliers} inliers")
+        return f"KF{edge.from_keyframe} -> KF{edge.to_keyframe} ({', '.join(parts)})"
+
     noun = "loop closure" if len(edges) == 1 else f"{len(edges)} loop closures"
-    return f"{noun} {verdict}: {details}"
+    return f"{noun} {verdict}: {'; '.join(detail(edge) for edge in edges)}"
 
 
 def log_run_styles(stream: rr.RecordingStream, name: str, colour: palette.Colour) -> None:
@@ -207,8 +218,10 @@ class PipelineRecorder:
         self._log(path, make(instances) if len(instances) else rr.Clear(recursive=False), static=static)
 
     def _text(self, message: str, level: str) -> None:
-        """A log line; the pipeline leads the text since log views truncate the entity path."""
-        self._log(layout.text_log(self.name), rr.TextLog(f"{self.name}: {message}", level=level))
+        """A log message, in rows that the log view shows whole; the pipeline leads the text since
+        log views truncate the entity path."""
+        for row in log_rows(f"{self.name}: {message}"):
+            self._log(layout.text_log(self.name), rr.TextLog(row, level=level))
 
     def _log_styles(self) -> None:
         name, rgb = self.name, self.colour.rgb

@@ -11,6 +11,7 @@ import rerun as rr
 from ..evaluation import Evaluation
 from . import layout
 from .blueprint import LOST_BAND
+from .fit import log_rows
 from .recorder import transform
 
 
@@ -106,3 +107,13 @@ def log_lost_band(stream: rr.RecordingStream, path: str, frame_indices: np.ndarr
     breaks = gap_starts(lost)
     send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
                        rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+
+
+def send_log_messages(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
+                      texts: list[str], level: str) -> None:
+    """Text log messages at their frames, each in the rows the log view shows whole (:func:`.fit.log_rows`)."""
+    rows = [(frame, stamp, row) for frame, stamp, text in zip(frame_indices, frame_timestamps, texts)
+            for row in log_rows(text)]
+    send_frame_columns(stream, path, np.array([row[0] for row in rows], dtype=np.int64),
+                       np.array([row[1] for row in rows], dtype=np.float64),
+                       rr.TextLog.columns(text=[row[2] for row in rows], level=[level] * len(rows)))

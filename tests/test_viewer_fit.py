@@ -1,0 +1,58 @@
+"""Titles and log rows short enough to show whole in a 1280x800 window."""
+
+import numpy as np
+import rerun.blueprint as rrb
+
+from viewer_slam.recording import blueprint
+from viewer_slam.recording.fit import CONTINUATION, LEFT_SHARE, LOG_LINE_CHARS, RIGHT_SHARE, column_px, log_rows, title_chars
+from viewer_slam.recording.recorder import loop_closure_line
+from viewer_slam.pipelines.edges import EdgeKind
+from viewer_slam.pipelines.events import GraphEdge
+
+PIPELINES = ["rgbdslam", "rtabmap"]
+
+
+def views_outside_tabs(container) -> list:
+    """The views of a blueprint container that are not inside a Tabs container, with their column."""
+    found = []
+    for child in container.contents:
+        if isinstance(child, rrb.Tabs):
+            continue
+        found += views_outside_tabs(child) if hasattr(child, "contents") and not hasattr(child, "origin") else [child]
+    return found
+
+
+def test_the_measured_widths_give_these_budgets():
+    # At 1280 px: the left column 735 px, the right 545 px, two matches views 272 px each.
+    assert (title_chars(column_px(LEFT_SHARE)), title_chars(column_px(RIGHT_SHARE)),
+            title_chars(column_px(RIGHT_SHARE, 2)), LOG_LINE_CHARS) == (93, 63, 21, 91)
+
+
+def test_every_title_outside_the_tabs_fits_its_view_at_1280x800():
+    layout = blueprint.default_blueprint(PIPELINES, np.zeros((2, 3)) + [[0, 0, 0], [1, 1, 0]])
+    left, right = layout.root_container.contents
+    budgets = {id(view): title_chars(column_px(LEFT_SHARE)) for view in views_outside_tabs(left)}
+    budgets |= {id(view): title_chars(column_px(RIGHT_SHARE)) for view in views_outside_tabs(right)}
+    matches = right.contents[0]
+    budgets |= {id(view): title_chars(column_px(RIGHT_SHARE, len(PIPELINES))) for view in matches.contents}
+    views = views_outside_tabs(left) + views_outside_tabs(right)
+    assert len(views) == 2 + len(PIPELINES) + 2  # 3D view and log; matches, ATE, states
+    for view in views:
+        assert len(view.name) <= budgets[id(view)], (view.name, budgets[id(view)])
+
+
+def test_one_run_names_its_match_colours_where_two_side_by_side_have_no_room():
+    assert "outliers" in blueprint.matches_title("rgbdslam", 1)
+    assert blueprint.matches_title("rgbdslam", 2) == "rgbdslam matches"
+
+
+def test_a_long_message_continues_in_indented_rows_that_fit():
+    edges = [GraphEdge(frame_index=300, from_keyframe=27 + k, to_keyframe=145, accepted=False,
+                       reason="RANSAC found no transformation with enough inliers", kind=EdgeKind.LOOP,
+                       detection="neighbour") for k in range(4)]
+    message = f"rgbdslam: {loop_closure_line(edges, 'rejected')}"
+    rows = log_rows(message)
+    assert len(rows) > 1 and all(len(row) <= LOG_LINE_CHARS for row in rows)
+    assert all(row.startswith(CONTINUATION) for row in rows[1:]) and not rows[0].startswith(" ")
+    assert " ".join(row.strip() for row in rows) == message
+    assert "score" not in message  # a score equal to the inlier count is not repeated
