@@ -1,11 +1,14 @@
 """Reproduce the study: the seven synthetic situations x both pipelines, into docs/benchmark.md.
 
     .venv/bin/python benchmarks/study.py [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
+    .venv/bin/python benchmarks/study.py --redraw
 
 Generates the scenarios first, one process per job (rendering dominates a cold run), then
 runs ``viewslam benchmark`` on them, copies its charts to ``docs/images/`` and writes its
 results table and findings into docs/benchmark.md (the figure block ``study``), stamped with
 the command, the machine and the date: too costly for the test suite, so never re-run there.
+``--redraw`` runs nothing: it draws the charts of ``docs/images/`` again, with the current
+chart code, from the table the last run wrote into docs/benchmark.md (its numbers as printed).
 """
 
 import argparse
@@ -15,6 +18,8 @@ from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 from pathlib import Path
 
+from viewer_slam.atomic import StagedFiles
+from viewer_slam.benchmark.plots import plot_all
 from viewer_slam.cli import main
 from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, cached_scenario
@@ -23,7 +28,34 @@ REPO = Path(__file__).resolve().parent.parent
 IMAGES = REPO / "docs" / "images"
 DOCUMENT = REPO / "docs" / "benchmark.md"
 sys.path.insert(0, str(REPO / "scripts"))
-from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
+from doc_figures import stamp, with_block, written  # noqa: E402  (a script beside this one, not a package)
+
+# The charted columns of the results table, by their titles there.
+CHARTED = {"ATE RMSE [m]": "ate_rmse", "RPE trans RMSE [m]": "rpe_trans_rmse", "RPE rot RMSE [deg]": "rpe_rot_rmse",
+           "Time [s]": "time_s", "Coverage": "coverage", "Penalised ATE RMSE [m]": "penalized_ate_rmse"}
+
+
+def documented_rows(document: str) -> list[dict]:
+    """The study block's results table as chart rows; "-" is a score that does not exist."""
+    table = [line for line in written(document, "study").splitlines() if line.startswith("| ")]  # not "|---|"
+    header = [cell.strip() for cell in table[0].strip("|").split("|")]
+    rows = []
+    for line in table[1:]:
+        cells = dict(zip(header, (cell.strip() for cell in line.strip("|").split("|"))))
+        row = {"sequence": cells["Sequence"], "pipeline": cells["Pipeline"], "status": cells["Status"]}
+        for title, metric in CHARTED.items():
+            text = cells[title].removesuffix("%").strip()
+            row[metric] = None if text == "-" else float(text) / (100 if title == "Coverage" else 1)
+        rows.append(row)
+    return rows
+
+
+def redraw() -> int:
+    with StagedFiles() as staged:
+        for path in plot_all(documented_rows(DOCUMENT.read_text()), IMAGES, staged):
+            print(path)
+        staged.commit()
+    return 0
 
 
 def run(arguments: list[str]) -> int:
@@ -32,7 +64,10 @@ def run(arguments: list[str]) -> int:
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("benchmark-results/study"))
+    parser.add_argument("--redraw", action="store_true", help="only draw the charts again from docs/benchmark.md")
     options = parser.parse_args(arguments)
+    if options.redraw:
+        return redraw()
     generate = partial(cached_scenario, frames=options.frames, resolution=parse_resolution(options.resolution))
     with ProcessPoolExecutor(options.jobs) as pool:
         for name, folder in zip(SCENARIOS, pool.map(generate, SCENARIOS)):
