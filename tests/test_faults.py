@@ -297,18 +297,18 @@ def test_the_record_summary_is_not_cut_on_a_narrow_console():
     assert "…" not in text and "0.123" in text and "1234" in text and "12/345" in text
 
 
-def test_benchmark_max_frames_cuts_the_scenario_rendered_at_its_own_length(monkeypatch):
+def test_benchmark_max_frames_cuts_the_scenario_rendered_at_its_own_length_and_renders_only_the_cut(monkeypatch):
     import viewer_slam.benchmark.plan as plan
 
     rendered = []
 
-    def resolve(spec, *, frames=None, resolution=(640, 480), seed=0):
-        rendered.append((spec, frames))
+    def resolve(spec, *, frames=None, resolution=(640, 480), seed=0, first=None, progress=False):
+        rendered.append((spec, frames, first))
         return Path("/scenarios") / spec
 
     monkeypatch.setattr(plan, "resolve_sequence", resolve)
     tasks = plan.plan_tasks(["360_kidnap"], ["rgbdslam"], max_frames=60)
-    assert rendered == [("360_kidnap", None)] and tasks[0].max_frames == 60
+    assert rendered == [("360_kidnap", None, 60)] and tasks[0].max_frames == 60
 
 
 COMMANDS_WITHOUT_HEAVY_IMPORTS = {
@@ -430,3 +430,21 @@ def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(ex
         assert error.count("\n") == 1 and list(mount.iterdir()) == []
     finally:
         subprocess.run(["umount", str(mount)], check=True)
+
+
+def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatch, tmp_path):
+    from viewer_slam.errors import InputError
+    from viewer_slam.recording import session
+
+    asked = []
+
+    def resolve(spec, *, first=None, progress=False):
+        asked.append((spec, first, progress))
+        raise InputError("stop here")
+
+    monkeypatch.setattr(session, "resolve_sequence", resolve)
+    for stride, quiet in ((1, True), (3, False)):
+        with pytest.raises(InputError, match="stop here"):
+            session.record(session.RecordOptions(sequence="360_kidnap", max_frames=4, stride=stride, quiet=quiet,
+                                                 out=tmp_path / "x.rrd"))
+    assert asked == [("360_kidnap", 4, False), ("360_kidnap", 10, True)]  # frames 0, 3, 6, 9
