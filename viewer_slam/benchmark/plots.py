@@ -119,9 +119,10 @@ def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: 
         figure = draw_metric(rows, metric)
         paths = [out_dir / f"{prefix}{metric}.png", out_dir / f"{prefix}{metric}.svg"]
         where = staged.path if staged is not None else Path
-        cropped = {"bbox_inches": "tight", "pad_inches": PAD_INCHES}
-        figure.savefig(where(paths[0]), format="png", dpi=120, metadata={"Software": None}, **cropped)
-        figure.savefig(where(paths[1]), format="svg", metadata={"Date": None, "Creator": None}, **cropped)
+        figure.savefig(where(paths[0]), format="png", dpi=120, metadata={"Software": None}, bbox_inches="tight",
+                       pad_inches=PAD_INCHES)
+        figure.savefig(where(paths[1]), format="svg", metadata={"Date": None, "Creator": None}, bbox_inches="tight",
+                       pad_inches=PAD_INCHES)
         plt.close(figure)
     return paths
 

@@ -72,10 +72,12 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
         (f"ATE ({alignment} alignment)", "ate"), ("ATE, each tracked segment aligned on its own", "segment_ate"),
         ("penalised ATE (while lost, the last pose is held)", "penalized_ate"))
         if any(getattr(item.evaluation, attribute) is not None for item in scored)]
-    figure = plt.figure(figsize=(12, 2.2 + 1.6 * max(len(panels), 1)), layout="constrained")
-    left, right = figure.subfigures(1, 2, width_ratios=(1, 1.35))
-    top = left.subplots()
-    errors = right.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0]
+    rows = max(len(panels), 1)
+    figure = plt.figure(figsize=(12, 2.2 + 1.6 * rows), layout="constrained")
+    grid = figure.add_gridspec(rows, 2, width_ratios=(1, 1.35))
+    top = figure.add_subplot(grid[:, 0])
+    errors = [figure.add_subplot(grid[0, 1])]
+    errors += [figure.add_subplot(grid[row, 1], sharex=errors[0]) for row in range(1, rows)]
     top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex,
              label="groundtruth")
     origin = groundtruth.timestamps[0]  # the error plot's x axis is groundtruth time from its first pose
@@ -102,6 +104,8 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
         axes.set_ylabel("error [m]")
         axes.set_ylim(bottom=0)
         axes.grid(alpha=0.3)
+    for axes in errors[:-1]:
+        axes.tick_params(labelbottom=False)  # one time axis, under the last panel
     errors[-1].set_xlabel("groundtruth time [s]")
     errors[-1].set_xlim(0, groundtruth.timestamps[-1] - origin)
     handles, labels = top.get_legend_handles_labels()

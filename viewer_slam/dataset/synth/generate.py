@@ -164,16 +164,16 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
     complete = root / f"{name}-{frames}-{width}x{height}-s{seed}-v{GENERATOR_VERSION}"
     if complete.is_dir():
         return complete
-    cut = first is not None and first < frames
-    if cut:
+    final = complete
+    if first is not None and first < frames:
         longer = sorted(found for found in cached_cuts(complete) if found[0] >= first)
         if longer:
             return longer[0][1]
-    final = complete.with_name(f"{complete.name}-first{first}") if cut else complete
+        final = complete.with_name(f"{complete.name}-first{first}")
     staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=root))
     try:
         generate_scenario(name, staging / "run", frames=frames, resolution=resolution, seed=seed,
-                          first=first if cut else None, progress=progress)
+                          first=first if final != complete else None, progress=progress)
         try:
             os.rename(staging / "run", final)
         except OSError:
