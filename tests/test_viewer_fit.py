@@ -12,13 +12,11 @@ from viewer_slam.pipelines.events import GraphEdge
 PIPELINES = ["rgbdslam", "rtabmap"]
 
 
-def views_outside_tabs(container) -> list:
-    """The views of a blueprint container that are not inside a Tabs container, with their column."""
+def views_in(container) -> list:
+    """Every view under a blueprint container, tabs included."""
     found = []
     for child in container.contents:
-        if isinstance(child, rrb.Tabs):
-            continue
-        found += views_outside_tabs(child) if hasattr(child, "contents") and not hasattr(child, "origin") else [child]
+        found += views_in(child) if hasattr(child, "contents") and not hasattr(child, "origin") else [child]
     return found
 
 
@@ -28,15 +26,15 @@ def test_the_measured_widths_give_these_budgets():
             title_chars(column_px(RIGHT_SHARE, 2)), LOG_LINE_CHARS) == (93, 63, 21, 91)
 
 
-def test_every_title_outside_the_tabs_fits_its_view_at_1280x800():
+def test_every_title_fits_its_view_at_1280x800():
     layout = blueprint.default_blueprint(PIPELINES, np.zeros((2, 3)) + [[0, 0, 0], [1, 1, 0]])
     left, right = layout.root_container.contents
-    budgets = {id(view): title_chars(column_px(LEFT_SHARE)) for view in views_outside_tabs(left)}
-    budgets |= {id(view): title_chars(column_px(RIGHT_SHARE)) for view in views_outside_tabs(right)}
+    budgets = {id(view): title_chars(column_px(LEFT_SHARE)) for view in views_in(left)}
+    budgets |= {id(view): title_chars(column_px(RIGHT_SHARE)) for view in views_in(right)}
     matches = right.contents[0]
     budgets |= {id(view): title_chars(column_px(RIGHT_SHARE, len(PIPELINES))) for view in matches.contents}
-    views = views_outside_tabs(left) + views_outside_tabs(right)
-    assert len(views) == 2 + len(PIPELINES) + 2  # 3D view and log; matches, ATE, states
+    views = views_in(left) + views_in(right)
+    assert len(views) == 2 + len(PIPELINES) + 2 + 6 + len(PIPELINES)  # left 2; matches, ATE, states; 8 tabs
     for view in views:
         assert len(view.name) <= budgets[id(view)], (view.name, budgets[id(view)])
 

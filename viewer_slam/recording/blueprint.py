@@ -131,7 +131,7 @@ def whole_timeline() -> rrb.TimeAxis:
 def error_plot(title: str, pipelines: list[str], series: str, axis_x: rrb.TimeAxis | None = None) -> rrb.TimeSeriesView:
     """One series of every run and the runs' lost bands, its colours named in the title."""
     bands = lost_band_overrides(_series(pipelines, LOST_BAND))
-    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)} · bar at 0: no pose",
+    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)} · bar: no pose",
                               contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
                               plot_legend=hidden_legend(), overrides=bands, axis_x=axis_x)
 
@@ -182,14 +182,14 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
         for name in pipelines])
     ate = error_plot("ATE [m]", pipelines, "ate")
     details = rrb.Tabs(
-        error_plot("ATE per segment [m]", pipelines, "ate_segments"),
-        error_plot("RPE trans. [m], Δ=1 s", pipelines, "rpe_trans"),
-        error_plot("RPE rot. [deg], Δ=1 s", pipelines, "rpe_rot"),
+        error_plot("seg. ATE [m]", pipelines, "ate_segments"),
+        error_plot("RPE [m], Δ 1 s", pipelines, "rpe_trans"),
+        error_plot("RPE [deg], Δ 1 s", pipelines, "rpe_rot"),
         error_plot("coverage so far", pipelines, "coverage"),
-        rrb.TimeSeriesView(name=f"features (thin) / inliers (thick) · {colour_legend(counted)}",
+        rrb.TimeSeriesView(name=f"features thin, inliers thick · {colour_legend(counted)}",
                            contents=_series(counted, "features") + _series(counted, "inliers"),
                            plot_legend=hidden_legend()),
-        rrb.TimeSeriesView(name=f"pose-graph error after optimisation · {colour_legend(pipelines)}",
+        rrb.TimeSeriesView(name=f"pose-graph error · {colour_legend(pipelines)}",
                            contents=_series(pipelines, "graph_error"), plot_legend=hidden_legend()),
         *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"),
                              plot_legend=rrb.Corner2D.LeftTop)

@@ -55,12 +55,12 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="groundtruth grey, A orange, B blue", eye_controls=eye),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="ATE per frame [m] · A orange, B blue; bar at 0: no pose",
+                rrb.TimeSeriesView(name="ATE per frame [m] · A orange, B blue · bar: no pose",
                                    contents=[f"/{layout.metric(label, 'ate')}" for label in labels] + bands,
                                    plot_legend=hidden_legend(), overrides=overrides),
                 rrb.StateTimelineView(name="frames with a pose, A and B",
                                       contents=[f"/{layout.metric(label, 'pose')}" for label in labels]),
-                rrb.TimeSeriesView(name="ATE difference B - A [m] · purple; bar at 0: no pose",
+                rrb.TimeSeriesView(name="ATE difference B - A [m] · purple · bar: no pose",
                                    contents=[f"/{layout.metric(difference_label(run), 'ate')}"
                                              for run in comparison.runs] + bands,
                                    plot_legend=hidden_legend(), overrides=overrides),
