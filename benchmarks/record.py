@@ -12,10 +12,15 @@
    the measurement itself, so the long sequence plays the short one forwards, backwards,
    forwards... (continuous motion, time running on, groundtruth following the frames).
    ``--memory-frames 0`` skips it.
+
+Prints the figures as JSON and writes their table into docs/recording.md (the figure block
+``record-cost``), stamped with the command, the machine, the load before the run and the date:
+too costly for the test suite, so never re-run there.
 """
 
 import argparse
 import json
+import os
 import resource
 import subprocess
 import sys
@@ -29,12 +34,16 @@ from viewer_slam.dataset.frame import Frame
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.dataset.tum import TumSequence, open_sequence
 from viewer_slam.geometry.trajectory import Trajectory
-from viewer_slam.pipelines.base import PIPELINE_MODULES
+from viewer_slam.pipelines.base import PIPELINE_MODULES, make_pipeline
 from viewer_slam.pipelines.run import run_pipeline
 from viewer_slam.recording import session
 from viewer_slam.recording.session import RecordOptions, record, record_sequence
 
 RESOLUTION = (640, 480)
+REPO = Path(__file__).resolve().parent.parent
+DOCUMENT = REPO / "docs" / "recording.md"
+sys.path.insert(0, str(REPO / "scripts"))
+from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
 
 
 class Stopwatch:
@@ -114,8 +123,8 @@ class PingPong:
 def measure_memory(folder: Path, frames: int, out: Path) -> None:
     """Child process: record both pipelines over the ping-pong sequence, print peak RSS in GiB."""
     sequence = PingPong(open_sequence(folder), frames)
-    params = {name: None for name in PIPELINE_MODULES}
-    result = record_sequence(sequence, params, out, RecordOptions(quiet=True))
+    runs = {name: make_pipeline(name, sequence.camera) for name in PIPELINE_MODULES}
+    result = record_sequence(sequence, runs, out, RecordOptions(quiet=True))
     print(json.dumps({"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
                       "kib_per_frame": out.stat().st_size / 1024 / frames,
                       "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}))
@@ -125,6 +134,33 @@ def peak_memory(folder: Path, frames: int, out: Path) -> dict:
     command = [sys.executable, __file__, "--memory-child", str(folder), "--memory-frames", str(frames),
                "--out", str(out)]
     return json.loads(subprocess.run(command, check=True, capture_output=True, text=True).stdout)
+
+
+def table(results: dict) -> str:
+    """The figures as docs/recording.md shows them, beside their targets."""
+    frames = results["frames"]
+    rows = [("| figure | measured | target |", "|---|---|---|"),
+            (f"| size, {frames} frames, both pipelines | **{results['kib_per_frame']:.1f} KiB per frame** "
+             f"({results['kib_per_frame'] * frames / 1024:.1f} MiB) | ≤ 60 KiB |",),
+            (f"| time inside the recorder / pipelines' own time, {frames} frames | "
+             f"**{results['recorder_share_of_pipelines']:.1%}** ({results['recorder_s']:.2f} s of "
+             f"{results['pipelines_s']:.2f} s) | ≤ 25 % |",),
+            (f"| wall time of `record` / the same pipelines with no sink, {frames} frames | "
+             f"**{results['wall_overhead']:+.1%}** ({results['record_wall_s']:.2f} s against "
+             f"{results['bare_pipelines_wall_s']:.2f} s) | |",)]
+    memory = results.get("memory")
+    if memory:
+        rows += [(f"| size, {memory['frames']:,} frames, both pipelines | **{memory['kib_per_frame']:.1f} KiB per "
+                  f"frame** ({memory['kib_per_frame'] * memory['frames'] / 1024:.0f} MiB) | ≤ 60 KiB |",),
+                 (f"| peak RSS, {memory['frames']:,} frames, both pipelines, one process | "
+                  f"**{memory['peak_rss_gib']:.2f} GiB** | ≤ 3 GB |",)]
+    def rates(fps: dict[str, float]) -> str:
+        return " and ".join(f"{name} {value:.1f}" for name, value in fps.items())
+
+    text = f"Frames/s while recording {frames} frames: {rates(results['fps'])}"
+    if memory:
+        text += f"; {memory['frames']:,} frames: {rates(memory['fps'])}"
+    return "\n".join(line for row in rows for line in row) + f"\n\n{text}."
 
 
 def main() -> None:
@@ -139,6 +175,7 @@ def main() -> None:
         measure_memory(args.memory_child, args.memory_frames, args.out)
         return
 
+    load = os.getloadavg()[0]
     results = {"scenario": args.scenario, "resolution": list(RESOLUTION), "frames": args.frames}
     with tempfile.TemporaryDirectory() as scratch:
         folder = cached_scenario(args.scenario, frames=args.frames, resolution=RESOLUTION)
@@ -161,6 +198,9 @@ def main() -> None:
             results["memory"] = {"frames": args.memory_frames,
                                  **peak_memory(folder, args.memory_frames, Path(scratch) / "memory.rrd")}
     print(json.dumps(results, indent=2))
+    command = " ".join(["python benchmarks/record.py", *sys.argv[1:]])
+    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), "record-cost",
+                                   f"{stamp(command)} Load average {load:.1f} before the run.\n\n{table(results)}"))
 
 
 if __name__ == "__main__":
