@@ -1,13 +1,20 @@
 """Titles and log rows short enough to show whole in a 1280x800 window."""
 
 import numpy as np
-import rerun.blueprint as rrb
 
-from viewer_slam.recording import blueprint
-from viewer_slam.recording.fit import CONTINUATION, LEFT_SHARE, LOG_LINE_CHARS, RIGHT_SHARE, column_px, log_rows, title_chars
-from viewer_slam.recording.recorder import loop_closure_line
 from viewer_slam.pipelines.edges import EdgeKind
 from viewer_slam.pipelines.events import GraphEdge
+from viewer_slam.recording import blueprint
+from viewer_slam.recording.fit import (
+    CONTINUATION,
+    LEFT_SHARE,
+    LOG_LINE_CHARS,
+    RIGHT_SHARE,
+    column_px,
+    log_rows,
+    title_chars,
+)
+from viewer_slam.recording.recorder import loop_closure_line
 
 PIPELINES = ["rgbdslam", "rtabmap"]
 
