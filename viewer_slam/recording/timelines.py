@@ -110,7 +110,7 @@ def log_lost_band(stream: rr.RecordingStream, path: str, frame_indices: np.ndarr
 
 
 def send_log_messages(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
-                      texts: list[str], level: str) -> None:
+                      texts: list[str], level: rr.TextLogLevel) -> None:
     """Text log messages at their frames, each in the rows the log view shows whole (:func:`.fit.log_rows`)."""
     rows = [(frame, stamp, row) for frame, stamp, text in zip(frame_indices, frame_timestamps, texts)
             for row in log_rows(text)]
