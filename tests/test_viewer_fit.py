@@ -46,6 +46,16 @@ def test_every_title_fits_its_view_at_1280x800():
         assert len(view.name) <= budgets[id(view)], (view.name, budgets[id(view)])
 
 
+def test_every_title_of_a_recording_of_trajectory_files_fits_at_1280x800():
+    runs = ["rgbdslam_v2", "rtabmap"]  # the study's, the longest names shown in docs
+    layout = blueprint.files_blueprint(runs, np.array([[0.0, 0, 0], [1, 1, 0]]), error_top=12.34)
+    left, right = layout.root_container.contents
+    for views, budget in ((views_in(left), title_chars(column_px(LEFT_SHARE))),
+                          (views_in(right), title_chars(column_px(RIGHT_SHARE)))):
+        for view in views:
+            assert len(view.name) <= budget, (view.name, budget)
+
+
 def test_one_run_names_its_match_colours_where_two_side_by_side_have_no_room():
     assert "outliers" in blueprint.matches_title("rgbdslam", 1)
     assert blueprint.matches_title("rgbdslam", 2) == "rgbdslam matches"

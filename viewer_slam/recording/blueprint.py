@@ -128,6 +128,11 @@ def whole_timeline() -> rrb.TimeAxis:
                                                  end=rrb.TimeRangeBoundary.infinite()))
 
 
+# The error plots' titles (each followed by the runs' colours): short enough for the right column.
+ERROR_PLOTS = {"ate": "ATE [m]", "ate_segments": "seg. ATE [m]", "rpe_trans": "RPE [m]", "rpe_rot": "RPE [deg]",
+               "coverage": "coverage"}
+
+
 def error_plot(title: str, pipelines: list[str], series: str, axis_x: rrb.TimeAxis | None = None) -> rrb.TimeSeriesView:
     """One series of every run and the runs' lost bands, its colours named in the title."""
     bands = lost_band_overrides(_series(pipelines, LOST_BAND))
@@ -180,12 +185,10 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
         rrb.Spatial2DView(origin=layout.matches(name), contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
                           name=matches_title(name, len(pipelines)))
         for name in pipelines])
-    ate = error_plot("ATE [m]", pipelines, "ate")
+    ate = error_plot(ERROR_PLOTS["ate"], pipelines, "ate")
     details = rrb.Tabs(
-        error_plot("seg. ATE [m]", pipelines, "ate_segments"),
-        error_plot("RPE [m], Δ 1 s", pipelines, "rpe_trans"),
-        error_plot("RPE [deg], Δ 1 s", pipelines, "rpe_rot"),
-        error_plot("coverage so far", pipelines, "coverage"),
+        *[error_plot(ERROR_PLOTS[series], pipelines, series) for series in ("ate_segments", "rpe_trans", "rpe_rot",
+                                                                            "coverage")],
         rrb.TimeSeriesView(name=f"features thin, inliers thick · {colour_legend(counted)}",
                            contents=_series(counted, "features") + _series(counted, "inliers"),
                            plot_legend=hidden_legend()),
@@ -212,9 +215,9 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
 
 
 def files_scene_title(runs: list[str], error_top: float) -> str:
+    """Groundtruth's and the runs' colours, and the ATE scale the poses are coloured on."""
     ramp = " → ".join(colour.name for colour in palette.ERROR_RAMP)
-    return (f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(runs)} · poses by ATE, {ramp} from 0 to "
-            f"{error_top:.2f} m · thin lines: each pose to its groundtruth")
+    return f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(runs)} · ATE {ramp}, 0–{error_top:.2f} m"
 
 
 def files_blueprint(runs: list[str], groundtruth: np.ndarray, error_top: float) -> rrb.Blueprint:
@@ -227,17 +230,14 @@ def files_blueprint(runs: list[str], groundtruth: np.ndarray, error_top: float) 
     text = rrb.Tabs(rrb.TextDocumentView(origin=layout.SUMMARY, name="summary"),
                     rrb.TextLogView(origin="log", name="losses and recoveries", columns=log_columns()))
     axis = whole_timeline()
-    details = rrb.Tabs(
-        error_plot("ATE [m], each tracked segment aligned on its own", runs, "ate_segments", axis),
-        error_plot("RPE translation [m], Δ=1 s", runs, "rpe_trans", axis),
-        error_plot("RPE rotation [deg], Δ=1 s", runs, "rpe_rot", axis),
-        error_plot("coverage so far", runs, "coverage", axis))
+    details = rrb.Tabs(*[error_plot(ERROR_PLOTS[series], runs, series, axis)
+                         for series in ("ate_segments", "rpe_trans", "rpe_rot", "coverage")])
     state = rrb.StateTimelineView(name="tracking state (lost: no pose for longer than the gap rule)",
                                   contents=_series(runs, "tracking_state"), time_view=axis)
-    side = rrb.Vertical(error_plot("ATE [m], one alignment for the run", runs, "ate", axis), details, state,
+    side = rrb.Vertical(error_plot(ERROR_PLOTS["ate"], runs, "ate", axis), details, state,
                         row_shares=[2, 2, 0.5 + 0.35 * len(runs)])
     return rrb.Blueprint(
-        rrb.Horizontal(rrb.Vertical(scene, text, row_shares=[2.6, 1]), side, column_shares=[1.35, 1]),
+        rrb.Horizontal(rrb.Vertical(scene, text, row_shares=[2.6, 1]), side, column_shares=[LEFT_SHARE, RIGHT_SHARE]),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),
