@@ -258,7 +258,8 @@ def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
     with tempfile.TemporaryDirectory() as views:
         view = camera_view(frames, reference_camera(sequence.camera, run), Path(views))
         sequence = open_sequence(view)
-        params = apply_overrides(RtabmapParams(), {**run.overrides, **extra}, "like_for_like")
+        params = apply_overrides(apply_overrides(RtabmapParams(), run.overrides, "like_for_like"), extra,
+                                 "--param", text=True)
         events = []
         ours = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence,
                      sinks=[events.append])
