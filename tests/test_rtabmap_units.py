@@ -230,8 +230,12 @@ def test_bayes_update_multiplies_the_prediction_by_the_likelihood():
     neighbours = lambda i: memory.neighbours(i, len(PREDICTION_LC) - 1)  # noqa: E731
     bayes = BayesFilter()
     first = bayes.update([0, 1, 2], neighbours, np.array([1.0, 4.0, 1.0]), 2.0)
-    # From {virtual: 1}: prior (0.9, 0.1/3, 0.1/3, 0.1/3) times (2, 1, 4, 1), normalised.
-    belief = np.array([1.8, 0.1 / 3, 0.4 / 3, 0.1 / 3])
+    # BayesFilter::updatePosterior: the first update starts from 1 in every state, so the prior
+    # is each row's sum of the prediction (columns checked above): the virtual place keeps 0.9
+    # and gets 0.1 from each location, 1.2 in all, against 1 - 0.1 = 0.9 per location column.
+    prior = prediction_matrix([0, 1, 2], neighbours).sum(axis=1)
+    assert prior[0] == pytest.approx(0.9 + 3 * 0.1) and prior.sum() == pytest.approx(1 + 3 * 1)
+    belief = prior * [2, 1, 4, 1]
     assert [first[k] for k in (VIRTUAL_PLACE, 0, 1, 2)] == pytest.approx(belief / belief.sum())
     prior = prediction_matrix([0, 1, 2], neighbours) @ (belief / belief.sum())
     second = bayes.update([0, 1, 2], neighbours, np.ones(3), 2.0)
@@ -343,7 +347,8 @@ def test_the_motion_guess_is_the_last_velocity_times_the_time_since_the_last_fra
     np.testing.assert_allclose(motion_over(velocity_of(motion, 0.04), 0.06), expected, atol=1e-12)
 
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
+    # Reg/RepeatOnce off: its guided repeat of the map's second frame is not a motion guess.
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Reg/RepeatOnce": False}, "test"))
     predicted, guided = [], odometry.guided_matches
     monkeypatch.setattr(odometry, "guided_matches", lambda features, pose: predicted.append(pose) or guided(features, pose))
     odometry.process(view(world, np.eye(4), words), 0.0)
@@ -366,6 +371,29 @@ def test_after_a_loss_odometry_registers_against_the_whole_local_map():
     assert back.pose is not None and np.allclose(back.pose, moved, atol=1e-3) and not back.new_session
 
 
+def test_a_registration_made_without_a_guess_is_redone_with_its_result_as_the_guess():
+    """Registration::computeTransformationMod (Reg/RepeatOnce): after a loss the whole-map
+    ratio test finds the 150 map points whose descriptors have a twin elsewhere in the map
+    ambiguous; redone with its own result as the guess, each projected map point takes its
+    corner in the 40-pixel window, where the twin (behind the camera) does not compete: every
+    map point whose projection falls in the image is then an inlier."""
+    rng = np.random.default_rng(5)
+    world, words = scene(), descriptors(300, rng)
+    seen = flip_bits(words, 10, rng)
+    twins = flip_bits(seen[:150], 10, rng)                             # as far from what is seen
+    moved = make_pose(exp_so3([0, np.radians(3), 0]), [0.05, 0, 0])
+    pixels = view(world, moved, seen).keypoints
+    in_image = int(np.all((pixels >= 0) & (pixels <= [CAMERA.width - 1, CAMERA.height - 1]), axis=1).sum())
+    for repeat, inliers in ((True, in_image), (False, 150)):
+        odometry = FrameToMapOdometry(CAMERA, apply_overrides(
+            RtabmapParams(), {"Reg/RepeatOnce": repeat, "OdomF2M/BundleAdjustment": 0}, "test"))
+        odometry.process(view(world, np.eye(4), words), 0 / 30)
+        odometry.map.add(world[:150] * [1, 1, -1], twins, 0, [(0, 0.0, 0.0, 1.0)] * 150)
+        assert odometry.process(view(world, np.eye(4), descriptors(300, rng)), 1 / 30).pose is None
+        back = odometry.process(view(world, moved, seen), 2 / 30)
+        assert back.inliers == inliers and np.allclose(back.pose, moved, atol=1e-3)
+
+
 def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Odom/ResetCountdown": 2}, "test"))
@@ -378,9 +406,12 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
 
 
+UNGUIDED = {"Reg/RepeatOnce": False}     # the map's second frame registered by descriptor alone, not redone guided
+
+
 def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), UNGUIDED, "test"))
     odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     features = view(world, moved, words)
@@ -409,7 +440,7 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
 def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():
     """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
     world, words = scene(), descriptors(300, np.random.default_rng(2))
-    odometry = FrameToMapOdometry(CAMERA, RtabmapParams())
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), UNGUIDED, "test"))
     odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     new_rng = np.random.default_rng(5)
@@ -477,7 +508,7 @@ def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_beli
     assert too_large_rotation(relative) == rejected
 
 
-def test_keypoint_depth_is_smoothed_over_the_neighbours_within_2_cm_as_util2d_getdepth():
+def test_keypoint_depth_is_smoothed_over_the_neighbours_within_2_percent_as_util2d_getdepth():
     """Weights 4 (centre), 2 (edge), 1 (corner); 1.50 (49 cm off), 1.03 (3 cm off) and 0 (missing)
     are left out: (4 x 1.00 + 2 x 1.01 + 2 x 1.01 + 0.99 + 1.00 + 1.015) / (4 + 2 + 2 + 1 + 1 + 1)."""
     depth = np.zeros((5, 5), np.float32)
@@ -486,6 +517,15 @@ def test_keypoint_depth_is_smoothed_over_the_neighbours_within_2_cm_as_util2d_ge
                        [1.03, 0.00, 1.015]]
     expected = (4 * 1.00 + 2 * 1.01 + 2 * 1.01 + 0.99 + 1.00 + 1.015) / 11
     assert smoothed_depth(depth, np.array([2]), np.array([2]))[0] == pytest.approx(expected, abs=1e-6)
+
+
+def test_the_neighbours_counted_in_the_smoothing_are_those_within_2_percent_of_the_centre_depth():
+    """util2d::getDepth's depthErrorRatio 0.02 is relative: at 3 m a neighbour 5 cm off (under
+    6 cm) is averaged in, one 7 cm off is not."""
+    depth = np.full((3, 3), 3.00, np.float32)
+    depth[0, 1], depth[1, 0] = 3.05, 3.07
+    expected = (4 * 3.00 + 2 * 3.05 + 2 * 2 * 3.00 + 4 * 3.00) / 14   # three edges and four corners
+    assert smoothed_depth(depth, np.array([1]), np.array([1]))[0] == pytest.approx(expected, abs=1e-6)
 
 
 def test_a_keypoint_without_depth_at_its_pixel_stays_without_depth_and_the_border_has_fewer_neighbours():

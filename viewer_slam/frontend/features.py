@@ -18,10 +18,11 @@ BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
 DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
 # RTAB-Map's depth smoothing (util2d::getDepth): the keypoint's depth averaged over its 3x3
 # neighbourhood with weights 4 (centre), 2 (edge) and 1 (corner), counting only the
-# neighbours within SMOOTHING_MAX_DEPTH_ERROR (m) of the centre's depth.
+# neighbours within SMOOTHING_DEPTH_ERROR_RATIO of the centre's depth (its depthErrorRatio:
+# 2 cm at 1 m, 8 cm at 4 m, so that far walls, noisier, are smoothed over as many neighbours).
 SMOOTHING_OFFSETS = np.array([(row, col) for row in (-1, 0, 1) for col in (-1, 0, 1)])
 SMOOTHING_WEIGHTS = np.array([1.0, 2.0, 1.0, 2.0, 4.0, 2.0, 1.0, 2.0, 1.0])
-SMOOTHING_MAX_DEPTH_ERROR = 0.02
+SMOOTHING_DEPTH_ERROR_RATIO = 0.02
 
 
 @dataclass
@@ -154,8 +155,8 @@ class FeatureExtractor:
 
 def smoothed_depth(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Depth at pixels (rows, cols) smoothed as RTAB-Map's ``util2d::getDepth``: a weighted
-    mean over the 3x3 neighbourhood (:data:`SMOOTHING_WEIGHTS`) of the measured depths within
-    :data:`SMOOTHING_MAX_DEPTH_ERROR` of the centre's; 0 where the centre has none."""
+    mean over the 3x3 neighbourhood (:data:`SMOOTHING_WEIGHTS`) of the measured depths closer
+    to the centre's than :data:`SMOOTHING_DEPTH_ERROR_RATIO` times it; 0 where the centre has none."""
     neighbour_rows = rows[:, None] + SMOOTHING_OFFSETS[:, 0]
     neighbour_cols = cols[:, None] + SMOOTHING_OFFSETS[:, 1]
     inside = ((neighbour_rows >= 0) & (neighbour_rows < depth.shape[0])
@@ -163,7 +164,7 @@ def smoothed_depth(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.
     window = depth[np.clip(neighbour_rows, 0, depth.shape[0] - 1),
                    np.clip(neighbour_cols, 0, depth.shape[1] - 1)].astype(np.float64)
     centre = window[:, 4:5]
-    counted = inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_MAX_DEPTH_ERROR)
+    counted = inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre)
     weights = SMOOTHING_WEIGHTS * counted
     mean = (weights * np.where(counted, window, 0.0)).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
     return np.where(centre[:, 0] > 0, mean, 0.0)

@@ -106,17 +106,19 @@ def highest_hypothesis(posterior: dict[int, float]) -> Hypothesis | None:
 
 
 class BayesFilter:
-    """Posterior over location ids plus :data:`VIRTUAL_PLACE`. A location joins with no
-    belief; one that leaves the candidates (to Long-Term Memory) takes its belief with it."""
+    """Posterior over location ids plus :data:`VIRTUAL_PLACE`. As BayesFilter::updatePosterior,
+    the first update starts from a belief of 1 in every state (the virtual place and each
+    candidate alike: nothing is known yet); later, a location joins with no belief, and one
+    that leaves the candidates (to Long-Term Memory) takes its belief with it."""
 
     def __init__(self):
-        self.posterior: dict[int, float] = {VIRTUAL_PLACE: 1.0}
+        self.posterior: dict[int, float] = {}
 
     def update(self, ids: Sequence[int], neighbours: Neighbourhood, location_likelihood: np.ndarray,
                virtual_likelihood: float) -> dict[int, float]:
         """One predict-update step over the candidate locations ``ids``."""
         states = [VIRTUAL_PLACE, *ids]
-        previous = np.array([self.posterior.get(state, 0.0) for state in states])
+        previous = np.array([self.posterior.get(state, 0.0) if self.posterior else 1.0 for state in states])
         belief = prediction_matrix(ids, neighbours) @ previous
         belief *= np.append(virtual_likelihood, location_likelihood)
         if belief.sum() > 0:

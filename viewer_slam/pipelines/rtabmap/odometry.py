@@ -6,7 +6,9 @@ per second, times the time since the last frame), map points are projected with 
 feature may only match a map point predicted within Vis/CorGuessWinSize pixels, the ratio
 test applied among those candidates; if that registration fails, or when there is no
 guess (the frame after a loss: odometry clears its velocity when lost), the frame is
-matched against the whole local map by descriptor alone. PnP RANSAC then gives the pose,
+matched against the whole local map by descriptor alone, and a registration found so is
+made again guided by its own pose (Reg/RepeatOnce), so that its matches and inliers are
+those of the guided matching. PnP RANSAC gives each pose,
 accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
 at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
 OdomF2M/MaxSize. With OdomF2M/BundleAdjustment each registration is then refined by a
@@ -215,7 +217,10 @@ class FrameToMapOdometry:
 
     def _register(self, features: Features, guess: np.ndarray | None) -> OdometryResult:
         """Registration with the motion guess, then, if that fails or there is none, against
-        the whole local map (OdometryF2M::computeTransform's second try without a guess)."""
+        the whole local map (OdometryF2M::computeTransform's second try without a guess),
+        redone with its own pose as the guess (Registration::computeTransformationMod with
+        Reg/RepeatOnce: the whole-map ratio test leaves out every map point whose descriptor
+        looks like another's, the window around its projection does not)."""
         result = None
         if guess is not None and self.params.guess_window > 0:
             predicted = self.pose @ guess
@@ -223,6 +228,8 @@ class FrameToMapOdometry:
         if result is None or result.pose is None:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)
+            if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
+                result = self._solve(features, *self.guided_matches(features, result.pose), result.pose)
         result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
             result.key_frame = self._update_map(features, result)

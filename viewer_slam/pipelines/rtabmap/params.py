@@ -23,6 +23,8 @@ class RtabmapParams:
     pnp_reprojection_error: float = param(2.0, gt=0, key="Vis/PnPReprojError", help="PnP RANSAC inlier threshold (px)")
     min_inliers: int = param(20, ge=4, key="Vis/MinInliers", help="inliers needed to accept a registration")
     ransac_iterations: int = param(300, ge=1, key="Vis/Iterations", help="PnP RANSAC iterations")
+    repeat_once: bool = param(True, key="Reg/RepeatOnce",
+                              help="redo a registration made without a motion guess with its result as the guess")
     local_map_size: int = param(2000, gt=0, key="OdomF2M/MaxSize", help="most 3D features kept in the odometry local map")
     keyframe_threshold: float = param(0.3, ge=0, le=1, key="Odom/KeyFrameThr",
                                       help="update the local map when inliers / features falls to this")
@@ -43,6 +45,9 @@ class RtabmapParams:
                                    help="fake stereo baseline (m) that weighs the depth in the bundle (0: mono)")
     reset_countdown: int = param(0, ge=0, key="Odom/ResetCountdown",
                                  help="reset odometry after this many lost frames (0: never)")
+    new_map_on_loss: bool = param(False, key="viewslam/NewMapOnLoss",
+                                  help="viewslam's option, as the rtabmap-rgbd_dataset tool does (not the library): "
+                                       "start a new map with the first location after odometry was lost")
     # Locations.
     detection_rate: float = param(1.0, ge=0, key="Rtabmap/DetectionRate",
                                   help="locations per second at most (0: every frame)")

@@ -82,6 +82,7 @@ class Rtabmap(Pipeline):
         self.last_hypothesis = 0.0       # the previous update's hypothesis value (Rtabmap/LoopRatio)
         self.posterior_max = 0.0
         self.lost = False
+        self.new_map_due = False               # viewslam/NewMapOnLoss: odometry was lost since the last location
         self.odometry_variance = Variance()    # accumulated since the last location
         self.records: list[_FrameRecord] = []
         self.cloud_step = max(1, camera.width // CLOUD_POINTS_ACROSS)
@@ -99,6 +100,7 @@ class Rtabmap(Pipeline):
         pose = None
         if odometry.pose is None:
             status = TrackingStatus.LOST if self.odometry.initialised or self.lost else TrackingStatus.INITIALISING
+            self.new_map_due |= self.params.new_map_on_loss and self.odometry.initialised
             if not self.lost and self.odometry.initialised:
                 self.lost = True
                 events.append(TrackingLost(frame.index, frame.timestamp,
@@ -108,7 +110,9 @@ class Rtabmap(Pipeline):
             status = self._track_status(frame, odometry, events)
             self.odometry_variance += odometry.variance
             if odometry.new_session or self._detection_due(frame.timestamp):
-                if odometry.new_session or self._moved(odometry.pose):
+                if self.new_map_due:
+                    self._begin_map(frame.timestamp)
+                if odometry.new_session or self._first_of_map or self._moved(odometry.pose):
                     events += self._update_map(frame, features, odometry.pose, watch)
                 else:
                     watch("vocabulary", self._rehearse, features)
@@ -122,11 +126,22 @@ class Rtabmap(Pipeline):
                                       watch.ms, metrics))
         return events
 
+    def _begin_map(self, timestamp: float) -> None:
+        """A new map (Memory::incrementMapId): the next location starts a graph session of its
+        own, unlinked to the previous one, and every STM location becomes a loop closure candidate."""
+        self.session += 1
+        self.memory.start_map()
+        self.last_tick = timestamp
+        self.new_map_due = False
+
+    @property
+    def _first_of_map(self) -> bool:
+        """No location of the current map yet (one was begun after a loss)."""
+        return self.current_location is not None and self.graph.session[self.current_location] != self.session
+
     def _track_status(self, frame: Frame, odometry: OdometryResult, events: list[Event]) -> TrackingStatus:
         if odometry.new_session:
-            self.session += 1
-            self.memory.start_map()
-            self.last_tick = frame.timestamp
+            self._begin_map(frame.timestamp)
             if odometry.reset:
                 events.append(TrackingRecovered(frame.index, frame.timestamp,
                                                 f"odometry reset after Odom/ResetCountdown "
@@ -135,7 +150,8 @@ class Rtabmap(Pipeline):
             return TrackingStatus.INITIALISING
         if self.lost:
             self.lost = False
-            events.append(TrackingRecovered(frame.index, frame.timestamp, "registered to the local map again"))
+            events.append(TrackingRecovered(frame.index, frame.timestamp, "registered to the local map again" + (
+                "; the next location begins a new map (viewslam/NewMapOnLoss)" if self.new_map_due else "")))
             return TrackingStatus.RELOCALISED
         return TrackingStatus.OK
 
