@@ -381,7 +381,7 @@ def test_a_registration_made_without_a_guess_is_redone_with_its_result_as_the_gu
     world, words = scene(), descriptors(300, rng)
     seen = flip_bits(words, 10, rng)
     twins = flip_bits(seen[:150], 10, rng)                             # as far from what is seen
-    moved = make_pose(exp_so3([0, np.radians(3), 0]), [0.05, 0, 0])
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(3), 0]).as_matrix(), [0.05, 0, 0])
     pixels = view(world, moved, seen).keypoints
     in_image = int(np.all((pixels >= 0) & (pixels <= [CAMERA.width - 1, CAMERA.height - 1]), axis=1).sum())
     for repeat, inliers in ((True, in_image), (False, 150)):
