@@ -86,6 +86,20 @@ def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(result
                                                      "runs/covered.quitter.txt"}
 
 
+def test_a_rerun_leaves_no_recording_of_a_pair_it_no_longer_runs(results, tmp_path):
+    recordings = tmp_path / "recordings"
+    recordings.mkdir()
+    for result in results:  # what `benchmark --record` wrote for each row, as `viewslam record` names them
+        for suffix in (".rrd", ".json", f".{result.pipeline}.txt"):
+            (recordings / f"{result.sequence}.{result.pipeline}{suffix}").write_text("earlier\n")
+    (recordings / "notes.md").write_text("mine\n")  # not the benchmark's: stays
+    fewer = [result for result in results if result.sequence != "covered"]
+    write_outputs(fewer, tmp_path, recorded=True)
+    assert not list(recordings.glob("covered.*")) and len(list(recordings.glob("kidnap.*"))) == 6
+    write_outputs(fewer, tmp_path)  # no --record: no recording of the earlier run stays
+    assert [path.name for path in recordings.iterdir()] == ["notes.md"]
+
+
 def test_report_has_the_table_failures_and_charts(written):
     report = (written / "report.md").read_text()
     table = [line for line in report.splitlines() if line.startswith("| ")]

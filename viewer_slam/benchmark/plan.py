@@ -9,7 +9,7 @@ from ..errors import InputError
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import params_to_dict, resolve_params
 from ..runs.replay import estimate_replay
-from .runner import BenchmarkTask
+from .runner import BenchmarkTask, recording_path
 
 # Synthetic scenarios are always generated with this seed, so every benchmark scores the
 # same data; `--seed` varies the pipelines' random choices only.
@@ -58,4 +58,4 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
 
 def _recording(recordings: Path | None, name: str, run: str) -> Path | None:
     """Where a task records its run, when the benchmark records: one .rrd per sequence and run."""
-    return recordings / f"{name.replace('/', '_')}.{run}.rrd" if recordings is not None else None
+    return recording_path(recordings, name, run) if recordings is not None else None

@@ -16,7 +16,7 @@ from ..comparison.results import RUNS_FOLDER, BenchmarkResults, compare_results,
 from ..errors import InputError
 from ..runs.report import versions, write_report
 from .plots import CHARTS, plot_all
-from .runner import TaskResult
+from .runner import TaskResult, recording_path
 from .tables import result_row, write_csv, write_json
 
 # Coverages closer than this (one percentage point) count as equal when ranking.
@@ -24,10 +24,16 @@ COVERAGE_TIE = 0.01
 
 
 OUTPUT_FILES = ("results.csv", "results.json", "report.md")
+RECORDINGS_FOLDER = "recordings"
 
 
-def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: BenchmarkResults | None = None) -> list[Path]:
+def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: BenchmarkResults | None = None,
+                  recorded: bool = False) -> list[Path]:
     """Write every output into ``out_dir`` (each file renamed into place once complete); returns them all.
+
+    Files an earlier benchmark wrote there that these results do not list are removed: run
+    reports, trajectories, charts, and recordings (``OUT/recordings``, kept only for the rows
+    of a benchmark that ``recorded``), so nothing stale sits beside the new results.
 
     With ``compare_with`` (another results folder), report.md also compares every row both
     have, as `viewslam diff` does; the rows are read back from ``out_dir/runs``, exactly as
@@ -44,7 +50,8 @@ def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: Benchm
             staged.path(report_path).write_text(markdown_report(results))
             charts = plot_all(rows, out_dir, staged)
             staged.commit()
-        for path in set(_earlier_outputs(out_dir)) - {*runs, *charts}:
+        recordings = _recordings(results, out_dir) if recorded else []
+        for path in set(_earlier_outputs(out_dir)) - {*runs, *charts, *recordings}:
             path.unlink(missing_ok=True)  # an earlier run's, which the results now in place do not list
         if compare_with is not None:  # a comparison refused (an InputError) leaves the report without it
             comparison = markdown_comparison(compare_results(compare_with, load_results(out_dir)))
@@ -67,9 +74,19 @@ def planned_outputs(out_dir: Path, tasks) -> dict[Path, str]:
 
 
 def _earlier_outputs(out_dir: Path) -> list[Path]:
-    """The run reports, trajectories and charts a benchmark may have written into ``out_dir``."""
-    runs = [*(out_dir / RUNS_FOLDER).glob("*.json"), *(out_dir / RUNS_FOLDER).glob("*.txt")]
-    return [path for path in (*_chart_paths(out_dir), *runs) if path.is_file()]
+    """The run reports, trajectories, charts and recordings a benchmark may have written into ``out_dir``."""
+    written = [path for folder in (RUNS_FOLDER, RECORDINGS_FOLDER) for kind in ("json", "txt", "rrd")
+               for path in (out_dir / folder).glob(f"*.{kind}")]
+    return [path for path in (*_chart_paths(out_dir), *written) if path.is_file()]
+
+
+def _recordings(results: list[TaskResult], out_dir: Path) -> list[Path]:
+    """Each row's recording in ``OUT/recordings`` with the report and trajectory `viewslam record` wrote beside it."""
+    paths = []
+    for result in results:
+        recording = recording_path(out_dir / RECORDINGS_FOLDER, result.sequence, result.pipeline)
+        paths += [recording, recording.with_suffix(".json"), recording.with_suffix(f".{result.pipeline}.txt")]
+    return paths
 
 
 def _chart_paths(out_dir: Path) -> list[Path]:

@@ -55,6 +55,11 @@ class BenchmarkTask:
         return f"{self.name}/{self.pipeline}"
 
 
+def recording_path(recordings: Path, sequence: str, run: str) -> Path:
+    """Where a benchmark that records keeps the recording of ``run`` over ``sequence`` (a row's labels)."""
+    return recordings / f"{sequence.replace('/', '_')}.{run}.rrd"
+
+
 @dataclass
 class TaskResult:
     """The outcome of one task.

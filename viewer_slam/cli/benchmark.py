@@ -54,7 +54,7 @@ def benchmark(
     from ..benchmark.cache import ResultCache
     from ..benchmark.executors import make_executor
     from ..benchmark.plan import plan_tasks
-    from ..benchmark.report import OUTPUT_FILES, planned_outputs, write_outputs
+    from ..benchmark.report import OUTPUT_FILES, RECORDINGS_FOLDER, planned_outputs, write_outputs
     from ..benchmark.suite import run_benchmark
     from ..benchmark.tables import print_results
     from ..comparison.results import check_planned_sequences, load_results
@@ -76,7 +76,7 @@ def benchmark(
     with exclusive([out]):
         tasks = plan_tasks(sequences or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
-                           timeout_s=timeout, recordings=out / "recordings" if record else None,
+                           timeout_s=timeout, recordings=out / RECORDINGS_FOLDER if record else None,
                            estimates=estimates, estimate_format=format, progress=not quiet)
         refuse_inputs_as_outputs(planned_outputs(out, tasks),
                                  {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
@@ -92,7 +92,7 @@ def benchmark(
             check_planned_sequences(other, {name: sequence_block(open_sequence(folder))
                                             for name, folder in folders.items()})
         outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
-        paths = write_outputs(outcome.results, out, compare_with=other)
+        paths = write_outputs(outcome.results, out, compare_with=other, recorded=record)
     print_results(outcome.results)
     failed = sum(not result.ok for result in outcome.results)
     done = len(outcome.results)
