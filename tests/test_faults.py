@@ -342,6 +342,21 @@ def test_a_stdout_that_cannot_take_the_output_is_one_line_and_exit_2(tmp_path, m
     assert capsys.readouterr().err == "viewslam: error: stdout: cannot write: No space left on device\n"
 
 
+@pytest.mark.parametrize("reason", ["Broken pipe", "Bad file descriptor"], ids=["closed-pipe", "closed-descriptor"])
+def test_a_stdout_that_is_closed_is_one_line_and_exit_2(tmp_path, reason):
+    trajectory = tmp_path / "t.txt"
+    trajectory.write_text("".join(f"{k / 10:.1f} {k / 100} 0 0 0 0 0 1\n" for k in range(30)))
+    if reason == "Broken pipe":  # `| head -c1` once head has its byte: the reader has left
+        reader, writer = os.pipe()
+        os.close(reader)
+        child = viewslam("evaluate", trajectory, trajectory, stdout=writer)
+        os.close(writer)
+    else:  # `>&-`: no stdout at all
+        child = viewslam("evaluate", trajectory, trajectory, stdout=subprocess.DEVNULL, preexec_fn=lambda: os.close(1))
+    _, error = child.communicate(timeout=60)
+    assert (child.returncode, error) == (2, f"viewslam: error: stdout: cannot write: {reason}\n")
+
+
 def test_a_plugin_that_calls_sys_exit_at_import_is_that_plugins_one_line(tmp_path, monkeypatch):
     from importlib.metadata import EntryPoint
 

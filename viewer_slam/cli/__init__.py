@@ -26,6 +26,9 @@ RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off"
 
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+STDOUT_FD = 1
+# An error writing with no file name is the output stream's: full, closed pipe, closed descriptor.
+STDOUT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EPIPE, errno.EBADF)
 
 
 def _interrupt(signum, frame) -> None:
@@ -44,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
+    _guard_closed_stdout()
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer  # noqa: F401  (loaded first: the except clauses below look its exceptions up)
@@ -68,9 +72,12 @@ def _run(argv: list[str] | None) -> int:
         return EXIT_BAD_INPUT
     except (Interrupted, KeyboardInterrupt):
         return _interrupted()
-    except BrokenPipeError:  # `viewslam ... | head`: the reader left
-        _drop_stdout()  # nothing more to flush at exit
-        return 0
+    except BrokenPipeError as error:  # `viewslam ... | head -c1`: the reader left before the output ended
+        return _stdout_error(error)
+    except SystemExit as exit:
+        if isinstance(exit.__context__, BrokenPipeError):  # typer turns a closed pipe into a silent exit 1
+            return _stdout_error(exit.__context__)
+        raise
     except Exception as error:
         if _raised_by_an_interrupt(error):
             return _interrupted()
@@ -78,11 +85,9 @@ def _run(argv: list[str] | None) -> int:
             # a path the system refuses (a name too long, a folder under a file, no permission)
             _error_line(f"viewslam: error: {error.filename}: {error.strerror}")
             return EXIT_BAD_INPUT
-        if isinstance(error, OSError) and error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG):
+        if isinstance(error, OSError) and error.errno in STDOUT_ERRNOS:
             # files are written under names that their errors carry: what has none is the output stream
-            _drop_stdout()
-            print(f"viewslam: error: stdout: cannot write: {error.strerror}", file=sys.stderr)
-            return EXIT_BAD_INPUT
+            return _stdout_error(error)
         # a bug: one line, and the traceback where it can be sent to us
         print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
               f"{_traceback_note(error)}", file=sys.stderr)
@@ -94,6 +99,39 @@ def _error_line(text: str) -> None:
     """``text`` as one line on stderr: line breaks inside it (a path's, a server's message) are
     shown escaped, as ``\\n``."""
     print(text.replace("\r", "\\r").replace("\n", "\\n"), file=sys.stderr)
+
+
+def _stdout_error(error: OSError) -> int:
+    """The one line for a stdout that cannot take the output (a full disk, a closed pipe or descriptor)."""
+    _drop_stdout()
+    print(f"viewslam: error: stdout: cannot write: {error.strerror}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+class _ClosedStdout:
+    """Stands in for a stdout the command was started without (``>&-``): a write fails as it would on
+    the closed descriptor, so output that cannot go anywhere is an error, not silently dropped."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+    def flush(self) -> None:
+        pass
+
+    def fileno(self) -> int:
+        return STDOUT_FD
+
+    def isatty(self) -> bool:
+        return False
+
+
+def _guard_closed_stdout() -> None:
+    """With descriptor 1 closed, hold it with /dev/null, so that no file the command opens gets it
+    (and receives what a library prints), and make Python's own writes to stdout fail."""
+    if sys.stdout is not None:
+        return
+    os.dup2(os.open(os.devnull, os.O_WRONLY), STDOUT_FD)
+    sys.stdout = _ClosedStdout()
 
 
 def _drop_stdout() -> None:

@@ -8,7 +8,7 @@ from rich import box
 from rich.console import Console
 from rich.table import Table
 
-from ..terminal import print_table
+from ..terminal import StdoutConsole, print_table
 from .compare import Comparison, RunComparison
 from .results import ResultsComparison
 
@@ -97,7 +97,7 @@ def detail_lines(run: RunComparison) -> list[str]:
 
 def print_comparison(comparison: Comparison, console: Console | None = None) -> None:
     """Per compared run: the scores side by side with B - A, then frames, losses and parameters."""
-    console = console or Console(markup=False, highlight=False, soft_wrap=True)  # "[m]" is no markup; no wrapping
+    console = console or StdoutConsole(markup=False, highlight=False, soft_wrap=True)  # "[m]" is no markup; no wrapping
     console.print(f"A = {comparison.a.path}\nB = {comparison.b.path}\nsequence {comparison.a.sequence['name']}")
     for run in comparison.runs:
         table = Table(title=f"{run.a.name} (A) against {run.b.name} (B)", box=box.SIMPLE_HEAD, pad_edge=False)

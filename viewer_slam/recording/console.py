@@ -11,7 +11,7 @@ from rich.text import Text
 from .. import palette
 from ..pipelines.events import Event, FrameTracked
 from ..pipelines.run import Sink
-from ..terminal import print_table
+from ..terminal import StdoutConsole, print_table
 
 _STATE_STYLES = {status: f"bold {colour.hex}" if status == "lost" else colour.hex
                  for status, colour in palette.STATUS.items()}
@@ -69,7 +69,7 @@ def _pipeline_cells(block: dict) -> tuple[str, str]:
 
 def print_summary(report: dict, written: list, console: Console | None = None) -> None:
     """One row per pipeline with the headline scores, then the files written."""
-    console = console or Console()
+    console = console or StdoutConsole()
     alignments = sorted({block["alignment"] for block in report["pipelines"].values() if block.get("alignment")})
     caption = (f"RMSE in m, RPE rot in deg; ATE, penal. ATE: {'/'.join(alignments) or 'rigid'} alignment of the "
                "whole run (each tracked segment aligned on its own: ate_segments in the report); RPE over 1 s, "
