@@ -10,6 +10,7 @@ import os
 import shutil
 import struct
 import subprocess
+import sys
 import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -530,3 +531,36 @@ def test_a_damaged_jpeg_is_read_without_libjpeg_noise(excerpt, tmp_path, capfd):
     frame = open_sequence(seq).frame(0)
     assert frame.rgb.shape == (480, 640, 3) and frame.rgb.dtype == np.uint8
     assert capfd.readouterr().err == ""
+
+
+def bound_by_modes(command: list[str]) -> list[str]:
+    """``command`` run so that file modes stop it: as is, or as root (whom modes do not stop) without the
+    capabilities that override them."""
+    if os.geteuid() != 0:
+        return command
+    if shutil.which("setpriv") is None:
+        pytest.skip("root, and no setpriv to drop the capabilities that override file modes")
+    return ["setpriv", "--bounding-set", "-dac_override,-dac_read_search", *command]
+
+
+@pytest.mark.parametrize("locked, mode", [("sequence", 0o000), ("parent", 0o600)],
+                         ids=["sequence-mode-000", "parent-without-x"])
+def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, mode, excerpt, tmp_path):
+    seq = shutil.copytree(excerpt, tmp_path / "parent" / excerpt.name)
+    out = tmp_path / "out"
+    out.mkdir()
+    for name, content in EARLIER.items():
+        (out / name).write_bytes(content)
+    folder = seq if locked == "sequence" else seq.parent
+    folder.chmod(mode)
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    try:
+        assert subprocess.run(bound_by_modes(["test", "-r", str(seq / "rgb.txt")])).returncode == 1  # denied
+        result = subprocess.run(bound_by_modes([sys.executable, "-m", "viewer_slam", "record", str(seq), "--out",
+                                                str(out / "run.rrd"), "--pipeline", "rgbdslam", "--quiet"]),
+                                capture_output=True, text=True, env=environment, timeout=120)
+    finally:
+        folder.chmod(0o755)
+    assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
+    assert result.stderr.startswith(f"viewslam: error: {seq}") and result.stderr.endswith(": Permission denied\n")
+    assert snapshot(out) == EARLIER
