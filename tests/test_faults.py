@@ -142,8 +142,9 @@ def record_until_frames_are_in(excerpt: Path, out: Path) -> subprocess.Popen:
     return child
 
 
-@pytest.mark.parametrize("stops", [[signal.SIGTERM], [signal.SIGHUP], [signal.SIGTERM, signal.SIGHUP]],
-                         ids=["SIGTERM", "SIGHUP", "SIGTERM-then-SIGHUP"])
+@pytest.mark.parametrize("stops", [[signal.SIGTERM], [signal.SIGHUP], [signal.SIGTERM, signal.SIGHUP],
+                                   [signal.SIGINT, signal.SIGINT]],
+                         ids=["SIGTERM", "SIGHUP", "SIGTERM-then-SIGHUP", "SIGINT-then-SIGINT"])
 def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stops):
     out = tmp_path / "run.rrd"
     child = record_until_frames_are_in(excerpt, out)
