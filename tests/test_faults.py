@@ -89,7 +89,7 @@ import sys, numpy as np, rerun as rr, rerun.blueprint as rrb
 from pathlib import Path
 from viewer_slam.recording.rrd_file import RecordingFile
 path = Path(sys.argv[1])
-recording = RecordingFile(path, path, rrb.Blueprint(rrb.Spatial3DView(origin="/")), spawn=False)
+recording = RecordingFile(path, path, rrb.Blueprint(rrb.Spatial3DView(origin="/")))
 for frame in range(30):  # 3.6 MB, far more than the disk holds
     recording.stream.set_time("frame", sequence=frame)
     recording.stream.log("points", rr.Points3D(np.random.default_rng(frame).random((10000, 3))))

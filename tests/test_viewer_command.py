@@ -91,3 +91,124 @@ def test_view_web_serves_the_web_viewer_on_localhost(tmp_path):
     finally:
         os.killpg(process.pid, signal.SIGTERM)
         process.wait(timeout=30)
+
+
+FAKE_VIEWER = """#!{python}
+import socket, sys, time
+from urllib.parse import urlsplit
+url = sys.argv[sys.argv.index("--connect") + 1]
+{body}
+"""
+# Connects to the server it was told to, says where, and stays up past the start check.
+STAYS_UP = """address = urlsplit(url)
+socket.create_connection((address.hostname, address.port), timeout=5).close()
+open(sys.argv[0] + ".seen", "w").write(url)
+time.sleep(1.0)"""
+
+
+@pytest.fixture
+def tiny_run(tmp_path, monkeypatch):
+    """A four-frame folder the fake pipeline records in a moment, with a display, and earlier outputs."""
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    monkeypatch.setenv("DISPLAY", ":99")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "run.rrd").write_bytes(b"earlier recording")
+    return write_tum_folder(tmp_path / "tiny", frames=4), out / "run.rrd"
+
+
+def fake_viewer(tmp_path: Path, monkeypatch, body: str) -> Path:
+    import viewer_slam.recording.viewer as viewer
+
+    script = tmp_path / "rerun"
+    script.write_text(FAKE_VIEWER.format(python=sys.executable, body=body))
+    script.chmod(0o755)
+    monkeypatch.setattr(viewer, "viewer_binary", lambda: script)
+    monkeypatch.setattr(viewer, "VIEWER_START_S", 0.5)
+    return script
+
+
+def test_record_spawn_streams_to_the_viewer_it_started_and_to_no_other(tiny_run, tmp_path, monkeypatch):
+    sequence, out = tiny_run
+    script = fake_viewer(tmp_path, monkeypatch, STAYS_UP)
+    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--spawn", "--quiet"]) == 0
+    served = Path(f"{script}.seen").read_text()  # the viewer was a client of the run's own server
+    assert re.fullmatch(r"rerun\+http://127\.0\.0\.1:(\d+)/proxy", served) and ":9876/" not in served
+    assert subprocess.run([viewer_binary(), "rrd", "verify", str(out)], capture_output=True).returncode == 0
+
+
+def test_record_spawn_of_a_viewer_that_exits_at_once_is_one_line_and_loses_nothing(tiny_run, tmp_path, monkeypatch,
+                                                                                   capsys):
+    sequence, out = tiny_run
+    fake_viewer(tmp_path, monkeypatch, "sys.exit(1)")
+    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--spawn", "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith("viewslam: error: --spawn: the viewer exited at once (exit code 1)") and \
+        f"viewslam view {out} --web" in error and error.count("\n") == 1
+    assert [path.name for path in out.parent.iterdir()] == ["run.rrd"] and out.read_bytes() == b"earlier recording"
+
+
+def refusing_port() -> int:
+    from viewer_slam.recording.viewer import free_port
+
+    return free_port()
+
+
+@pytest.fixture
+def silent_listener():
+    """A port that accepts connections and never says a word: no viewer, or one that hangs."""
+    import socket
+
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+        yield listener.getsockname()[1]
+
+
+@pytest.mark.parametrize("address, problem", [
+    ("localhost", "not a viewer address"), ("localhost:0", "not a viewer address"),
+    ("localhost:http", "not a viewer address"), ("http://localhost:9876/proxy", "not a viewer address"),
+    ("rerun+http://localhost:9876/other", "not a viewer address"),
+    ("127.0.0.1:{refusing}", "no viewer accepts connections there"), ("127.0.0.1:{silent}", "no answer from a viewer"),
+], ids=["no-port", "port-0", "port-not-a-number", "http-scheme", "not-the-proxy", "refused", "silent"])
+def test_record_connect_to_no_viewer_is_one_line_and_loses_nothing(address, problem, tiny_run, silent_listener,
+                                                                  monkeypatch, capsys):
+    import viewer_slam.recording.viewer as viewer
+
+    monkeypatch.setattr(viewer, "CONNECT_TIMEOUT_S", 0.5)
+    sequence, out = tiny_run
+    address = address.format(refusing=refusing_port(), silent=silent_listener)
+    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address,
+                 "--quiet"]) == 2
+    error = capsys.readouterr().err
+    assert error.startswith(f"viewslam: error: --connect {address}: {problem}") and error.count("\n") == 1, error
+    assert [path.name for path in out.parent.iterdir()] == ["run.rrd"] and out.read_bytes() == b"earlier recording"
+
+
+def test_record_connect_keeps_the_recording_when_the_viewer_goes_away(tiny_run):
+    """A gRPC server that answers the greeting, then closes every connection: a viewer that died."""
+    import socket
+    import threading
+
+    sequence, out = tiny_run
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen()
+
+        def answer_then_close() -> None:
+            while True:
+                try:
+                    connection, _ = listener.accept()
+                except OSError:
+                    return
+                with connection:
+                    connection.sendall(bytes([0, 0, 0, 4, 0, 0, 0, 0, 0]))  # an empty SETTINGS frame
+
+        threading.Thread(target=answer_then_close, daemon=True).start()
+        address = f"127.0.0.1:{listener.getsockname()[1]}"
+        assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address,
+                     "--quiet"]) == 0
+    assert subprocess.run([viewer_binary(), "rrd", "verify", str(out)], capture_output=True).returncode == 0

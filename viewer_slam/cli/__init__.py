@@ -22,7 +22,7 @@ EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 # Rerun's Rust side logs its own errors on stderr (e.g. the file sink's "No space left on
 # device"); the command reports them in its one line instead.
-RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off"
+RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off,re_grpc_client=off"
 
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -185,4 +185,8 @@ def _traceback_note(error: Exception) -> str:
 
 
 def entry_point() -> None:
-    sys.exit(main())
+    code = main()
+    recording = sys.modules.get("viewer_slam.recording.rrd_file")
+    if recording is not None:  # a recording whose sink stalled: leave without waiting for it, with this code
+        recording.leave_if_abandoned(code)
+    sys.exit(code)

@@ -32,7 +32,9 @@ def record_command(
     config: Path | None = typer.Option(None, help="TOML file of parameters (flat, or one table per pipeline)."),
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of every random choice."),
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar and no summary."),
-    spawn: bool = typer.Option(False, "--spawn", help="Also stream live into a Rerun viewer."),
+    spawn: bool = typer.Option(False, "--spawn", help="Also stream live into a Rerun viewer started for this run."),
+    connect: str | None = typer.Option(None, metavar="ADDR", help="Also stream live into the Rerun viewer already "
+                                       "running at ADDR (HOST:PORT or rerun+http://HOST:PORT/proxy)."),
     rgb_topic: str | None = typer.Option(None, help="ROS bag: the colour image topic (default: found by type)."),
     depth_topic: str | None = typer.Option(None, help="ROS bag: the depth image topic (default: found by type)."),
     camera_info_topic: str | None = typer.Option(None, help="ROS bag: the camera info topic (default: the one "
@@ -53,7 +55,7 @@ def record_command(
            "groundtruth": groundtruth, "groundtruth_topic": groundtruth_topic}
     result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline) if pipeline else None, out=out,
                                   max_frames=max_frames, stride=stride, params=param, config=config, seed=seed,
-                                  quiet=quiet, spawn=spawn, estimates=estimate, format=format, bag=bag))
+                                  quiet=quiet, spawn=spawn, connect=connect, estimates=estimate, format=format, bag=bag))
     if not quiet:
         print_summary(result.report, result.written)
     return EXIT_INTERRUPTED if result.interrupted else 0

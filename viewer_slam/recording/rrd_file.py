@@ -8,6 +8,12 @@ watched: a file that stops growing while there is no room left for it is a stall
 The stream is then abandoned: kept referenced so that it is never dropped (dropping joins
 the dead writer), and the process leaves through ``os._exit`` once everything else it
 writes is done, without Rerun's exit-time flush.
+
+A viewer the stream also goes to can hold the file back the same way: the stream feeds all
+its sinks from one thread, which waits on a gRPC client whose queue is full (a viewer at
+``--connect`` that died while the connection was being made). Such a flush is stalled once
+the file has not grown for the viewer's ``stall_s``. A viewer that ``--spawn`` starts is a
+client of the stream's own server instead, which never waits.
 """
 
 import atexit
@@ -24,7 +30,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ..errors import InputError
-from .viewer import LOCALHOST, free_port, viewer_binary
+from .viewer import LiveViewer
 
 # Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
 BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
@@ -43,14 +49,15 @@ _abandoned: list[rr.RecordingStream] = []
 
 
 class RecordingFile:
-    """A Rerun stream saved to ``path`` (and shown live with ``spawn``); ``target`` names it in errors.
+    """A Rerun stream saved to ``path``, and streamed live to ``viewer`` if any; ``target`` names it in errors.
 
     :meth:`close` flushes, and ``error`` then says what went wrong, or is None when the file
     is complete (it ends with the RRD footer that readers need).
     """
 
-    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, spawn: bool):
+    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, viewer: LiveViewer | None = None):
         self.path = path
+        self.viewer = viewer
         self.error: str | None = None
         self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
@@ -59,49 +66,64 @@ class RecordingFile:
             raise InputError.at(target, f"cannot write the recording: no space left on device ({free:,} bytes "
                                 f"free, {START_BYTES:,} needed to start)")
         try:
-            if spawn:  # on a port of its own: never into a viewer some other program started
-                port = free_port()
-                rr.spawn(port=port, connect=False, executable_path=str(viewer_binary()), recording=self.stream)
-                self.stream.set_sinks(rr.FileSink(path), rr.GrpcSink(f"rerun+http://{LOCALHOST}:{port}/proxy"),
-                                      default_blueprint=blueprint)
-            else:
+            if viewer is None:
                 self.stream.save(path, default_blueprint=blueprint)
+            else:
+                self.stream.set_sinks(rr.FileSink(path), viewer.sink(), default_blueprint=blueprint)
         except RuntimeError as error:
             raise InputError.at(target, f"cannot write the recording: {disk_problem(path, error)}") from None
+        if viewer is not None:
+            try:
+                viewer.start()
+            except InputError:
+                self.stream.disconnect()
+                raise
 
     def close(self) -> None:
-        flushed, error = _flush_watched(self.stream, self.path)
-        if not flushed:
-            self.error = disk_problem(self.path, None)
+        stall_s = self.viewer.stall_s if self.viewer is not None else None
+        closed, error = _close_watched(self.stream, self.path, stall_s)
+        complete = has_footer(self.path)
+        if not closed:
             _abandon(self.stream)
+            if not complete:
+                self.error = disk_problem(self.path, None) if stall_s is None or _room_problem(self.path) else (
+                    f"the viewer at {self.viewer.address} stopped taking the stream ({stall_s:g} s without progress)")
             return
-        if error is not None:
+        if error is not None and not (self.viewer is not None and complete):  # else the viewer's stream failed
             self.error = disk_problem(self.path, error)
-        self.stream.disconnect()
-        if self.error is None and not has_footer(self.path):
+        elif not complete:
             self.error = disk_problem(self.path, None)
 
 
-def _flush_watched(stream: rr.RecordingStream, path: Path) -> tuple[bool, RuntimeError | None]:
-    """Flush ``stream``: (False, None) when it stalled, else (True, the error it raised or None)."""
+def _close_watched(stream: rr.RecordingStream, path: Path,
+                   stall_s: float | None = None) -> tuple[bool, RuntimeError | None]:
+    """Flush and disconnect ``stream``: (False, None) when it stalled, else (True, the flush's error or None).
+
+    It has stalled when the file has not grown for STALL_S with no room left for it, or, with
+    ``stall_s`` (a viewer the stream also goes to), for ``stall_s`` whatever the room.
+    """
     finished = threading.Event()
     errors: list[RuntimeError] = []
 
-    def flush() -> None:
+    def close() -> None:
         try:
             stream.flush()
         except RuntimeError as error:
             errors.append(error)
+        try:
+            stream.disconnect()  # the file sink writes the footer readers need
         finally:
             finished.set()
 
-    threading.Thread(target=flush, name="rrd-flush", daemon=True).start()
+    threading.Thread(target=close, name="rrd-close", daemon=True).start()
     size, grown_at = -1, time.monotonic()
     while not finished.wait(POLL_S):  # the main thread stays free for Ctrl-C and SIGTERM
         current = _size(path)
         if current != size:
             size, grown_at = current, time.monotonic()
-        elif time.monotonic() - grown_at > STALL_S and _room_problem(path) is not None:
+            continue
+        still = time.monotonic() - grown_at
+        if (still > STALL_S and _room_problem(path) is not None) or (stall_s is not None and still > stall_s):
             return False, None
     return True, errors[0] if errors else None
 
@@ -114,9 +136,20 @@ def _abandon(stream: rr.RecordingStream) -> None:
 
 
 def _exit_now() -> None:
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(NOT_WRITTEN_EXIT)
+    leave_if_abandoned(NOT_WRITTEN_EXIT)
+
+
+def leave_if_abandoned(code: int) -> None:
+    """End the process now with ``code`` if a stream was abandoned: the interpreter's own exit
+    would drop it, which waits forever on the sink that stalled."""
+    if not _abandoned:
+        return
+    for output in (sys.stdout, sys.stderr):
+        try:
+            output.flush()
+        except (OSError, ValueError, AttributeError):
+            pass
+    os._exit(code)
 
 
 def _size(path: Path) -> int:

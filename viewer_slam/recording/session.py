@@ -49,7 +49,7 @@ from .recorder import PipelineRecorder, log_frame_image, log_world
 from .rrd_file import RecordingFile
 from .sizes import extent
 from .timelines import log_evaluation
-from .viewer import has_display, no_display_problem
+from .viewer import LiveViewer, live_viewer
 
 DEMO_SCENARIO = "360_kidnap"
 DEMO_FRAMES = 240
@@ -81,6 +81,7 @@ class RecordOptions:
     seed: int = 0
     quiet: bool = False
     spawn: bool = False
+    connect: str | None = None
     estimates: list[str] = field(default_factory=list)
     format: str | None = None
     bag: BagOptions = field(default_factory=dict)
@@ -204,8 +205,7 @@ def record(options: RecordOptions) -> RecordResult:
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)
-    if options.spawn and not has_display():
-        raise InputError(f"--spawn: {no_display_problem(out)}")
+    viewer = live_viewer(options.spawn, options.connect, out)
     inputs = {Path(file): f"--estimate {name}={file}" for name, file in estimates}
     if options.config is not None:
         inputs[Path(options.config)] = f"--config {options.config}"
@@ -225,13 +225,15 @@ def record(options: RecordOptions) -> RecordResult:
                 print(f"estimate {name}: {replay.params.file} read as {replay.params.format} ({how})",
                       file=sys.stderr)
         runs.update(replays)
-        return record_sequence(sequence, runs, out, options)
+        return record_sequence(sequence, runs, out, options, viewer)
 
 
-def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, options: RecordOptions) -> RecordResult:
+def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, options: RecordOptions,
+                    viewer: LiveViewer | None = None) -> RecordResult:
     """Record the ``runs`` (name -> pipeline or estimate replay), in order, over ``sequence``.
 
-    Uses ``options`` for the frame selection, seed, progress and viewer; ``out`` is trusted.
+    Uses ``options`` for the frame selection, seed and progress; ``out`` is trusted; ``viewer``
+    is also shown the recording live.
     Every file is written under a temporary name and renamed into place at the end (also
     after a stop request or a failure mid-run), so a run that fails before its first frame
     leaves the previous outputs as they were.
@@ -249,7 +251,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     total = frame_count(sequence, options.max_frames, options.stride)
     earlier = earlier_trajectories(out)
     with StagedFiles() as staged, StopRequest().installed() as stop:
-        recording = RecordingFile(staged.path(out), out, blueprint, options.spawn)
+        recording = RecordingFile(staged.path(out), out, blueprint, viewer)
         stream = recording.stream
         try:
             with RecordProgress(total, quiet=options.quiet) as progress:
