@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
@@ -61,3 +62,31 @@ def test_the_summary_prints_the_causes(tmp_path, capsys, monkeypatch):
     losses = json.loads((tmp_path / "k.json").read_text())["pipelines"]["rtabmap"]["tracking_lost"]
     printed = capsys.readouterr().out
     assert losses and all(loss["text"] in printed for loss in losses)
+
+
+def test_a_sink_that_stalls_never_holds_the_causes_back(tmp_path):
+    """The flush before the causes waits a bounded time; one that fails still lets them be logged."""
+    import rerun as rr
+
+    from viewer_slam.diagnosis import Cause, FrameSignals
+    from viewer_slam.recording import loss_causes
+
+    stream = rr.RecordingStream("viewslam-test")
+    stream.save(tmp_path / "causes.rrd")
+    waits = []
+
+    def stalled(*, timeout_sec):
+        waits.append(timeout_sec)
+        raise RuntimeError("flush timed out")
+
+    stream.flush = stalled
+    logged = []
+    stream.send_columns = lambda path, **columns: logged.append(path)
+    loss = {"frame": 3, "timestamp": 0.3, "cause": Cause.TOO_FEW_FEATURES.value, "text": "lost", "reason": "few"}
+    columns = {name: np.zeros(5) for name in FrameSignals.__dataclass_fields__}
+    signals = FrameSignals(**{**columns, "frame_indices": np.arange(5), "timestamps": np.arange(5) / 10,
+                              "tracked": np.array([True, True, True, False, True])})
+    loss_causes.log_loss_causes(stream, "rgbdslam", [loss], signals)
+    assert waits == [loss_causes.FLUSH_WAIT_S] and layout.text_log("rgbdslam") in logged
+    del stream.flush
+    stream.disconnect()

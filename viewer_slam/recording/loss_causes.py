@@ -15,6 +15,10 @@ from . import layout
 from .timelines import send_frame_columns, send_log_messages
 
 TRACKING = "tracking"
+# The longest the run waits for its logged lines to reach the sinks before the causes follow:
+# a sink that stalled (a full disk, a viewer that stopped reading) never gets there, and
+# closing the recording finds out which and says so.
+FLUSH_WAIT_S = 10.0
 CAUSE_COLORS = {TRACKING: palette.STATUS["ok"].rgb,
                 **{cause.value: palette.CAUSES[cause.value].rgb for cause in Cause}}
 
@@ -31,7 +35,10 @@ def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], s
     diagnosed = [loss for loss in losses if "cause" in loss]
     if not diagnosed:
         return
-    stream.flush()  # the run's own lines at a loss frame (batched) come first, the cause after them
+    try:  # the run's own lines at a loss frame (batched) come first, the cause after them
+        stream.flush(timeout_sec=FLUSH_WAIT_S)
+    except RuntimeError:
+        pass  # a sink failed or stalled: the causes are still logged, and closing reports the sink
     stream.log(cause_path(name), rr.StateConfiguration(values=list(CAUSE_COLORS), labels=list(CAUSE_COLORS),
                                                        colors=list(CAUSE_COLORS.values())), static=True)
     frames = np.array([loss["frame"] for loss in diagnosed], dtype=np.int64)
