@@ -110,6 +110,7 @@ time.sleep(1.0)"""
 def tiny_run(tmp_path, monkeypatch):
     """A four-frame folder the fake pipeline records in a moment, with a display, and earlier outputs."""
     from benchmark_fake_pipeline import MODULE, write_tum_folder
+
     from viewer_slam.pipelines import base
 
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)

@@ -6,6 +6,8 @@ keypoints, minimum 100)") and the state series ``metrics/<run>/cause``, which ho
 cause from the loss until the run has a pose again ("tracking").
 """
 
+import contextlib
+
 import numpy as np
 import rerun as rr
 
@@ -35,10 +37,10 @@ def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], s
     diagnosed = [loss for loss in losses if "cause" in loss]
     if not diagnosed:
         return
-    try:  # the run's own lines at a loss frame (batched) come first, the cause after them
+    # The run's own lines at a loss frame (batched) come first, the cause after them. A sink that
+    # failed or stalled does not stop the causes: closing the recording reports the sink.
+    with contextlib.suppress(RuntimeError):
         stream.flush(timeout_sec=FLUSH_WAIT_S)
-    except RuntimeError:
-        pass  # a sink failed or stalled: the causes are still logged, and closing reports the sink
     stream.log(cause_path(name), rr.StateConfiguration(values=list(CAUSE_COLORS), labels=list(CAUSE_COLORS),
                                                        colors=list(CAUSE_COLORS.values())), static=True)
     frames = np.array([loss["frame"] for loss in diagnosed], dtype=np.int64)

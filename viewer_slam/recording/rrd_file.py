@@ -17,6 +17,7 @@ client of the stream's own server instead, which never waits.
 """
 
 import atexit
+import contextlib
 import os
 import resource
 import shutil
@@ -30,7 +31,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from ..errors import InputError
-from .viewer import LiveViewer
+from .viewer import ConnectedViewer, LiveViewer
 
 # Fewer, larger chunks than Rerun's default 200 ms tick: every chunk carries a schema.
 BATCHER = rr.ChunkBatcherConfig(flush_tick=1.0, flush_num_bytes=4 * 2**20)
@@ -80,19 +81,29 @@ class RecordingFile:
                 raise
 
     def close(self) -> None:
+        """Flush and close the stream; ``error`` then says what went wrong (None: the file is complete).
+
+        A flush error with the file complete is the viewer's (it went away), not the recording's.
+        """
         stall_s = self.viewer.stall_s if self.viewer is not None else None
         closed, error = _close_watched(self.stream, self.path, stall_s)
         complete = has_footer(self.path)
         if not closed:
             _abandon(self.stream)
             if not complete:
-                self.error = disk_problem(self.path, None) if stall_s is None or _room_problem(self.path) else (
-                    f"the viewer at {self.viewer.address} stopped taking the stream ({stall_s:g} s without progress)")
+                self.error = self._stall_problem()
             return
         if error is not None and not (self.viewer is not None and complete):  # else the viewer's stream failed
             self.error = disk_problem(self.path, error)
         elif not complete:
             self.error = disk_problem(self.path, None)
+
+    def _stall_problem(self) -> str:
+        """Why closing stalled: a viewer at --connect that stopped taking the stream, or the disk."""
+        if isinstance(self.viewer, ConnectedViewer) and _room_problem(self.path) is None:
+            return (f"the viewer at {self.viewer.address} stopped taking the stream ({self.viewer.stall_s:g} s "
+                    f"without progress)")
+        return disk_problem(self.path, None)
 
 
 def _close_watched(stream: rr.RecordingStream, path: Path,
@@ -145,10 +156,8 @@ def leave_if_abandoned(code: int) -> None:
     if not _abandoned:
         return
     for output in (sys.stdout, sys.stderr):
-        try:
+        with contextlib.suppress(OSError, ValueError, AttributeError):  # closed, or no stream at all
             output.flush()
-        except (OSError, ValueError, AttributeError):
-            pass
     os._exit(code)
 
 

@@ -50,7 +50,7 @@ from .session import (
 )
 from .sizes import extent, scene_sizes
 from .timelines import log_evaluation, send_frame_columns
-from .viewer import has_display, no_display_problem
+from .viewer import LiveViewer, live_viewer
 
 POSE_RADIUS = 3.0  # ui points
 CORRESPONDENCE_WIDTH = 0.25  # ui points: a pose a frame makes a dense fan
@@ -90,26 +90,25 @@ def record_files(options: RecordOptions) -> RecordResult:
     groundtruth = Path(options.bag["groundtruth"])
     out = options.out if options.out is not None else Path("recordings") / f"{groundtruth.stem}.rrd"
     return record_trajectory_files(groundtruth, named_estimates(options.estimates, []), Path(out),
-                                   format=options.format, spawn=options.spawn, quiet=options.quiet)
+                                   format=options.format, quiet=options.quiet,
+                                   viewer=live_viewer(options.spawn, options.connect, Path(out)))
 
 
 def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
-                            format: str | None = None, name: str | None = None, spawn: bool = False,
+                            format: str | None = None, name: str | None = None, viewer: LiveViewer | None = None,
                             quiet: bool = True) -> RecordResult:
     """Record the ``(name, file)`` estimates against the groundtruth file into ``out`` (.rrd), the
     report and trajectories beside it (module docstring).
 
     ``format`` is every estimate's (default: detected; unless ``quiet``, stderr says which was
     read); ``name`` names the groundtruth in the report and summary (default: its file name
-    without extension). Outputs are checked before anything is read, never replace an input,
+    without extension); ``viewer`` is also shown the recording live. Outputs are checked before anything is read, never replace an input,
     and are written under temporary names renamed into place together at the end.
     """
     names = [run for run, _ in estimates]
     inputs = {Path(groundtruth): f"--groundtruth {groundtruth}",
               **{Path(file): f"--estimate {run}={file}" for run, file in estimates}}
     check_outputs(out, names, inputs)
-    if spawn and not has_display():
-        raise InputError(f"--spawn: {no_display_problem(out)}")
     with exclusive([out]):
         scored = score_files(groundtruth, estimates, format, name)
         if not quiet:
@@ -122,7 +121,7 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
         error_top = max(float(run.ate.errors.max()) for run in scored.runs)
         with StagedFiles() as staged:
             recording = RecordingFile(staged.path(out), out,
-                                      files_blueprint(names, scored.groundtruth.poses, error_top), spawn)
+                                      files_blueprint(names, scored.groundtruth.poses, error_top), viewer)
             try:
                 log_files(recording.stream, scored, error_top)
             finally:

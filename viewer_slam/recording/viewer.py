@@ -142,7 +142,7 @@ def connected_viewer(address: str) -> ConnectedViewer:
                 connection.sendall(HTTP2_GREETING)
                 if not connection.recv(1):
                     raise ConnectionResetError(0, "closed without answering")
-    except socket.timeout:
+    except TimeoutError:
         raise InputError(f"--connect {address}: no answer from a viewer there in {CONNECT_TIMEOUT_S:g} s") from None
     except OSError as error:
         reason = error.strerror or str(error) or type(error).__name__
