@@ -237,3 +237,26 @@ def test_same_arguments_give_identical_files_and_another_seed_does_not(tmp_path)
     other = files(generate_scenario("desk_with_person", tmp_path / "c", frames=12, resolution=(96, 72), seed=4))
     assert other.keys() != first.keys()  # another start time, so other file names
     assert json.loads(other[next(k for k in other if k.name == "scenario.json")])["seed"] == 4
+
+
+def test_the_office_and_household_desks_do_not_look_alike_from_opposite_sides():
+    # long_office_household's desks stand back to back about (4.0, 3.5). Turned by 180 degrees about that
+    # point, the office desk's clutter (monitor, stand, keyboard, books) landed exactly on the other desk's
+    # when both were office desks (48 % of its vertices within 1 cm), so the two sides of the room matched
+    # each other in 3D; the household desk's items stand elsewhere.
+    from scipy.spatial import cKDTree
+
+    from viewer_slam.dataset.synth.scenarios import SCENARIOS_BY_NAME
+
+    plan = SCENARIOS_BY_NAME["long_office_household"].build(np.random.default_rng(0), 1200)
+
+    def clutter(y_from, y_to):
+        return np.concatenate([s.vertices for s in plan.scene.static
+                               if (s.vertices[:, 2] > 0.7405).all() and (s.vertices[:, 2] < 1.5).all()
+                               and ((s.vertices[:, 0] > 3.15) & (s.vertices[:, 0] < 4.85)).all()
+                               and ((s.vertices[:, 1] > y_from) & (s.vertices[:, 1] < y_to)).all()])
+
+    office, household = clutter(2.65, 3.5), clutter(3.5, 4.35)
+    turned = np.column_stack([8.0 - office[:, 0], 7.0 - office[:, 1], office[:, 2]])
+    distances, _ = cKDTree(household).query(turned)
+    assert (distances < 0.01).mean() < 0.05

@@ -42,7 +42,7 @@ from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
 
 # Bump whenever the output for the same arguments changes: cached folders carry it in their name.
-GENERATOR_VERSION = 5
+GENERATOR_VERSION = 6
 
 
 # TUM's published intrinsics at 640x480 (fx, fy, cx, cy); images are rendered undistorted.

@@ -157,6 +157,47 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     return surfaces
 
 
+def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
+    """A potted plant, a table lamp, a fruit bowl, food boxes, a teddy bear and magazines on a
+    table cloth: the household side of a desk pair. Nothing on it repeats the office desk's
+    monitor, keyboard or book stack, so that the two desks, set back to back, do not look
+    alike from opposite sides of the room (as the real sequence's two desks do not)."""
+    x, y, _ = corner
+    w, d, top = size
+    c, s = np.cos(facing_yaw), np.sin(facing_yaw)
+    centre = np.array([x + w / 2, y + d / 2])
+    forward, side = np.array([c, s]), np.array([-s, c])
+
+    def at(along, across):
+        return centre + forward * along * d / 2 + side * across * w / 2
+
+    cloth_corner = at(-0.9, -0.55)
+    surfaces = [quad(rng, (*cloth_corner, top + 0.001), (*(side * 0.9), 0.0), (*(forward * 0.65), 0.0),
+                     _cloth((170, 40, 45)), 0.002)]
+    surfaces += cylinder(rng, (*at(0.45, 0.75), top), 0.09, 0.16, _cloth((170, 90, 50)), 0.002)
+    surfaces += cylinder(rng, (*at(0.45, 0.75), top + 0.16), 0.16, 0.28, _cloth((40, 110, 40)), 0.003)
+    surfaces += cylinder(rng, (*at(0.6, -0.85), top), 0.07, 0.3, _flat((200, 190, 160), 6.0), 0.002)
+    surfaces += cylinder(rng, (*at(0.6, -0.85), top + 0.3), 0.14, 0.16, _cloth((230, 210, 150)), 0.002)
+    surfaces += cylinder(rng, (*at(-0.3, -0.2), top), 0.14, 0.07, _flat((235, 235, 225), 4.0), 0.002)
+    for _ in range(4):
+        fruit = at(-0.3, -0.2) + rng.uniform(-0.06, 0.06, 2)
+        surfaces += cylinder(rng, (*fruit, top + 0.07), 0.035, 0.05, _flat(textures.random_colour(rng, 60, 230), 8.0),
+                             0.002)
+    for k in range(2):
+        surfaces += box(rng, (*at(0.55, -0.35 + 0.22 * k), top + 0.15), (0.07, 0.19, 0.3), textures.poster, 0.001,
+                        yaw=facing_yaw + rng.uniform(-0.2, 0.2))
+    teddy = at(0.1, 0.3)
+    surfaces += box(rng, (*teddy, top + 0.09), (0.12, 0.16, 0.18), _cloth((140, 95, 55)), 0.002, yaw=facing_yaw)
+    surfaces += cylinder(rng, (*teddy, top + 0.18), 0.07, 0.12, _cloth((150, 105, 60)), 0.002)
+    for _ in range(2):
+        corner_xy = at(rng.uniform(-0.6, -0.2), rng.uniform(0.5, 0.8))
+        angle = facing_yaw + rng.uniform(-0.8, 0.8)
+        u = 0.22 * np.array([np.cos(angle), np.sin(angle), 0.0])
+        v = 0.28 * np.array([np.sin(angle), -np.cos(angle), 0.0])
+        surfaces.append(quad(rng, (*corner_xy, top + 0.003), u, v, textures.poster, 0.0008))
+    return surfaces
+
+
 def seated_person(rng, base: np.ndarray, sway: Callable, lift: Callable, shirt,
                   trousers) -> tuple[list[Surface], list[Mover]]:
     """A person on a stool at ``base`` (4x4) whose torso turns by ``sway(t)`` and whose arms lift by
@@ -366,8 +407,8 @@ def build_long_office_household(rng, frames) -> Plan:
     scene = Scene(lights=_ceiling_lights(size))
     scene.add(decorated_room(rng, size, poster_density=0.8, bookcases=3))
     centre = np.array([4.0, 3.5])
-    for corner, facing in (((3.2, 2.7, 0.0), -np.pi / 2), ((3.2, 3.5, 0.0), np.pi / 2)):
-        scene.add(cluttered_desk(rng, corner, facing_yaw=facing))
+    scene.add(cluttered_desk(rng, (3.2, 2.7, 0.0), facing_yaw=-np.pi / 2))
+    scene.add(desk(rng, (3.2, 3.5, 0.0)) + household_clutter(rng, (3.2, 3.5, 0.0), (1.6, 0.8, 0.74), np.pi / 2))
     scene.add(cylinder(rng, (7.4, 6.4, 0.0), 0.18, 0.5, _cloth((150, 100, 60)), 0.004))
     scene.add(cylinder(rng, (7.4, 6.4, 0.5), 0.3, 0.5, _cloth((50, 120, 40)), 0.004))
     scene.add(box(rng, (0.6, 6.3, 0.25), (0.3, 0.25, 0.5), _cloth((140, 100, 60)), 0.003))
