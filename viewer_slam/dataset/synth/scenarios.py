@@ -157,6 +157,11 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     return surfaces
 
 
+def household_desk(rng, corner, facing_yaw: float, size=(1.6, 0.8, 0.74)) -> list[Surface]:
+    """A desk and the household things on it."""
+    return desk(rng, corner, size) + household_clutter(rng, corner, size, facing_yaw)
+
+
 def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     """A potted plant, a table lamp, a fruit bowl, food boxes, a teddy bear and magazines on a
     table cloth: the household side of a desk pair. Nothing on it repeats the office desk's
@@ -408,7 +413,7 @@ def build_long_office_household(rng, frames) -> Plan:
     scene.add(decorated_room(rng, size, poster_density=0.8, bookcases=3))
     centre = np.array([4.0, 3.5])
     scene.add(cluttered_desk(rng, (3.2, 2.7, 0.0), facing_yaw=-np.pi / 2))
-    scene.add(desk(rng, (3.2, 3.5, 0.0)) + household_clutter(rng, (3.2, 3.5, 0.0), (1.6, 0.8, 0.74), np.pi / 2))
+    scene.add(household_desk(rng, (3.2, 3.5, 0.0), facing_yaw=np.pi / 2))
     scene.add(cylinder(rng, (7.4, 6.4, 0.0), 0.18, 0.5, _cloth((150, 100, 60)), 0.004))
     scene.add(cylinder(rng, (7.4, 6.4, 0.5), 0.3, 0.5, _cloth((50, 120, 40)), 0.004))
     scene.add(box(rng, (0.6, 6.3, 0.25), (0.3, 0.25, 0.5), _cloth((140, 100, 60)), 0.003))
