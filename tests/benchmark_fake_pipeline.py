@@ -10,18 +10,19 @@ processes (the pool's and Ray's) import pipelines by module name.
 import os
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import cv2
 import numpy as np
+from pydantic import Field
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import make_pose, pose_to_tq
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
-from viewer_slam.pipelines.params import param
+from viewer_slam.pipelines.params import PipelineParams
 
 MODULE = __name__
 FRAME_RATE_HZ = 30.0
@@ -58,14 +59,12 @@ def write_tum_folder(folder: Path, frames: int = 30, size: tuple[int, int] = (32
     return folder
 
 
-@dataclass
-class FakeParams:
-    offset_m: float = param(0.01, key="offset_m", help="Constant position error added to every pose.")
-    wobble_m: float = param(0.0, key="wobble_m", help="Amplitude of a position error alternating frame by frame.")
-    lost_from: int = param(-1, key="lost_from", help="First frame without a pose (-1: never lost).")
-    lost_until: int = param(-1, key="lost_until", help="First frame with a pose again (-1: never recovers).")
-    fail: str = param("", key="fail", choices=("", "raise", "exit", "sys.exit", "hang"),
-                      help="How to fail on the first frame.")
+class FakeParams(PipelineParams):
+    offset_m: float = Field(0.01, description="Constant position error added to every pose.")
+    wobble_m: float = Field(0.0, description="Amplitude of a position error alternating frame by frame.")
+    lost_from: int = Field(-1, description="First frame without a pose (-1: never lost).")
+    lost_until: int = Field(-1, description="First frame with a pose again (-1: never recovers).")
+    fail: Literal["", "raise", "exit", "sys.exit", "hang"] = Field("", description="How to fail on the first frame.")
 
 
 class FakePipeline(Pipeline):

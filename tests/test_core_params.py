@@ -1,33 +1,40 @@
-import dataclasses
 import json
 import math
 import tempfile
-import typing
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pydantic import Field
 
 from viewer_slam.errors import InputError
-from viewer_slam.pipelines.params import INT_MAX, apply_overrides, param, param_fields, params_to_dict, resolve_params
+from viewer_slam.pipelines.params import (
+    INT_MAX,
+    CInt,
+    PipelineParams,
+    apply_overrides,
+    bounds_of,
+    choices_of,
+    keyed_fields,
+    kind_of,
+    resolve_params,
+)
 from viewer_slam.pipelines.rgbdslam.params import RgbdSlamParams
 from viewer_slam.pipelines.rtabmap.params import RtabmapParams
 
 
-@dataclass(frozen=True)
-class OdometryParams:
-    reset_countdown: int = param(0, key="Odom/ResetCountdown")
-    nndr: float = param(0.8, key="Vis/CorNNDR")
-    proximity: bool = param(True, key="RGBD/ProximityBySpace")
-    detector: str = param("GFTT_ORB", key="Kp/Detector", choices=("GFTT_ORB", "GFTT_BRIEF"))
+class OdometryParams(PipelineParams):
+    reset_countdown: CInt = Field(0, alias="Odom/ResetCountdown")
+    nndr: float = Field(0.8, alias="Vis/CorNNDR")
+    proximity: bool = Field(True, alias="RGBD/ProximityBySpace")
+    detector: Literal["GFTT_ORB", "GFTT_BRIEF"] = Field("GFTT_ORB", alias="Kp/Detector")
 
 
-@dataclass(frozen=True)
-class GraphParams:
-    predecessor_candidates: int = param(4)
-    nndr: float = param(0.95, key="nn_distance_ratio")
+class GraphParams(PipelineParams):
+    predecessor_candidates: CInt = 4
+    nndr: float = Field(0.95, alias="nn_distance_ratio")
 
 
 TYPES = {"odometry": OdometryParams, "graph": GraphParams}
@@ -36,7 +43,7 @@ TYPES = {"odometry": OdometryParams, "graph": GraphParams}
 def test_keys_and_conversion():
     params = apply_overrides(OdometryParams(), {"Odom/ResetCountdown": "5", "Vis/CorNNDR": "0.7",
                                                 "RGBD/ProximityBySpace": "false"}, "--param", text=True)
-    assert params_to_dict(params) == {"Odom/ResetCountdown": 5, "Vis/CorNNDR": 0.7,
+    assert params.model_dump(by_alias=True) == {"Odom/ResetCountdown": 5, "Vis/CorNNDR": 0.7,
                                       "RGBD/ProximityBySpace": False, "Kp/Detector": "GFTT_ORB"}
 
 
@@ -98,8 +105,8 @@ def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
 # --param and --config accept exactly the same values, for every parameter of every pipeline.
 
 PIPELINES = {"rgbdslam": RgbdSlamParams, "rtabmap": RtabmapParams}
-DECLARED = [(pipeline, key, typing.get_type_hints(kind)[field.name], field.metadata)
-            for pipeline, kind in PIPELINES.items() for key, field in param_fields(kind).items()]
+DECLARED = [(pipeline, key, kind_of(field), field) for pipeline, kind in PIPELINES.items()
+            for key, field in keyed_fields(kind).items()]
 
 
 def as_text(value) -> str:
@@ -111,9 +118,9 @@ def as_toml(value) -> str:
     return str(value).lower() if isinstance(value, bool) else json.dumps(value) if isinstance(value, str) else repr(value)
 
 
-def limits(kind: type, metadata) -> tuple[float, float, bool, bool]:
+def limits(kind: type, field) -> tuple[float, float, bool, bool]:
     """(low, high, low included, high included) of a number parameter, the C int range included."""
-    bounds = metadata["bounds"]
+    bounds = bounds_of(field)
     low, low_in = (bounds["ge"], True) if "ge" in bounds else (bounds["gt"], False) if "gt" in bounds else \
         ((-INT_MAX, True) if kind is int else (-math.inf, False))
     high, high_in = (bounds["le"], True) if "le" in bounds else (bounds["lt"], False) if "lt" in bounds else \
@@ -121,27 +128,27 @@ def limits(kind: type, metadata) -> tuple[float, float, bool, bool]:
     return low, high, low_in, high_in
 
 
-def allowed_values(kind: type, metadata) -> list:
+def allowed_values(kind: type, field) -> list:
     """Every choice, both bools, and each bound's edge (the last allowed value on each side)."""
-    if metadata["choices"]:
-        return list(metadata["choices"])
+    if choices_of(field):
+        return list(choices_of(field))
     if kind is bool:
         return [True, False]
     if kind is str:
         return []
-    low, high, low_in, high_in = limits(kind, metadata)
+    low, high, low_in, high_in = limits(kind, field)
     step = (lambda x, towards: x + (1 if towards > x else -1)) if kind is int else math.nextafter
     edges = [low if low_in else step(low, high), high if high_in else step(high, low)]
     return [kind(edge) for edge in edges if math.isfinite(edge)]
 
 
-def refused_values(kind: type, metadata) -> list:
+def refused_values(kind: type, field) -> list:
     """The first value past each bound, a value outside the choices, a bool for a number."""
     refused = [True] if kind in (int, float) else []
-    if metadata["choices"]:
-        return refused + [max(metadata["choices"]) + 1 if kind is int else "NOT_A_CHOICE"]
+    if choices_of(field):
+        return refused + [max(choices_of(field)) + 1 if kind is int else "NOT_A_CHOICE"]
     if kind in (int, float):
-        low, high, low_in, high_in = limits(kind, metadata)
+        low, high, low_in, high_in = limits(kind, field)
         step = (lambda x, towards: x + (1 if towards > x else -1)) if kind is int else math.nextafter
         refused += [kind(step(low, -math.inf) if low_in else low) if math.isfinite(low) else None,
                     kind(step(high, math.inf) if high_in else high) if math.isfinite(high) else None]
@@ -166,29 +173,30 @@ def both_ways(pipeline: str, key: str, value) -> tuple:
 
 
 @pytest.mark.parametrize("pipeline, key, value",
-                         [(p, key, value) for p, key, kind, metadata in DECLARED for value in allowed_values(kind, metadata)])
+                         [(p, key, value) for p, key, kind, field in DECLARED for value in allowed_values(kind, field)])
 def test_every_allowed_value_and_bound_edge_is_accepted_alike_by_param_and_config(pipeline, key, value):
     by_param, by_config = both_ways(pipeline, key, value)
     assert by_param == by_config
-    if dataclasses.is_dataclass(by_param):  # else a relation with another parameter's default refuses it
-        assert type(params_to_dict(by_param)[key]) is type(value) and params_to_dict(by_param)[key] == value
+    if isinstance(by_param, PipelineParams):  # else a relation with another parameter's default refuses it
+        dumped = by_param.model_dump(by_alias=True)
+        assert type(dumped[key]) is type(value) and dumped[key] == value
 
 
 @pytest.mark.parametrize("pipeline, key, value",
-                         [(p, key, value) for p, key, kind, metadata in DECLARED for value in refused_values(kind, metadata)])
+                         [(p, key, value) for p, key, kind, field in DECLARED for value in refused_values(kind, field)])
 def test_every_value_past_a_bound_or_choice_is_refused_alike_by_param_and_config(pipeline, key, value):
     by_param, by_config = both_ways(pipeline, key, value)
     assert isinstance(by_param, str) and by_param == by_config and by_param.startswith(f"parameter {key} ")
 
 
-def values_of(kind: type, metadata):
-    if metadata["choices"]:
-        return st.sampled_from(metadata["choices"])
+def values_of(kind: type, field):
+    if choices_of(field):
+        return st.sampled_from(choices_of(field))
     if kind is bool:
         return st.booleans()
     if kind is str:
         return st.text(alphabet="abcdefgh_", min_size=1)
-    low, high, low_in, high_in = limits(kind, metadata)
+    low, high, low_in, high_in = limits(kind, field)
     if kind is int:
         return st.integers(-INT_MAX - 10, INT_MAX + 10)
     return st.floats(allow_nan=False, allow_infinity=False) | st.floats(min_value=max(low, -1e6),
@@ -197,8 +205,8 @@ def values_of(kind: type, metadata):
 
 @st.composite
 def declared_values(draw):
-    pipeline, key, kind, metadata = draw(st.sampled_from(DECLARED))
-    return pipeline, key, draw(values_of(kind, metadata) | st.booleans())
+    pipeline, key, kind, field = draw(st.sampled_from(DECLARED))
+    return pipeline, key, draw(values_of(kind, field) | st.booleans())
 
 
 @settings(max_examples=120, deadline=None)

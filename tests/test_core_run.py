@@ -1,8 +1,8 @@
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pydantic import Field
 
 from viewer_slam.dataset.frame import Frame
 from viewer_slam.errors import InputError
@@ -18,15 +18,14 @@ from viewer_slam.pipelines.events import (
     TrackingStatus,
     TrajectoryFinal,
 )
-from viewer_slam.pipelines.params import param
+from viewer_slam.pipelines.params import PipelineParams
 from viewer_slam.pipelines.run import drive, run_pipeline
 
 CAMERA = Camera(fx=100, fy=100, cx=16, cy=12, width=32, height=24)
 
 
-@dataclass(frozen=True)
-class CountingParams:
-    lost_after: int = param(1000, help="frames after which tracking is lost for good")
+class CountingParams(PipelineParams):
+    lost_after: int = Field(1000, description="frames after which tracking is lost for good")
 
 
 class CountingPipeline(Pipeline):

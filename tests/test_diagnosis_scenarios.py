@@ -39,7 +39,7 @@ def diagnosed(sequence, pipeline: str, max_frames: int | None = None, **override
     params = apply_overrides(pipeline_class(pipeline).Params(), overrides, "test")
     run = run_pipeline(sequence, pipeline, params, max_frames=max_frames, sinks=[recorder],
                        frame_sinks=[recorder.frame])
-    return diagnose_losses(pipeline, run.tracking_lost, recorder.signals(), run.parameters, sequence.groundtruth)
+    return diagnose_losses(pipeline, run.tracking_lost, recorder.signals(), run.tracking_minimum, sequence.groundtruth)
 
 
 def synthetic(name: str, frames: int):
@@ -105,6 +105,6 @@ def test_an_imported_estimate_with_a_gap_over_blanked_frames_is_a_blocked_sensor
     write_tum(estimate, Trajectory(sequence.timestamps[kept][covered], poses[covered]))
     recorder = SignalRecorder()
     run = replay_estimate(sequence, "other", estimate, max_frames=45, sinks=(recorder,), frame_sinks=(recorder.frame,))
-    losses = diagnose_losses("other", run.tracking_lost, recorder.signals(), run.parameters, sequence.groundtruth)
+    losses = diagnose_losses("other", run.tracking_lost, recorder.signals(), run.tracking_minimum, sequence.groundtruth)
     assert [loss["frame"] for loss in losses] == [BLANKED[0]]
     assert losses[0]["cause"] == "sensor blocked" and "keypoints" not in losses[0]["evidence"]

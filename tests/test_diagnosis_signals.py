@@ -6,7 +6,6 @@ from scipy.spatial.transform import Rotation
 
 from viewer_slam.dataset.frame import Frame
 from viewer_slam.diagnosis import DYNAMIC_SHARE_METRIC, DiagnosisThresholds, SignalRecorder, diagnose_losses
-from viewer_slam.diagnosis.diagnose import run_minimum
 from viewer_slam.diagnosis.signals import groundtruth_motion, measure_image
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
@@ -80,7 +79,7 @@ def test_the_window_stops_at_the_next_pose_and_the_medians_are_over_lost_frames_
         [tracked(i, True) for i in range(6, 12)]
     signals = recorded(frames, events).signals()
     loss = {"frame": 3, "timestamp": 10.1, "reason": "test"}
-    (entry,) = diagnose_losses("p", [loss], signals, {"min_matches": 25}, None)
+    (entry,) = diagnose_losses("p", [loss], signals, 25, None)
     assert entry["evidence"]["frames"] == 3 and entry["evidence"]["minimum"] == 25
     assert entry["cause"] == "sensor blocked" and entry["causes"][0] == "sensor blocked"
     assert entry["text"] == "p lost at 0.1 s: sensor blocked (colour 100% uniform, 0% valid depth)"
@@ -97,16 +96,21 @@ def test_a_loss_far_faster_than_the_run_is_fast_motion():
     steps[12] = 0.1                                       # one jump ten times the usual step
     poses[:, 0, 3] = np.cumsum(steps)
     (entry,) = diagnose_losses("p", [{"frame": 12, "timestamp": stamps[12], "reason": ""}],
-                               recorded(frames, events).signals(), {}, Trajectory(stamps, poses))
+                               recorded(frames, events).signals(), None, Trajectory(stamps, poses))
     assert entry["causes"] == ["fast motion", "too few inliers"]
     assert entry["evidence"]["speed_ratio"] == pytest.approx(10.0, rel=1e-6)
 
 
-def test_the_minimum_comes_from_the_run_parameters_else_the_default():
-    thresholds = DiagnosisThresholds()
-    assert run_minimum({"min_matches": 30}, thresholds) == 30
-    assert run_minimum({"Vis/MinInliers": 15, "other": 1}, thresholds) == 15
-    assert run_minimum({}, thresholds) == thresholds.default_minimum == 20
+def test_the_minimum_is_the_one_the_pipelines_parameters_declare_else_the_default():
+    from viewer_slam.pipelines.params import apply_overrides
+    from viewer_slam.pipelines.rgbdslam.params import RgbdSlamParams
+    from viewer_slam.pipelines.rtabmap.params import RtabmapParams
+    from viewer_slam.runs.replay import EstimateParams
+
+    assert apply_overrides(RgbdSlamParams(), {"min_matches": 30}, "test").tracking_minimum() == 30
+    assert apply_overrides(RtabmapParams(), {"Vis/MinInliers": 15}, "test").tracking_minimum() == 15
+    assert EstimateParams().tracking_minimum() is None
+    assert DiagnosisThresholds().default_minimum == 20
 
 
 def test_a_run_that_never_reports_a_count_has_no_tracker_signals():
@@ -116,7 +120,7 @@ def test_a_run_that_never_reports_a_count_has_no_tracker_signals():
     events = [tracked(i, i < 5, 0, 0, 0) for i in range(8)]
     signals = recorded(frames, events).signals()
     assert np.all(np.isnan(signals.keypoints)) and np.all(np.isnan(signals.inliers))
-    (entry,) = diagnose_losses("estimate", [{"frame": 5, "timestamp": 10.2, "reason": "gap"}], signals, {}, None)
+    (entry,) = diagnose_losses("estimate", [{"frame": 5, "timestamp": 10.2, "reason": "gap"}], signals, None, None)
     assert "keypoints" not in entry["evidence"] and entry["evidence"]["minimum"] == 20
     assert entry["cause"] == "too few features"            # from the image: a black frame has no corners
     assert entry["text"].endswith("(0 corners of contrast 20, minimum 20)")

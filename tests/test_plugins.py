@@ -117,7 +117,7 @@ class UnparametrisedPipeline(FakePipeline):
 @pytest.mark.parametrize("name, value, problem", [
     ("rgbdslam", "benchmark_fake_pipeline:FakePipeline", "the name is taken by a built-in pipeline"),
     ("half", "test_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
-    ("bare", "test_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a dataclass of parameters"),
+    ("bare", "test_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"),
     ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
     ("raising", "test_plugins:no_such_name", "cannot be imported: AttributeError: "),
 ])

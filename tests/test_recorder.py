@@ -12,12 +12,12 @@ import signal
 import subprocess
 import sys
 import types
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+from pydantic import Field
 from rerun.chunk import RrdReader
 from rich.console import Console
 from scipy.spatial.transform import Rotation
@@ -41,7 +41,7 @@ from viewer_slam.pipelines.events import (
     TrackingStatus,
     TrajectoryFinal,
 )
-from viewer_slam.pipelines.params import param
+from viewer_slam.pipelines.params import PipelineParams
 from viewer_slam.recording.budget import SnapshotBudget
 from viewer_slam.recording.console import print_summary
 from viewer_slam.recording.fit import CONTINUATION, LOG_LINE_CHARS
@@ -87,10 +87,9 @@ def write_tum_folder(folder: Path) -> Path:
     return folder
 
 
-@dataclass(frozen=True)
-class ScriptedParams:
-    keyframe_every: int = param(5, key="Scripted/KeyframeEvery", help="frames between keyframes")
-    interrupt_at: int = param(-1, key="Scripted/InterruptAt", help="frame at which to send SIGINT to itself")
+class ScriptedParams(PipelineParams):
+    keyframe_every: int = Field(5, alias="Scripted/KeyframeEvery", description="frames between keyframes")
+    interrupt_at: int = Field(-1, alias="Scripted/InterruptAt", description="frame at which to send SIGINT to itself")
 
 
 class ScriptedPipeline(Pipeline):

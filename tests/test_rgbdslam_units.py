@@ -12,7 +12,7 @@ from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import invert, make_pose
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.events import GraphOptimized
-from viewer_slam.pipelines.params import apply_overrides, params_to_dict
+from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rgbdslam import RgbdSlam, RgbdSlamParams
 from viewer_slam.pipelines.rgbdslam.candidates import (
     NEIGHBOUR,
@@ -45,7 +45,7 @@ def chain_graph(count):
 
 def test_registered_under_its_name_with_v2_defaults():
     assert pipeline_class("rgbdslam") is RgbdSlam
-    defaults = params_to_dict(RgbdSlamParams())
+    defaults = RgbdSlamParams().model_dump(by_alias=True)
     # parameter_server.cpp's defaults
     assert defaults["feature_detector_type"] == "ORB"
     assert (defaults["max_keypoints"], defaults["max_matches"], defaults["ransac_iterations"],

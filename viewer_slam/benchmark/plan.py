@@ -7,7 +7,7 @@ from ..dataset.catalog import resolve_sequence, study_scenarios
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..pipelines.base import pipeline_class
-from ..pipelines.params import params_to_dict, resolve_params
+from ..pipelines.params import resolve_params
 from ..runs.replay import estimate_replay
 from .runner import BenchmarkTask, recording_path
 
@@ -45,7 +45,7 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
         name = folder.name if Path(spec).expanduser().is_dir() else spec
         for pipeline in pipelines:
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
-                                       parameters=params_to_dict(params[pipeline]), seed=seed, max_frames=max_frames,
+                                       parameters=params[pipeline].model_dump(by_alias=True), seed=seed, max_frames=max_frames,
                                        timeout_s=timeout_s, recording=_recording(recordings, name, pipeline)))
         for estimate, file in estimates:
             # Read now: a file that is no trajectory fails before any task runs, and its format is settled.

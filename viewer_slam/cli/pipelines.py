@@ -1,13 +1,15 @@
 """`viewslam pipelines`: the built-in and plugin pipelines, with their parameters."""
 
-import dataclasses
 import sys
-import typing
+from typing import TYPE_CHECKING
 
 import typer
 
 from ..errors import InputError
 from .app import app
+
+if TYPE_CHECKING:
+    from pydantic import BaseModel
 
 _BOUND_SIGNS = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
 
@@ -44,18 +46,16 @@ def _distribution(plugin) -> str:
     return f"{dist.name} {dist.version}" if dist is not None else plugin.value
 
 
-def _parameter_lines(params_type: type) -> list[str]:
-    """``KEY = DEFAULT (TYPE, BOUNDS)  HELP`` per parameter, keys aligned."""
-    from ..pipelines.params import param_fields
+def _parameter_lines(params_type: type["BaseModel"]) -> list[str]:
+    """``KEY = DEFAULT (TYPE, BOUNDS)  DESCRIPTION`` per parameter, keys aligned."""
+    from ..pipelines.params import bounds_of, choices_of, keyed_fields, kind_of
 
-    hints = typing.get_type_hints(params_type)
     rows = []
-    for key, field in param_fields(params_type).items():
-        default = field.default if field.default is not dataclasses.MISSING else field.default_factory()
-        kind = getattr(hints[field.name], "__name__", str(hints[field.name]))
-        limits = [f"{_BOUND_SIGNS[name]} {value:g}" for name, value in field.metadata.get("bounds", {}).items()]
-        if field.metadata.get("choices"):
-            limits.append("one of " + ", ".join(map(repr, field.metadata["choices"])))
-        rows.append((f"{key} = {default!r}", ", ".join([kind, *limits]), field.metadata.get("help", "")))
+    for key, field in keyed_fields(params_type).items():
+        limits = [f"{_BOUND_SIGNS[name]} {value:g}" for name, value in bounds_of(field).items()]
+        if choices_of(field):
+            limits.append("one of " + ", ".join(map(repr, choices_of(field))))
+        default = field.get_default(call_default_factory=True)
+        rows.append((f"{key} = {default!r}", ", ".join([kind_of(field).__name__, *limits]), field.description or ""))
     width = max((len(row[0]) for row in rows), default=0)
     return [f"{setting:<{width}}  ({details})  {help_text}".rstrip() for setting, details, help_text in rows]

@@ -11,7 +11,8 @@ import math
 from dataclasses import dataclass
 from enum import Enum
 
-from ..pipelines.params import param
+from pydantic import BaseModel, ConfigDict, Field
+
 from .signals import CORNER_CONTRAST
 
 
@@ -29,26 +30,31 @@ CAUSE_ORDER = tuple(Cause)
 """Rank of the causes that hold: scene and sensor conditions first, tracker symptoms last."""
 
 
-@dataclass(frozen=True)
-class DiagnosisThresholds:
-    """The thresholds of the causes, fixed before looking at any held-out data (docs/diagnosis.md)."""
+class DiagnosisThresholds(BaseModel):
+    """The thresholds of the causes, fixed before looking at any held-out data (docs/diagnosis.md).
 
-    window_frames: int = param(5, ge=1, help="lost frames examined from the loss on (and tracked frames "
-                                             "before it, for motion and residuals)")
-    blocked_uniform_share: float = param(0.9, ge=0.0, le=1.0, help="share of near-median pixels above which "
-                                                                    "the colour image is near uniform")
-    blocked_depth_share: float = param(0.1, ge=0.0, le=1.0, help="valid depth share at or below which a "
-                                                                  "near-uniform frame is a blocked sensor")
-    min_depth_share: float = param(0.25, ge=0.0, le=1.0, help="valid depth share below which there is no depth")
-    fast_motion_ratio: float = param(3.0, gt=1.0, help="groundtruth speed or rotation rate, as a multiple "
-                                                       "of the run's median, above which motion is fast")
-    still_speed: float = param(0.05, gt=0.0, help="m/s; the median speed is taken as at least this")
-    still_rotation_rate: float = param(0.1, gt=0.0, help="rad/s; the median rotation rate is taken as at "
-                                                         "least this")
-    dynamic_share: float = param(0.3, ge=0.0, le=1.0, help="share of matched points moving inconsistently "
-                                                           "with the camera above which the scene is dynamic")
-    default_minimum: int = param(20, ge=1, help="keypoints/inliers needed when the run's parameters name "
-                                                "no minimum (plugins, imported estimates)")
+    A threshold outside its bounds is refused when the thresholds are made.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    window_frames: int = Field(5, ge=1, description="lost frames examined from the loss on (and tracked frames "
+                                                    "before it, for motion and residuals)")
+    blocked_uniform_share: float = Field(0.9, ge=0.0, le=1.0, description="share of near-median pixels above "
+                                                                          "which the colour image is near uniform")
+    blocked_depth_share: float = Field(0.1, ge=0.0, le=1.0, description="valid depth share at or below which a "
+                                                                        "near-uniform frame is a blocked sensor")
+    min_depth_share: float = Field(0.25, ge=0.0, le=1.0, description="valid depth share below which there is no "
+                                                                     "depth")
+    fast_motion_ratio: float = Field(3.0, gt=1.0, description="groundtruth speed or rotation rate, as a multiple "
+                                                              "of the run's median, above which motion is fast")
+    still_speed: float = Field(0.05, gt=0.0, description="m/s; the median speed is taken as at least this")
+    still_rotation_rate: float = Field(0.1, gt=0.0, description="rad/s; the median rotation rate is taken as at "
+                                                                "least this")
+    dynamic_share: float = Field(0.3, ge=0.0, le=1.0, description="share of matched points moving inconsistently "
+                                                                  "with the camera above which the scene is dynamic")
+    default_minimum: int = Field(20, ge=1, description="keypoints/inliers needed when the run's pipeline declares "
+                                                       "no minimum (plugins, imported estimates)")
 
 
 _COUNTS = ("frames", "minimum", "corners", "keypoints", "matches", "inliers")

@@ -15,23 +15,17 @@ from ..pipelines.run import PipelineRun
 from .causes import Cause, DiagnosisThresholds, LossSignals, classify
 from .signals import FrameSignals, SignalRecorder, groundtruth_motion
 
-MINIMUM_KEYS = ("min_matches", "Vis/MinInliers")
-"""Parameters that hold a pipeline's minimum of inliers (rgbdslam, rtabmap), looked up in order."""
 
-
-def run_minimum(parameters: dict[str, Any], thresholds: DiagnosisThresholds) -> int:
-    """The keypoints/inliers a run needs to track: its own parameter, else the documented default."""
-    for key in MINIMUM_KEYS:
-        if isinstance(parameters.get(key), (int, float)):
-            return int(parameters[key])
-    return thresholds.default_minimum
-
-
-def diagnose_losses(name: str, losses: list[dict[str, Any]], signals: FrameSignals, parameters: dict[str, Any],
+def diagnose_losses(name: str, losses: list[dict[str, Any]], signals: FrameSignals, tracking_minimum: int | None,
                     groundtruth: Trajectory | None,
                     thresholds: DiagnosisThresholds = DiagnosisThresholds()) -> list[dict[str, Any]]:
-    """``losses`` with ``cause``, ranked ``causes``, ``evidence`` and a one-line ``text`` added."""
-    minimum = run_minimum(parameters, thresholds)
+    """``losses`` with ``cause``, ranked ``causes``, ``evidence`` and a one-line ``text`` added.
+
+    ``tracking_minimum`` is the keypoints/inliers the run needs to track, as its pipeline's
+    parameters declare it (:meth:`PipelineParams.tracking_minimum`); where they declare none
+    (plugins, imported estimates), the thresholds' ``default_minimum``.
+    """
+    minimum = thresholds.default_minimum if tracking_minimum is None else tracking_minimum
     speed, rotation_rate = groundtruth_motion(groundtruth, signals.timestamps)
     start = signals.timestamps[0] if len(signals) else 0.0
     diagnosed = []
@@ -100,6 +94,6 @@ def diagnose_run(run: PipelineRun, recorder: SignalRecorder, groundtruth: Trajec
     returned for the recording.
     """
     signals = recorder.signals()
-    run.tracking_lost = diagnose_losses(run.pipeline, run.tracking_lost, signals, run.parameters, groundtruth,
+    run.tracking_lost = diagnose_losses(run.pipeline, run.tracking_lost, signals, run.tracking_minimum, groundtruth,
                                         thresholds)
     return signals

@@ -5,7 +5,9 @@ with a detector grid, SIFT, and what OpenCV offers cheaply) and RTAB-Map's GFTT 
 with ORB or BRIEF descriptors (Kp/DetectorStrategy 8 and 6).
 """
 
+import typing
 from dataclasses import dataclass
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -15,7 +17,8 @@ from ..geometry.camera import Camera
 from .adjuster import ADJUSTABLE, ORB_THRESHOLD, SIFT_THRESHOLD, GridDetector
 
 BINARY_DESCRIPTORS = {"ORB", "BRISK", "AKAZE", "GFTT_ORB", "GFTT_BRIEF"}
-DETECTORS = ("ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF")
+Detector = Literal["ORB", "SIFT", "AKAZE", "BRISK", "GFTT_ORB", "GFTT_BRIEF"]
+DETECTORS: tuple[str, ...] = typing.get_args(Detector)
 # RTAB-Map's depth smoothing (util2d::getDepth): the keypoint's depth averaged over its 3x3
 # neighbourhood with weights 4 (centre), 2 (edge) and 1 (corner), counting only the
 # neighbours within SMOOTHING_DEPTH_ERROR_RATIO of the centre's depth (its depthErrorRatio:

@@ -7,16 +7,18 @@ when one is used or listed, and a plugin that cannot be imported, or is not a pi
 an :class:`InputError` naming it when it is selected, never an obstacle to the others.
 """
 
-import dataclasses
 import importlib
 from abc import ABC, abstractmethod
 from importlib.metadata import EntryPoint, entry_points
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from ..dataset.frame import Frame
 from ..errors import InputError
 from ..geometry.camera import Camera
 from .events import Event
+
+if TYPE_CHECKING:
+    from .params import PipelineParams
 
 ENTRY_POINT_GROUP = "viewslam.pipelines"
 # Pipelines are imported on first use so that `viewslam evaluate` never pays for them.
@@ -35,7 +37,7 @@ class Pipeline(ABC):
 
     name: ClassVar[str]
     source: ClassVar[str] = "pipeline"  # where a run's poses come from; an imported estimate says "estimate"
-    Params: ClassVar[type]
+    Params: ClassVar[type["PipelineParams"]]
 
     def __init__(self, camera: Camera, params: Any = None, seed: int = 0):
         self.camera = camera
@@ -97,9 +99,11 @@ def interface_problem(candidate: Any) -> str | None:
         return f"{candidate!r} is not a subclass of viewer_slam.pipelines.base.Pipeline"
     if candidate.__abstractmethods__:
         return f"{candidate.__name__} does not implement {', '.join(sorted(candidate.__abstractmethods__))}"
+    from .params import PipelineParams
+
     params = getattr(candidate, "Params", None)
-    if not (isinstance(params, type) and dataclasses.is_dataclass(params)):
-        return f"{candidate.__name__}.Params is not a dataclass of parameters"
+    if not (isinstance(params, type) and issubclass(params, PipelineParams)):
+        return f"{candidate.__name__}.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"
     return None
 
 

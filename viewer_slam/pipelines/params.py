@@ -1,124 +1,150 @@
-"""Pipeline parameters: dataclasses whose fields carry the original systems' names.
+"""Pipeline parameters: pydantic models whose fields carry the original systems' names.
 
-A field declared with :func:`param` is addressed by its ``key`` (``Odom/ResetCountdown``
-for RTAB-Map, ``predecessor_candidates`` for RGB-D SLAM) on the command line
-(``--param KEY=VALUE``) and in TOML configs, and is reported under that key.
+A pipeline declares its parameters once, as a subclass of :class:`PipelineParams` with one
+field per parameter. The attribute is what the pipeline's code reads; the field's ``alias``
+is the original system's name (``Odom/ResetCountdown`` for RTAB-Map; RGB-D SLAM's names are
+the attributes themselves), which users type on the command line (``--param KEY=VALUE``) and
+in TOML configs, and under which reports record the value. Bounds (``ge``, ``gt``, ``le``,
+``lt``), choices (a ``Literal``) and the ``description`` are what validation,
+``viewslam pipelines`` and the docs read; a rule between two parameters is a model validator
+calling :func:`check_ordered`.
 """
 
-import dataclasses
 import difflib
 import tomllib
 import typing
 from collections.abc import Sequence
-from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar, Literal
+
+import annotated_types
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    ValidationError,
+    ValidationInfo,
+)
+from pydantic.fields import FieldInfo
+from pydantic_core import PydanticCustomError
 
 from ..errors import InputError
-
-
-def param(default: Any, key: str | None = None, help: str = "", choices: tuple | None = None, *,
-          ge: float | None = None, gt: float | None = None, le: float | None = None, lt: float | None = None):
-    """A dataclass field with the parameter's external name, a help text and its allowed values.
-
-    ``choices`` lists the allowed values; ``ge``/``gt``/``le``/``lt`` bound a number (every
-    number must also be finite). The bounds are the declaration that validation, ``--help``
-    and the docs read.
-    """
-    bounds = {name: value for name, value in (("ge", ge), ("gt", gt), ("le", le), ("lt", lt)) if value is not None}
-    return dataclasses.field(default=default, metadata={"key": key, "help": help, "choices": choices,
-                                                        "bounds": bounds})
-
-
-@dataclasses.dataclass(frozen=True)
-class Ordered:
-    """A rule between two parameters: ``lower`` stays below ``upper`` (at most equal to it when
-    not ``strict``), unless ``upper`` is ``off`` (a value that means "no limit").
-
-    A params dataclass lists its rules in a ``RELATIONS`` class attribute, by field name.
-    """
-
-    lower: str
-    upper: str
-    strict: bool = True
-    off: float | None = None
-
-    def problem(self, params: Any) -> str | None:
-        low, high = getattr(params, self.lower), getattr(params, self.upper)
-        if high == self.off or (low < high if self.strict else low <= high):
-            return None
-        keys = {f.name: _key(f) for f in dataclasses.fields(params)}
-        relation = "above" if self.strict else "at least"
-        unless = f", or {self.off:g} for no limit" if self.off is not None else ""
-        return f"{keys[self.upper]} must be {relation} {keys[self.lower]} ({low}){unless}, got {high}"
-
-
-def check_relations(params: Any, source: str) -> None:
-    """Raise :class:`InputError` naming ``source`` for the first ``RELATIONS`` rule ``params`` breaks."""
-    for rule in getattr(type(params), "RELATIONS", ()):
-        problem = rule.problem(params)
-        if problem is not None:
-            raise InputError(f"{source}: parameter {problem}")
-
-
-def _key(field: dataclasses.Field) -> str:
-    return field.metadata.get("key") or field.name
-
-
-def param_fields(params_type: type) -> dict[str, dataclasses.Field]:
-    """External key -> dataclass field, in declaration order."""
-    return {_key(f): f for f in dataclasses.fields(params_type)}
-
-
-def params_to_dict(params: Any) -> dict[str, Any]:
-    """The parameters under their external keys, as recorded in reports."""
-    return {_key(f): getattr(params, f.name) for f in dataclasses.fields(params)}
-
 
 # Integers go to OpenCV and GTSAM as C ints.
 INT_MAX = 2**31 - 1
 
 
-@cache
-def schema(params_type: type):
-    """A pydantic model of ``params_type``'s fields under their external keys, with the declared
-    choices and bounds; every number must be finite, every integer fit a C int. It validates
-    strictly (no ``true`` for a number, no text for a number): command-line text is converted
-    by :func:`from_text` first."""
-    import pydantic  # only where parameters are checked: it adds to every command's start-up
-    from pydantic_core import PydanticCustomError
-
-    def one_of(choices: tuple):
-        def check(value):
-            if value not in choices:
-                raise PydanticCustomError("literal_error", "not one of the choices")
-            return value
-        return pydantic.AfterValidator(check)
-
-    hints = typing.get_type_hints(params_type)
-    fields = {}
-    for field in dataclasses.fields(params_type):
-        kind = hints[field.name]
-        choices = field.metadata.get("choices")
-        bounds = dict(field.metadata.get("bounds") or {})
-        if kind is int and "le" not in bounds and "lt" not in bounds:
-            bounds["le"] = INT_MAX
-        if kind is int and "ge" not in bounds and "gt" not in bounds:
-            bounds["ge"] = -INT_MAX
-        # The type first (strict: a bool is no int), then the choices.
-        annotation = typing.Annotated[kind, one_of(tuple(choices))] if choices else kind
-        numeric = {"allow_inf_nan": False} if kind is float else {}
-        fields[field.name] = (annotation, pydantic.Field(field.default, alias=_key(field), **bounds, **numeric))
-    config = pydantic.ConfigDict(extra="forbid", populate_by_name=False, strict=True)
-    return pydantic.create_model(f"{params_type.__name__}Schema", __config__=config, **fields)
+def _fits_c_int(value: int) -> int:
+    if value > INT_MAX:
+        raise PydanticCustomError("less_than_equal", "Input should be less than or equal to {le}", {"le": INT_MAX})
+    if value < -INT_MAX:
+        raise PydanticCustomError("greater_than_equal", "Input should be greater than or equal to {ge}",
+                                  {"ge": -INT_MAX})
+    return value
 
 
-def from_text(params_type: type, key: str, text: str) -> Any:
-    """Command-line text as the value of parameter ``key``, read as the same value in a TOML
-    config would be: ``5`` an integer, ``0.5``/``1e-3``/``inf`` a number, ``true``/``false``
-    (any case) a bool. Text that does not read as the field's type is returned as it is, for
-    validation to refuse with the parameter's own message."""
-    kind = typing.get_type_hints(params_type)[param_fields(params_type)[key].name]
+def _exact_int(value: Any) -> Any:
+    if type(value) is not int:
+        raise PydanticCustomError("int_type", "Input should be a valid integer")
+    return value
+
+
+CInt = Annotated[int, AfterValidator(_fits_c_int)]
+"""An integer parameter: a C int. The range is checked after the field's own bounds, which it
+does not show among them (a bound on the type would be merged with, and could override, the
+field's)."""
+
+EXACT_INT = BeforeValidator(_exact_int)
+"""For a ``Literal`` of integers: ``true`` and ``6.0`` are no integer choice (a ``Literal``
+alone compares by equality, so it takes ``true`` for ``1``)."""
+
+
+P = typing.TypeVar("P", bound=BaseModel)
+
+
+class PipelineParams(BaseModel):
+    """The base of every pipeline's parameters.
+
+    Validation is strict, as TOML types are: no ``true`` for a number, no text for a number,
+    no fraction for an integer; every number is finite. Command-line text is read as the
+    field's type by :func:`from_text` first. The parameters of a run never change, so the
+    model is frozen.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid", populate_by_name=True, strict=True, allow_inf_nan=False)
+
+    TRACKING_MINIMUM: ClassVar[str | None] = None
+    """The attribute holding the matches or inliers a frame needs to be tracked, where the
+    pipeline has one: diagnosis measures a lost frame's counts against it."""
+
+    def tracking_minimum(self) -> int | None:
+        return None if self.TRACKING_MINIMUM is None else int(getattr(self, self.TRACKING_MINIMUM))
+
+
+def check_ordered(params: P, info: ValidationInfo, lower: str, upper: str, *, strict: bool = True,
+                  off: float | None = None) -> P:
+    """``params`` if parameter ``lower`` is below ``upper`` (at most equal to it when not
+    ``strict``) or ``upper`` is ``off`` (a value that means "no limit"): the body of a model's
+    ``model_validator(mode="after")`` for a rule between two parameters.
+
+    The rule is skipped when validation's context says ``relations: False``: a value given
+    in one layer of the settings (a config) may rely on one given in a later layer (``--param``),
+    so :func:`resolve_params` checks relations on the final values only.
+    """
+    if not (info.context or {}).get("relations", True):
+        return params
+    low, high = getattr(params, lower), getattr(params, upper)
+    if high == off or (low < high if strict else low <= high):
+        return params
+    fields = type(params).model_fields
+    relation = "above" if strict else "at least"
+    unless = f", or {off:g} for no limit" if off is not None else ""
+    raise invalid(f"{key_of(upper, fields[upper])} must be {relation} {key_of(lower, fields[lower])} ({low})"
+                  f"{unless}, got {high}")
+
+
+def invalid(problem: str) -> PydanticCustomError:
+    """A validation error whose message is the whole problem, keys and values named: a broken
+    rule between parameters, a value refused for a reason of its own."""
+    return PydanticCustomError("parameter_problem", "{problem}", {"problem": problem})
+
+
+def key_of(name: str, field: FieldInfo) -> str:
+    return field.alias or name
+
+
+def keyed_fields(params_type: type[BaseModel]) -> dict[str, FieldInfo]:
+    """External key -> field, in declaration order."""
+    return {key_of(name, field): field for name, field in params_type.model_fields.items()}
+
+
+def choices_of(field: FieldInfo) -> tuple[Any, ...]:
+    """The values a ``Literal`` field allows; empty for any other field."""
+    return typing.get_args(field.annotation) if typing.get_origin(field.annotation) is Literal else ()
+
+
+def kind_of(field: FieldInfo) -> type:
+    """The field's value type (``int`` for a ``Literal`` of integers)."""
+    choices = choices_of(field)
+    return type(choices[0]) if choices else typing.cast(type, field.annotation)
+
+
+_BOUNDS = {annotated_types.Ge: "ge", annotated_types.Gt: "gt", annotated_types.Le: "le", annotated_types.Lt: "lt"}
+
+
+def bounds_of(field: FieldInfo) -> dict[str, float]:
+    """The field's declared bounds by name (``ge``, ``gt``, ``le``, ``lt``); integers are also
+    within the C int range (:data:`INT_MAX`)."""
+    return {_BOUNDS[type(item)]: getattr(item, _BOUNDS[type(item)]) for item in field.metadata if type(item) in _BOUNDS}
+
+
+def from_text(field: FieldInfo, text: str) -> Any:
+    """Command-line text as the value of ``field``, read as the same value in a TOML config
+    would be: ``5`` an integer, ``0.5``/``1e-3``/``inf`` a number, ``true``/``false`` (any case)
+    a bool. Text that does not read as the field's type is returned as it is, for validation
+    to refuse with the parameter's own message."""
+    kind = kind_of(field)
     text = text.strip()
     if kind is bool:
         return {"true": True, "false": False}.get(text.lower(), text)
@@ -130,50 +156,57 @@ def from_text(params_type: type, key: str, text: str) -> Any:
     return text
 
 
-_EXPECTED = {"int": "expects an integer", "float": "expects a number", "bool": "expects true or false",
-             "string": "expects text", "finite": "expects a finite number"}
+_EXPECTED = {int: "expects an integer", float: "expects a number", bool: "expects true or false",
+             str: "expects text"}
+_TYPE_ERRORS = {"int": int, "float": float, "bool": bool, "string": str}
 
 
-def _problem(error, params_type: type) -> str:
+def _problem(error: ValidationError, params_type: type[BaseModel]) -> str:
     """``KEY problem, got VALUE`` for the first problem of a validation error, in our one-line style."""
     detail = error.errors()[0]
-    key = str(detail["loc"][0]) if detail["loc"] else "?"
     kind = detail["type"]
+    if kind == "parameter_problem":
+        return str(detail["ctx"]["problem"])
+    key = str(detail["loc"][0])
+    value = detail["input"]
     if kind == "literal_error":
-        problem = "must be one of " + ", ".join(map(str, param_fields(params_type)[key].metadata["choices"]))
-    elif kind.split("_")[0] in _EXPECTED:
-        problem = _EXPECTED[kind.split("_")[0]]
+        choices = choices_of(keyed_fields(params_type)[key])
+        expected = type(choices[0])
+        problem = _EXPECTED[expected] if type(value) is not expected else \
+            "must be one of " + ", ".join(map(str, choices))
+    elif kind == "finite_number":
+        problem = "expects a finite number"
+    elif kind.split("_")[0] in _TYPE_ERRORS:
+        problem = _EXPECTED[_TYPE_ERRORS[kind.split("_")[0]]]
     else:  # a bound: "Input should be greater than 0"
         problem = detail["msg"].replace("Input should be", "must be")
-    return f"{key} {problem}, got {detail['input']!r}"
+    return f"{key} {problem}, got {value!r}"
 
 
-def apply_overrides(params: Any, overrides: dict[str, Any], source: str, relations: bool = True, *,
-                    text: bool = False) -> Any:
+def apply_overrides(params: P, overrides: dict[str, Any], source: str, relations: bool = True, *,
+                    text: bool = False) -> P:
     """A copy of ``params`` with ``overrides`` (external key -> value) applied and checked.
 
     Values are of the field's type (a float field takes an int too), as a TOML config gives
     them; with ``text``, they are command-line text, read by :func:`from_text` first. Unknown
     keys and values of the wrong type or outside the declared choices and bounds raise
-    :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys); so does a broken ``RELATIONS`` rule, unless ``relations`` is False (more layers to come).
+    :class:`InputError` naming ``source`` and the key (for unknown keys, the valid keys); so
+    does a broken rule between parameters, unless ``relations`` is False (more layers to come).
     """
-    fields = param_fields(type(params))
+    fields = keyed_fields(type(params))
     for key in overrides:
         if key not in fields:
             raise InputError(f"{source}: unknown parameter {key!r}; valid: {', '.join(fields)}")
-    import pydantic
-
     if text:
-        overrides = {key: from_text(type(params), key, value) for key, value in overrides.items()}
-    values = params_to_dict(params) | dict(overrides)
+        overrides = {key: from_text(fields[key], value) for key, value in overrides.items()}
+    return _validated(type(params), params.model_dump(by_alias=True) | overrides, source, relations)
+
+
+def _validated(params_type: type[P], values: dict[str, Any], source: str, relations: bool = True) -> P:
     try:
-        checked = schema(type(params)).model_validate(values)
-    except pydantic.ValidationError as error:
-        raise InputError(f"{source}: parameter {_problem(error, type(params))}") from None
-    result = dataclasses.replace(params, **{name: getattr(checked, name) for name in type(checked).model_fields})
-    if relations:
-        check_relations(result, source)
-    return result
+        return params_type.model_validate(values, context={"relations": relations})
+    except ValidationError as error:
+        raise InputError(f"{source}: parameter {_problem(error, params_type)}") from None
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, str]:
@@ -202,7 +235,8 @@ def load_config(path: Path) -> dict[str, Any]:
         raise InputError.at(path, f"cannot read config: {error}") from None
 
 
-def resolve_params(params_types: dict[str, type], assignments: Sequence[str] = (), config: Path | None = None) -> dict[str, Any]:
+def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequence[str] = (),
+                   config: Path | None = None) -> dict[str, BaseModel]:
     """Parameters per pipeline from defaults, then ``config``, then ``--param`` assignments.
 
     A config table named after a pipeline applies to it alone; flat keys and ``--param``
@@ -219,22 +253,22 @@ def resolve_params(params_types: dict[str, type], assignments: Sequence[str] = (
             raise InputError.at(config, f"table [{table}] names no selected pipeline; {hint}"
                                 f"tables: {', '.join(f'[{name}]' for name in params_types)}")
         for name in params_types:
-            table = data.get(name)
-            if isinstance(table, dict):
-                resolved[name] = apply_overrides(resolved[name], table, str(config), relations=False)
+            section = data.get(name)
+            if isinstance(section, dict):
+                resolved[name] = apply_overrides(resolved[name], section, str(config), relations=False)
         flat = {k: v for k, v in data.items() if not isinstance(v, dict)}
         layers.append((str(config), flat, False))
     layers.append(("--param", parse_assignments(list(assignments)), True))
     for source, values, text in layers:
         for key, value in values.items():
-            owners = [name for name, kind in params_types.items() if key in param_fields(kind)]
+            owners = [name for name, kind in params_types.items() if key in keyed_fields(kind)]
             if not owners:
-                valid = sorted({k for kind in params_types.values() for k in param_fields(kind)})
+                valid = sorted({k for kind in params_types.values() for k in keyed_fields(kind)})
                 raise InputError(f"{source}: unknown parameter {key!r} for {', '.join(params_types)}; valid: {', '.join(valid)}")
             for name in owners:
                 resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False,
                                                  text=text)
     sources = [str(config)] * (config is not None) + ["--param"] * bool(assignments)
-    for params in resolved.values():  # on the final values: one layer may set what another relies on
-        check_relations(params, " and ".join(sources) or "the defaults")
-    return resolved
+    # Relations on the final values: one layer may set what another relies on.
+    return {name: _validated(type(params), params.model_dump(by_alias=True), " and ".join(sources) or "the defaults")
+            for name, params in resolved.items()}

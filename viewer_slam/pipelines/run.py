@@ -12,7 +12,6 @@ from ..geometry.trajectory import Trajectory
 from .base import Pipeline, make_pipeline
 from .edges import EdgeKind
 from .events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingLost, TrajectoryFinal
-from .params import params_to_dict
 
 Sink = Callable[[Event], None]
 
@@ -25,6 +24,7 @@ class PipelineRun:
     parameters: dict[str, Any]
     seed: int
     source: str = "pipeline"
+    tracking_minimum: int | None = None  # the matches or inliers a frame needs, where the pipeline has a minimum
     frames: int = 0
     trajectory: Trajectory = field(default_factory=Trajectory.empty)
     odometry: Trajectory | None = None
@@ -134,8 +134,8 @@ def drive(
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
     the run is marked interrupted, so everything up to that point is kept.
     """
-    run = PipelineRun(pipeline=name, parameters=params_to_dict(pipeline.params), seed=pipeline.seed,
-                      source=pipeline.source)
+    run = PipelineRun(pipeline=name, parameters=pipeline.params.model_dump(by_alias=True), seed=pipeline.seed,
+                      source=pipeline.source, tracking_minimum=pipeline.params.tracking_minimum())
     sinks = [run.observe, *sinks]
 
     def emit(events: list[Event]) -> None:

@@ -13,10 +13,10 @@ gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from pydantic import Field
 
 from ..dataset.frame import Frame, Sequence
 from ..errors import InputError
@@ -25,7 +25,7 @@ from ..geometry.association import associate
 from ..geometry.trajectory_formats import FORMATS, read_trajectory
 from ..pipelines.base import Pipeline
 from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
-from ..pipelines.params import param
+from ..pipelines.params import PipelineParams
 from ..pipelines.run import PipelineRun, Sink, drive
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
@@ -33,10 +33,11 @@ ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 
 
-@dataclass
-class EstimateParams:
-    file: str = param("", key="file", help="the trajectory file")
-    format: str = param("", key="format", choices=("", *FORMATS), help="its format ('': detected)")
+class EstimateParams(PipelineParams):
+    """What a report records as an estimate's parameters; set by the replay, never by ``--param``."""
+
+    file: str = Field("", description="the trajectory file")
+    format: str = Field("", description="its format ('': detected)")
 
 
 def no_pose_reason(file: Path, gap_s: float) -> str:
@@ -83,11 +84,12 @@ class EstimateReplay(Pipeline):
     name = "estimate"
     source = "estimate"
     Params = EstimateParams
+    params: EstimateParams
 
     def __init__(self, params: EstimateParams, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):
         super().__init__(camera=None, params=params)
         estimate, detected = read_trajectory(Path(params.file), params.format or None, sequence_stamps)
-        self.params = EstimateParams(params.file, detected)
+        self.params = EstimateParams(file=params.file, format=detected)
         inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & \
                  (estimate.timestamps <= frame_stamps[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
         self.trajectory = estimate.subset(inside)
@@ -140,7 +142,7 @@ def estimate_replay(sequence: Sequence, path: Path, format: str | None = None, *
     reading it checks the file (an :class:`InputError` naming it) and settles its format."""
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)
     processed = stamps[range(0, len(stamps), stride)][:max_frames]
-    return EstimateReplay(EstimateParams(str(path), format or ""), stamps, processed)
+    return EstimateReplay(EstimateParams(file=str(path), format=format or ""), stamps, processed)
 
 
 def replay_estimate(sequence: Sequence, name: str, path: Path, format: str | None = None, *,

@@ -1,18 +1,16 @@
 """The zero-motion baseline: a camera that never moves, as a viewslam pipeline plugin."""
 
-from dataclasses import dataclass
 
 import numpy as np
+from pydantic import Field
 
 from viewer_slam.pipelines.base import Pipeline
 from viewer_slam.pipelines.events import FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
-from viewer_slam.pipelines.params import param
+from viewer_slam.pipelines.params import PipelineParams
 
 
-@dataclass
-class StationaryParams:
-    report_every: int = param(1, key="report_every", ge=1,
-                              help="give a pose on every N-th frame only; the frames between are lost")
+class StationaryParams(PipelineParams):
+    report_every: int = Field(1, ge=1, description="give a pose on every N-th frame only; the frames between are lost")
 
 
 class StationaryPipeline(Pipeline):
