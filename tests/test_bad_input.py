@@ -246,7 +246,7 @@ RECORD_CASES = {
     "estimate-clashes-estimate": Case([*RECORD, "--estimate", "a={tmp}/e.txt", "--estimate", "a={tmp}/f.txt"],
                                       "--estimate a="),
     "estimate-name-with-slash": Case([*RECORD, "--estimate", "orb/3={tmp}/e.txt"], "--estimate orb/3="),
-    "estimate-format-unknown": Case([*RECORD, "--estimate", "a={tmp}/e.txt", "--format", "g2o"], "--format 'g2o'"),
+    "estimate-format-unknown": Case([*RECORD, "--estimate", "a={tmp}/e.txt", "--format", "g2o"], "'g2o' is not one of"),
     "bag-option-on-folder": Case([*RECORD, "--rgb-topic", "/camera/rgb"], "--rgb-topic"),
     "sequence-missing": Case(["record", "{tmp}/nothing", "--out", "{out}"], "nothing"),
     "sequence-is-file": Case(["record", "{seq}/rgb.txt", "--out", "{out}"], "rgb.txt"),

@@ -5,6 +5,7 @@ from pathlib import Path
 import typer
 
 from ..errors import InputError
+from ..geometry.trajectory_formats import TrajectoryFormat
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, parse_resolution
 
@@ -37,8 +38,8 @@ def benchmark(
                                        help="Another system's trajectory of the one SEQUENCE, scored as a row "
                                             "(repeatable); with estimates, no built-in pipeline runs unless "
                                             "--pipeline asks."),
-    format: str = typer.Option(None, "--format", help="Format of the estimates: tum, kitti or euroc "
-                                                       "(default: detected)."),
+    format: TrajectoryFormat | None = typer.Option(None, "--format", help="Format of the estimates (default: "
+                                                                          "detected)."),
     compare: Path = typer.Option(None, "--compare", metavar="OTHER_RESULTS_DIR",
                                  help="Also compare every row with the same row of an earlier benchmark's --out "
                                       "(in report.md), as `viewslam diff` does."),
@@ -60,13 +61,12 @@ def benchmark(
     from ..comparison.results import check_planned_sequences, load_results
     from ..dataset.tum import open_sequence
     from ..pipelines.selection import select_pipelines
-    from ..runs.replay import check_format, named_estimates
+    from ..runs.replay import named_estimates
     from ..runs.report import sequence_block
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     chosen = pipelines + pipeline
     names = select_pipelines(",".join(chosen) if chosen else "both") if chosen or not estimate else []
-    check_format(format)
     estimates = named_estimates(estimate, names)
     other = load_results(compare) if compare is not None else None
     if out.exists() and not out.is_dir():

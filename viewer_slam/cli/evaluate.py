@@ -16,58 +16,42 @@ from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..dataset.tum import open_sequence
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
+from ..evaluation.alignment import Alignment
 from ..evaluation.coverage import Span
 from ..evaluation.evaluation import why_no_pairs
+from ..evaluation.rpe import DeltaUnit
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
-from ..geometry.trajectory_formats import read_trajectory
-from ..pipelines.params import INT_MAX
+from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory
 from ..runs.report import write_report
 from ..terminal import print_table
 from .app import app
 
 SEQUENCE_RULE = "sequence frames"
-FORMAT_NAMES = {"tum": "TUM", "kitti": "KITTI", "euroc": "EuRoC", "bag": "a ROS bag's pose topic"}
+BAG_FORMAT = "bag"
+FORMAT_NAMES = {TrajectoryFormat.TUM: "TUM", TrajectoryFormat.KITTI: "KITTI", TrajectoryFormat.EUROC: "EuRoC",
+                BAG_FORMAT: "a ROS bag's pose topic"}
 SPAN_OPTION_RULE = "--span"
 
 GLOBAL_ALIGNMENT_TEXT = {
-    "rigid": "rigid alignment (Horn) over all pairs",
-    "sim3": "similarity alignment (Umeyama, with scale) over all pairs",
-    "origin": "first poses laid onto each other (origin alignment)",
-    "none": "no alignment",
-    "segments": "each tracked segment aligned rigidly on its own",
+    Alignment.RIGID: "rigid alignment (Horn) over all pairs",
+    Alignment.SIM3: "similarity alignment (Umeyama, with scale) over all pairs",
+    Alignment.ORIGIN: "first poses laid onto each other (origin alignment)",
+    Alignment.NONE: "no alignment",
+    Alignment.SEGMENTS: "each tracked segment aligned rigidly on its own",
 }
 SEGMENT_ALIGNMENT_TEXT = {
-    "rigid": "each tracked segment aligned rigidly on its own",
-    "sim3": "each tracked segment aligned by a similarity on its own",
-    "origin": "each tracked segment's first pose laid onto the groundtruth",
-    "none": "no alignment",
-    "segments": "each tracked segment aligned rigidly on its own",
+    Alignment.RIGID: "each tracked segment aligned rigidly on its own",
+    Alignment.SIM3: "each tracked segment aligned by a similarity on its own",
+    Alignment.ORIGIN: "each tracked segment's first pose laid onto the groundtruth",
+    Alignment.NONE: "no alignment",
+    Alignment.SEGMENTS: "each tracked segment aligned rigidly on its own",
 }
-
-
-class DeltaUnit(str, Enum):
-    frames = "frames"
-    seconds = "seconds"
 
 
 class RpeMode(str, Enum):
     delta = "delta"
     tum = "tum"
-
-
-class Format(str, Enum):
-    tum = "tum"
-    kitti = "kitti"
-    euroc = "euroc"
-
-
-class Alignment(str, Enum):
-    rigid = "rigid"
-    sim3 = "sim3"
-    origin = "origin"
-    segments = "segments"
-    none = "none"
 
 
 @dataclass
@@ -118,12 +102,12 @@ def evaluate_command(
                                          help="Largest time difference of an associated pair, in seconds."),
     offset: float = typer.Option(0.0, callback=_finite,
                                  help="Seconds added to the estimates' stamps before association."),
-    align: Alignment = typer.Option(Alignment.rigid, help="Alignment of ATE and penalised ATE: rigid (Horn), sim3 "
+    align: Alignment = typer.Option(Alignment.RIGID, help="Alignment of ATE and penalised ATE: rigid (Horn), sim3 "
                                                           "(with scale), origin (first poses), segments (each "
                                                           "tracked segment on its own) or none."),
     scale: bool = typer.Option(False, "--scale", help="The same as --align sim3 (monocular estimates)."),
     delta: float = typer.Option(1.0, callback=_positive, help="RPE distance between poses."),
-    delta_unit: DeltaUnit = typer.Option(DeltaUnit.seconds, help="Unit of --delta."),
+    delta_unit: DeltaUnit = typer.Option(DeltaUnit.SECONDS, help="Unit of --delta."),
     all_deltas: bool = typer.Option(False, "--all-deltas", help="RPE averaged over all distances (sampled)."),
     rpe_mode: RpeMode = typer.Option(RpeMode.delta, "--rpe-mode",
                                      help="RPE pairs: delta (--delta/--delta-unit, or --all-deltas) or tum (TUM "
@@ -135,7 +119,7 @@ def evaluate_command(
     sequence: Path | None = typer.Option(None, "--sequence", metavar="FOLDER",
                                          help="TUM sequence folder (or ROS bag) whose frames set the coverage span, the "
                                               "frame period and a KITTI file's times."),
-    format: Format | None = typer.Option(None, "--format", help="Format of the estimates (default: detected)."),
+    format: TrajectoryFormat | None = typer.Option(None, "--format", help="Format of the estimates (default: detected)."),
     groundtruth_topic: str | None = typer.Option(None, "--groundtruth-topic", metavar="TOPIC",
                                                  help="The bag's pose topic to score against (default: the tf "
                                                       "chain to the colour camera, else the only pose topic)."),
@@ -144,14 +128,17 @@ def evaluate_command(
                                                    "bag's only pose topic)."),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
-    if delta_unit is DeltaUnit.frames and not (delta == int(delta) and delta <= INT_MAX):
-        raise typer.BadParameter(f"a delta in frames must be a whole number up to {INT_MAX}, got {delta}",
-                                 param_hint="--delta")
-    if rpe_mode is RpeMode.tum and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.seconds):
+    if delta_unit is DeltaUnit.FRAMES:
+        from ..pipelines.params import INT_MAX  # parameters' pydantic only when it matters
+
+        if not (delta == int(delta) and delta <= INT_MAX):
+            raise typer.BadParameter(f"a delta in frames must be a whole number up to {INT_MAX}, got {delta}",
+                                     param_hint="--delta")
+    if rpe_mode is RpeMode.tum and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.SECONDS):
         raise InputError("--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, "
                          "--delta-unit or --all-deltas")
-    if scale and align not in (Alignment.rigid, Alignment.sim3):
-        raise InputError(f"--scale means --align sim3 and cannot be combined with --align {align.value}")
+    if scale and align not in (Alignment.RIGID, Alignment.SIM3):
+        raise InputError(f"--scale means --align sim3 and cannot be combined with --align {align}")
     if plot is not None:
         from ..evaluation.plot import check_plot_path  # matplotlib only when a plot is wanted
 
@@ -173,7 +160,7 @@ def evaluate_command(
     evaluations = []
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
-                              align="sim3" if scale else align.value, delta=delta, delta_unit=delta_unit.value,
+                              align=Alignment.SIM3 if scale else align, delta=delta, delta_unit=delta_unit,
                               all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period,
                               rpe_mode=rpe_mode.value)
         if evaluation.ate is None:
@@ -230,13 +217,14 @@ def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajec
     return sequence.groundtruth, _clock_of(sequence)
 
 
-def _read_estimate(path: Path, format: Format | None, clock: Clock, topic: str | None) -> tuple[Trajectory, str]:
+def _read_estimate(path: Path, format: TrajectoryFormat | None, clock: Clock,
+                   topic: str | None) -> tuple[Trajectory, str]:
     """An estimate and the format it was read as: a bag's pose topic, else a file in ``format`` or a detected one."""
     from ..dataset.rosbag import bag_poses, is_bag
 
     if is_bag(path):
-        return bag_poses(path, topic, option="--estimate-topic"), "bag"
-    return read_trajectory(path, format and format.value, clock.frame_stamps)
+        return bag_poses(path, topic, option="--estimate-topic"), BAG_FORMAT
+    return read_trajectory(path, format, clock.frame_stamps)
 
 
 def _sequence_clock(path: Path) -> Clock:
@@ -267,7 +255,7 @@ def _print_results(groundtruth: Path, labels: list[str], formats: list[str], eva
         rpe_pairs = MODE_TEXT
     elif first.delta is None:
         rpe_pairs = "all Δ (sampled)"
-    elif first.delta_unit == "seconds":
+    elif first.delta_unit == DeltaUnit.SECONDS:
         rpe_pairs = f"Δ = {first.delta:g} s"
     else:
         rpe_pairs = f"Δ = {plural(first.delta, 'frame')}"

@@ -4,6 +4,7 @@ from pathlib import Path
 
 import typer
 
+from ..geometry.trajectory_formats import TrajectoryFormat
 from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
 
@@ -22,8 +23,8 @@ def record_command(
     pipeline: list[str] = typer.Option([], help=PIPELINE_HELP + " Default: both, or none beside --estimate.",
                                        show_default=False),
     estimate: list[str] = typer.Option([], metavar="NAME=FILE", help=ESTIMATE_HELP),
-    format: str | None = typer.Option(None, help="Format of every --estimate file: tum, kitti or euroc "
-                                                 "(default: detected; stderr says which was used)."),
+    format: TrajectoryFormat | None = typer.Option(None, help="Format of every --estimate file (default: detected; "
+                                                              "stderr says which was used)."),
     out: Path | None = typer.Option(None, help="Recording to write (default recordings/<sequence>.rrd); "
                                               "NAME.json and NAME.<run>.txt go beside it."),
     max_frames: int | None = typer.Option(None, min=1, help=MAX_FRAMES_HELP),

@@ -56,6 +56,7 @@ def study(
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
     written = write_all(out, runs, found, base, command)
     if record:
+        from ..geometry.trajectory_formats import TrajectoryFormat
         from ..recording.trajectory_files import record_trajectory_files
         from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
 
@@ -63,7 +64,7 @@ def study(
             recorded = record_trajectory_files(
                 files[groundtruth_path(sequence)][0],
                 [(system.name, files[poses_path(sequence, system)][0]) for system in SYSTEMS],
-                out / f"{sequence.name}.rrd", format="tum", name=sequence.name)
+                out / f"{sequence.name}.rrd", format=TrajectoryFormat.TUM, name=sequence.name)
             written.extend(recorded.written)
     from ..study.report import table
 

@@ -7,32 +7,43 @@ each segment's error its own.
 """
 
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
 from ..geometry.align import align_origin, align_umeyama
 
-GLOBAL_ALIGNMENTS = ("rigid", "sim3", "origin", "none")
-ALIGNMENTS = (*GLOBAL_ALIGNMENTS, "segments")
+
+class Alignment(StrEnum):
+    """How an estimate is laid onto the groundtruth; the value is the name ``--align`` takes
+    and reports record. Every kind but ``segments`` is one global transform."""
+
+    RIGID = "rigid"
+    SIM3 = "sim3"
+    ORIGIN = "origin"
+    SEGMENTS = "segments"
+    NONE = "none"
+
+
 MIN_SEGMENT_PAIRS = 3
 
 
-def fit_alignment(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray) -> np.ndarray:
-    """The 4x4 transform of ``kind`` (one of :data:`GLOBAL_ALIGNMENTS`) over associated poses.
+def fit_alignment(kind: Alignment, estimate_poses: np.ndarray, reference_poses: np.ndarray) -> np.ndarray:
+    """The 4x4 transform of ``kind`` (a global one: not ``segments``) over associated poses.
 
     rigid: Horn's least squares over positions; sim3: Umeyama's, with scale; origin: the
     first estimate pose laid onto the first groundtruth pose; none: the identity.
     """
-    if kind == "none":
+    if kind == Alignment.NONE:
         return np.eye(4)
-    if kind == "origin":
+    if kind == Alignment.ORIGIN:
         return align_origin(estimate_poses[0], reference_poses[0])
-    if kind in ("rigid", "sim3"):
-        return align_umeyama(estimate_poses[:, :3, 3], reference_poses[:, :3, 3], with_scale=kind == "sim3")
-    raise ValueError(f"alignment must be one of {GLOBAL_ALIGNMENTS}, got {kind!r}")
+    if kind in (Alignment.RIGID, Alignment.SIM3):
+        return align_umeyama(estimate_poses[:, :3, 3], reference_poses[:, :3, 3], with_scale=kind == Alignment.SIM3)
+    raise ValueError(f"alignment must be a global one, got {kind!r}")
 
 
-def segment_alignments(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray,
+def segment_alignments(kind: Alignment, estimate_poses: np.ndarray, reference_poses: np.ndarray,
                        pair_segments: np.ndarray, segment_count: int) -> np.ndarray:
     """``(segment_count, 4, 4)``: each tracked segment's own transform of ``kind``, fitted on its pairs.
 
@@ -68,19 +79,19 @@ class FittedAlignment:
     per_segment: np.ndarray
 
 
-def fit_estimate(kind: str, estimate_poses: np.ndarray, reference_poses: np.ndarray, pose_segments: np.ndarray,
-                 matched: np.ndarray) -> FittedAlignment:
-    """Fit ``kind`` (one of :data:`ALIGNMENTS`) and the per-segment alignment of the same kind.
+def fit_estimate(kind: Alignment, estimate_poses: np.ndarray, reference_poses: np.ndarray,
+                 pose_segments: np.ndarray, matched: np.ndarray) -> FittedAlignment:
+    """Fit ``kind`` and the per-segment alignment of the same kind.
 
     ``reference_poses`` are the groundtruth poses associated with the estimate poses at
     indices ``matched``; ``pose_segments`` numbers the tracked segment of every estimate pose.
     The segments are fitted rigidly for "segments".
     """
-    segment_kind = "rigid" if kind == "segments" else kind
+    segment_kind = Alignment.RIGID if kind == Alignment.SEGMENTS else kind
     by_segment = segment_alignments(segment_kind, estimate_poses[matched], reference_poses, pose_segments[matched],
                                     int(pose_segments[-1]) + 1)
     per_segment = by_segment[pose_segments]
-    if kind == "segments":
+    if kind == Alignment.SEGMENTS:
         return FittedAlignment(None, per_segment, per_segment)
     transform = fit_alignment(kind, estimate_poses[matched], reference_poses)
     return FittedAlignment(transform, np.broadcast_to(transform, per_segment.shape), per_segment)

@@ -7,10 +7,10 @@ import numpy as np
 
 from ..geometry.association import associate
 from ..geometry.trajectory import Trajectory
-from .alignment import ALIGNMENTS, fit_estimate
+from .alignment import Alignment, fit_estimate
 from .ate import absolute_errors
 from .coverage import Coverage, Span, coverage, file_span, held_pose_errors, tracked_segments
-from .rpe import DELTA_UNITS, pairs_by_frames, pairs_by_seconds, relative_errors, sampled_pairs
+from .rpe import DeltaUnit, pairs_by_frames, pairs_by_seconds, relative_errors, sampled_pairs
 from .statistics import ErrorSeries, stats_or_none
 from .tum_rpe import tum_rpe
 
@@ -22,8 +22,7 @@ RPE_MODES = ("delta", "tum")
 class Evaluation:
     """The scores of one estimate. Error series are None when there is nothing to score.
 
-    ``alignment_name`` says how ``ate`` and ``penalized_ate`` were aligned (one of
-    :data:`~.alignment.ALIGNMENTS`); ``alignment`` is that global transform S from the
+    ``alignment_name`` says how ``ate`` and ``penalized_ate`` were aligned; ``alignment`` is that global transform S from the
     estimate's frame onto the groundtruth's (None with "segments"), and ``pose_alignment``
     the transform each estimate pose was scored under. ``segment_ate`` aligns every
     tracked segment on its own. ``pairs`` holds the associated indices
@@ -39,12 +38,12 @@ class Evaluation:
     rpe_rot: ErrorSeries | None
     coverage: Coverage
     penalized_ate: ErrorSeries | None
-    alignment_name: str
+    alignment_name: Alignment
     alignment: np.ndarray | None
     pose_alignment: np.ndarray | None
     pairs: tuple[np.ndarray, np.ndarray]
     delta: float | None
-    delta_unit: str
+    delta_unit: str  # a DeltaUnit, or "all" for all-Δ RPE
     offset: float = 0.0
     rpe_mode: str = "delta"
     node_ate: ErrorSeries | None = None
@@ -85,9 +84,9 @@ def evaluate(
     max_difference: float = 0.02,
     offset: float = 0.0,
     scale: bool = False,
-    align: str = "rigid",
+    align: Alignment = Alignment.RIGID,
     delta: float = 1.0,
-    delta_unit: str = "seconds",
+    delta_unit: DeltaUnit = DeltaUnit.SECONDS,
     all_deltas: bool = False,
     seed: int = 0,
     span: Span | tuple[float, float] | None = None,
@@ -96,8 +95,9 @@ def evaluate(
 ) -> Evaluation:
     """Score ``estimate`` against ``groundtruth``, both in time order (definitions in docs/metrics.md).
 
-    ``offset`` is added to the estimate's stamps. ``align`` is one of
-    :data:`~.alignment.ALIGNMENTS`; ``scale`` is the older spelling of ``align="sim3"``.
+    ``offset`` is added to the estimate's stamps. ``align`` and ``delta_unit`` may also be
+    given by their values (``"sim3"``, ``"frames"``); ``scale`` is the older spelling of
+    ``align="sim3"``.
     The segment-aligned ATE fits each tracked segment with the same kind of alignment
     (rigid with "segments"). RPE pairs are ``delta`` frames or seconds apart, or, with
     ``all_deltas``, a seeded sample over every distance. ``span`` is the time window that
@@ -112,19 +112,21 @@ def evaluate(
         raise ValueError(f"rpe_mode must be one of {RPE_MODES}, got {rpe_mode!r}")
     if rpe_mode == "tum" and all_deltas:
         raise ValueError("rpe_mode 'tum' draws its own pairs and cannot be combined with all_deltas")
-    if delta_unit not in DELTA_UNITS:
-        raise ValueError(f"delta_unit must be one of {DELTA_UNITS}, got {delta_unit!r}")
-    if not (np.isfinite(delta) and delta > 0) or (delta_unit == "frames" and delta != int(delta)):
-        raise ValueError(f"delta must be a positive {'integer' if delta_unit == 'frames' else 'number'}, got {delta}")
-    if align not in ALIGNMENTS or (scale and align not in ("rigid", "sim3")):
-        raise ValueError(f"align must be one of {ALIGNMENTS} (scale=True means 'sim3'), got {align!r}")
-    align = "sim3" if scale else align
+    if delta_unit not in tuple(DeltaUnit):
+        raise ValueError(f"delta_unit must be one of {', '.join(DeltaUnit)}, got {delta_unit!r}")
+    delta_unit = DeltaUnit(delta_unit)
+    if not (np.isfinite(delta) and delta > 0) or (delta_unit == DeltaUnit.FRAMES and delta != int(delta)):
+        kind = "integer" if delta_unit == DeltaUnit.FRAMES else "number"
+        raise ValueError(f"delta must be a positive {kind}, got {delta}")
+    if align not in tuple(Alignment) or (scale and align not in (Alignment.RIGID, Alignment.SIM3)):
+        raise ValueError(f"align must be one of {', '.join(Alignment)} (scale=True means 'sim3'), got {align!r}")
+    align = Alignment.SIM3 if scale else Alignment(align)
     on_groundtruth_clock = Trajectory(estimate.timestamps + offset, estimate.poses)
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
     covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth)
     every_delta = all_deltas or rpe_mode == "tum"
-    reported_delta = None if every_delta else (int(delta) if delta_unit == "frames" else float(delta))
+    reported_delta = None if every_delta else (int(delta) if delta_unit == DeltaUnit.FRAMES else float(delta))
     reported_unit = "all" if every_delta else delta_unit
 
     gt_index, est_index = associate(groundtruth.timestamps, estimate.timestamps, offset, max_difference)
@@ -143,14 +145,14 @@ def evaluate(
 
     if all_deltas:
         first, second = sampled_pairs(len(stamps), ALL_DELTAS_SAMPLES, seed)
-    elif delta_unit == "frames":
+    elif delta_unit == DeltaUnit.FRAMES:
         first, second = pairs_by_frames(len(stamps), int(delta))
     else:
         first, second = pairs_by_seconds(stamps, delta)
     sim3_scale = float(np.linalg.norm(fitted.transform[:3, 0])) \
-        if align == "sim3" and fitted.transform is not None else 1.0
+        if align == Alignment.SIM3 and fitted.transform is not None else 1.0
     metric_scale = matched.copy()  # RPE is alignment-free, but a similarity's scale must apply
-    if align == "sim3":
+    if align == Alignment.SIM3:
         metric_scale[:, :3, 3] *= sim3_scale
     rpe_trans, rpe_rot = relative_errors(reference, metric_scale, first, second)
     has_pairs = len(first) > 0

@@ -15,6 +15,7 @@ from matplotlib.patches import Patch  # noqa: E402
 from .. import palette  # noqa: E402
 from ..errors import InputError  # noqa: E402
 from ..geometry.trajectory import Trajectory  # noqa: E402
+from .alignment import Alignment  # noqa: E402
 from .coverage import lost_gap_threshold  # noqa: E402
 from .evaluation import Evaluation  # noqa: E402
 
@@ -67,7 +68,7 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
     has no pose for longer than the lost-gap threshold, so a jump never looks like motion.
     The legend, below the panels, names only what is drawn.
     """
-    alignment = scored[0].evaluation.alignment_name if scored else "rigid"
+    alignment = scored[0].evaluation.alignment_name if scored else Alignment.RIGID
     panels = [(title, attribute) for title, attribute in (
         (f"ATE ({alignment} alignment)", "ate"), ("ATE, each tracked segment aligned on its own", "segment_ate"),
         ("penalised ATE (while lost, the last pose is held)", "penalized_ate"))

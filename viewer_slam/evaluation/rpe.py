@@ -1,10 +1,17 @@
 """Relative pose error (Sturm et al. 2012, eq. 4-5) and the choice of pose pairs it uses."""
 
+from enum import StrEnum
+
 import numpy as np
 
 from ..geometry.se3 import rotation_angle
 
-DELTA_UNITS = ("frames", "seconds")
+
+class DeltaUnit(StrEnum):
+    """What RPE's Δ counts; the value is the name ``--delta-unit`` takes and reports record."""
+
+    FRAMES = "frames"
+    SECONDS = "seconds"
 
 
 def pairs_by_frames(count: int, delta: int) -> tuple[np.ndarray, np.ndarray]:

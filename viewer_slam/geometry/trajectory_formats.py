@@ -17,6 +17,7 @@ line mean ``kitti``; anything else is read as ``tum``.
 
 import re
 from collections.abc import Iterator, Sequence
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +27,15 @@ from ..errors import InputError
 from .se3 import make_pose, pose_from_tq
 from .trajectory import Trajectory, parse_numbers, pose_problem, read_text, read_tum
 
-FORMATS = ("tum", "kitti", "euroc")
+
+class TrajectoryFormat(StrEnum):
+    """A trajectory file format; the value is the name ``--format`` takes and reports record."""
+
+    TUM = "tum"
+    KITTI = "kitti"
+    EUROC = "euroc"
+
+
 KITTI_FIELDS = 12
 # How far R^T R of a KITTI pose may be from the identity (files print 6 to 9 digits).
 ORTHONORMAL_TOLERANCE = 1e-3
@@ -38,8 +47,10 @@ _QUATERNION_NAMES = {axis: (f"q_rs_{axis}", f"q{axis}", f"q_{axis}", f"orientati
 
 
 def read_trajectory(path: Path, format: str | None = None,
-                    timestamps: Sequence[float] | np.ndarray | Path | None = None) -> tuple[Trajectory, str]:
-    """The trajectory in ``path`` and the name of its format (detected unless ``format`` is given).
+                    timestamps: Sequence[float] | np.ndarray | Path | None = None,
+                    ) -> tuple[Trajectory, TrajectoryFormat]:
+    """The trajectory in ``path`` and its format (detected unless ``format``, one of
+    :class:`TrajectoryFormat` or its value, is given).
 
     ``timestamps`` gives a KITTI file its times: one per pose, in order, as an array or a
     file whose lines start with them (KITTI's ``times.txt``, a TUM ``rgb.txt``). Stamps
@@ -49,25 +60,27 @@ def read_trajectory(path: Path, format: str | None = None,
     path = Path(path)
     text = read_text(path)
     if format is None:
-        format = detect_format(path, text)
-    elif format not in FORMATS:
-        raise InputError.at(path, f"unknown trajectory format {format!r}; valid: {', '.join(FORMATS)}")
-    if format == "tum":
-        return read_tum(path, in_order=True), format
-    if format == "kitti":
-        return _read_kitti(path, text, timestamps), format
-    return _read_euroc(path, text), format
+        kind = detect_format(path, text)
+    elif format in tuple(TrajectoryFormat):
+        kind = TrajectoryFormat(format)
+    else:
+        raise InputError.at(path, f"unknown trajectory format {format!r}; valid: {', '.join(TrajectoryFormat)}")
+    if kind is TrajectoryFormat.TUM:
+        return read_tum(path, in_order=True), kind
+    if kind is TrajectoryFormat.KITTI:
+        return _read_kitti(path, text, timestamps), kind
+    return _read_euroc(path, text), kind
 
 
-def detect_format(path: Path, text: str | None = None) -> str:
+def detect_format(path: Path, text: str | None = None) -> TrajectoryFormat:
     """``euroc``, ``kitti`` or ``tum`` by the rule in the module docstring."""
     lines = [line for _, line in _lines(read_text(path) if text is None else text)]
     if not lines:
         raise InputError.at(path, "no poses in trajectory file")
     if _header_names(lines[0]) is not None:
-        return "euroc"
+        return TrajectoryFormat.EUROC
     first_data = next((line for line in lines if not line.startswith("#")), "")
-    return "kitti" if len(first_data.replace(",", " ").split()) == KITTI_FIELDS else "tum"
+    return TrajectoryFormat.KITTI if len(first_data.replace(",", " ").split()) == KITTI_FIELDS else TrajectoryFormat.TUM
 
 
 def _lines(text: str) -> Iterator[tuple[int, str]]:

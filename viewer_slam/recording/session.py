@@ -34,11 +34,12 @@ from ..dataset.tum import TumSequence, open_sequence
 from ..diagnosis import SignalRecorder, diagnose_run
 from ..errors import InputError
 from ..geometry.trajectory import Trajectory, write_tum
+from ..geometry.trajectory_formats import TrajectoryFormat
 from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
 from ..pipelines.params import resolve_params
 from ..pipelines.run import drive
 from ..pipelines.selection import BOTH, select_pipelines
-from ..runs.replay import check_format, estimate_replay, named_estimates
+from ..runs.replay import estimate_replay, named_estimates
 from ..runs.report import build_report, pipeline_report, write_report
 from ..runs.scoring import evaluate_run
 from .blueprint import default_blueprint
@@ -83,7 +84,7 @@ class RecordOptions:
     spawn: bool = False
     connect: str | None = None
     estimates: list[str] = field(default_factory=list)
-    format: str | None = None
+    format: TrajectoryFormat | None = None
     bag: BagOptions = field(default_factory=dict)
 
 
@@ -149,12 +150,10 @@ def open_input(sequence: str | None, bag: BagOptions | None = None, first: int |
     return open_sequence(path, **bag)
 
 
-def select_runs(choice: str | None, estimates: list[str],
-                format: str | None = None) -> tuple[list[str], list[tuple[str, Path]]]:
+def select_runs(choice: str | None, estimates: list[str]) -> tuple[list[str], list[tuple[str, Path]]]:
     """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
-    estimates (``--estimate NAME=FILE``, in ``format``); every name must be unique among them."""
+    estimates (``--estimate NAME=FILE``); every name must be unique among them."""
     pipelines = select_pipelines(choice) if choice is not None else [] if estimates else select_pipelines(BOTH)
-    check_format(format)
     return pipelines, named_estimates(estimates, pipelines)
 
 
@@ -201,7 +200,7 @@ def record(options: RecordOptions) -> RecordResult:
 
     if is_files_only(options):
         return record_files(options)
-    pipelines, estimates = select_runs(options.pipeline, options.estimates, options.format)
+    pipelines, estimates = select_runs(options.pipeline, options.estimates)
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
                             options.config)
     out = output_path(options.sequence, options.out)

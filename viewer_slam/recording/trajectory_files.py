@@ -31,8 +31,9 @@ from ..atomic import StagedFiles, exclusive
 from ..errors import InputError
 from ..evaluation.coverage import MIN_LOST_GAP_S, median_period
 from ..geometry.trajectory import Trajectory, write_tum
+from ..geometry.trajectory_formats import TrajectoryFormat
 from ..runs.files_summary import summary_markdown
-from ..runs.replay import check_format, named_estimates
+from ..runs.replay import named_estimates
 from ..runs.report import write_report
 from ..runs.trajectory_files import ScoredFile, ScoredFiles, score_files
 from . import layout
@@ -86,7 +87,6 @@ def record_files(options: RecordOptions) -> RecordResult:
     ``--out`` defaults to ``recordings/<groundtruth file name without extension>.rrd``.
     """
     check_files_options(options)
-    check_format(options.format)
     groundtruth = Path(options.bag["groundtruth"])
     out = options.out if options.out is not None else Path("recordings") / f"{groundtruth.stem}.rrd"
     return record_trajectory_files(groundtruth, named_estimates(options.estimates, []), Path(out),
@@ -95,7 +95,8 @@ def record_files(options: RecordOptions) -> RecordResult:
 
 
 def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
-                            format: str | None = None, name: str | None = None, viewer: LiveViewer | None = None,
+                            format: TrajectoryFormat | None = None, name: str | None = None,
+                            viewer: LiveViewer | None = None,
                             quiet: bool = True) -> RecordResult:
     """Record the ``(name, file)`` estimates against the groundtruth file into ``out`` (.rrd), the
     report and trajectories beside it (module docstring).

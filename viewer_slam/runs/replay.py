@@ -22,7 +22,7 @@ from ..dataset.frame import Frame, Sequence
 from ..errors import InputError
 from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
-from ..geometry.trajectory_formats import FORMATS, read_trajectory
+from ..geometry.trajectory_formats import read_trajectory
 from ..pipelines.base import Pipeline
 from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from ..pipelines.params import PipelineParams
@@ -51,12 +51,6 @@ def parse_estimate(text: str) -> tuple[str, Path]:
     if not sep or not name.strip() or not file.strip():
         raise InputError(f"--estimate {text!r}: expected NAME=FILE, e.g. orbslam3=CameraTrajectory.txt")
     return name.strip(), Path(file.strip())
-
-
-def check_format(format: str | None) -> None:
-    """``--format``: None (detect) or one of :data:`FORMATS`."""
-    if format is not None and format not in FORMATS:
-        raise InputError(f"--format {format!r}: valid formats are {', '.join(FORMATS)}")
 
 
 def named_estimates(texts: list[str], pipelines: list[str]) -> list[tuple[str, Path]]:

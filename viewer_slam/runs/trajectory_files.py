@@ -19,7 +19,7 @@ from ..errors import InputError
 from ..evaluation.evaluation import Evaluation, evaluate, why_no_pairs
 from ..evaluation.statistics import ErrorSeries
 from ..geometry.trajectory import Trajectory, read_tum
-from ..geometry.trajectory_formats import detect_format, read_trajectory
+from ..geometry.trajectory_formats import TrajectoryFormat, detect_format, read_trajectory
 from ..pipelines.run import PipelineRun
 from .replay import no_pose_reason
 from .report import pipeline_report, versions
@@ -31,7 +31,7 @@ class ScoredFile:
 
     name: str
     path: Path
-    format: str
+    format: TrajectoryFormat
     trajectory: Trajectory
     evaluation: Evaluation
 
@@ -103,10 +103,10 @@ def read_groundtruth(path: Path) -> Trajectory:
     path = Path(path)
     if path.is_dir():
         raise InputError.at(path, "is a folder; --groundtruth takes a trajectory file (a sequence folder is SEQUENCE)")
-    return read_tum(path) if detect_format(path) == "tum" else read_trajectory(path)[0]
+    return read_tum(path) if detect_format(path) is TrajectoryFormat.TUM else read_trajectory(path)[0]
 
 
-def score_files(groundtruth_path: Path, estimates: list[tuple[str, Path]], format: str | None = None,
+def score_files(groundtruth_path: Path, estimates: list[tuple[str, Path]], format: TrajectoryFormat | None = None,
                 name: str | None = None) -> ScoredFiles:
     """Read and score every ``(name, file)`` estimate (in ``format``, else detected) against the groundtruth file.
 
