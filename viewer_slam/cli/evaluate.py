@@ -3,7 +3,6 @@
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import Enum
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +17,7 @@ from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.alignment import Alignment
 from ..evaluation.coverage import Span
-from ..evaluation.evaluation import why_no_pairs
+from ..evaluation.evaluation import RpeMode, why_no_pairs
 from ..evaluation.rpe import DeltaUnit
 from ..evaluation.statistics import stats_or_none
 from ..geometry.trajectory import Trajectory, read_tum
@@ -47,11 +46,6 @@ SEGMENT_ALIGNMENT_TEXT = {
     Alignment.NONE: "no alignment",
     Alignment.SEGMENTS: "each tracked segment aligned rigidly on its own",
 }
-
-
-class RpeMode(str, Enum):
-    delta = "delta"
-    tum = "tum"
 
 
 @dataclass
@@ -109,7 +103,7 @@ def evaluate_command(
     delta: float = typer.Option(1.0, callback=_positive, help="RPE distance between poses."),
     delta_unit: DeltaUnit = typer.Option(DeltaUnit.SECONDS, help="Unit of --delta."),
     all_deltas: bool = typer.Option(False, "--all-deltas", help="RPE averaged over all distances (sampled)."),
-    rpe_mode: RpeMode = typer.Option(RpeMode.delta, "--rpe-mode",
+    rpe_mode: RpeMode = typer.Option(RpeMode.DELTA, "--rpe-mode",
                                      help="RPE pairs: delta (--delta/--delta-unit, or --all-deltas) or tum (TUM "
                                           "evaluate_rpe.py's default as published figures ran it: all pose pairs "
                                           "under 100 poses, else 10,000 pairs drawn by Python 2.7's random seeded 0)."),
@@ -134,7 +128,7 @@ def evaluate_command(
         if not (delta == int(delta) and delta <= INT_MAX):
             raise typer.BadParameter(f"a delta in frames must be a whole number up to {INT_MAX}, got {delta}",
                                      param_hint="--delta")
-    if rpe_mode is RpeMode.tum and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.SECONDS):
+    if rpe_mode is RpeMode.TUM and (all_deltas or delta != 1.0 or delta_unit is not DeltaUnit.SECONDS):
         raise InputError("--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, "
                          "--delta-unit or --all-deltas")
     if scale and align not in (Alignment.RIGID, Alignment.SIM3):
@@ -162,7 +156,7 @@ def evaluate_command(
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
                               align=Alignment.SIM3 if scale else align, delta=delta, delta_unit=delta_unit,
                               all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period,
-                              rpe_mode=rpe_mode.value)
+                              rpe_mode=rpe_mode)
         if evaluation.ate is None:
             raise InputError.at(path, why_no_pairs(reference, trajectory, offset, max_difference))
         evaluations.append(evaluation)
@@ -249,7 +243,7 @@ def _print_results(groundtruth: Path, labels: list[str], formats: list[str], eva
     """The legend of the columns (which alignment each uses), the table, and for each estimate the
     format it was read as and its coverage span."""
     first = evaluations[0]
-    if first.rpe_mode == RpeMode.tum.value:
+    if first.rpe_mode == RpeMode.TUM:
         from ..evaluation.tum_rpe import MODE_TEXT
 
         rpe_pairs = MODE_TEXT

@@ -1,6 +1,7 @@
 """Evaluate an estimated trajectory against groundtruth: ATE, RPE and coverage-aware scores."""
 
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -15,7 +16,13 @@ from .statistics import ErrorSeries, stats_or_none
 from .tum_rpe import tum_rpe
 
 ALL_DELTAS_SAMPLES = 10_000
-RPE_MODES = ("delta", "tum")
+
+
+class RpeMode(StrEnum):
+    """Which pose pairs RPE scores; the value is the name ``--rpe-mode`` takes and reports record."""
+
+    DELTA = "delta"  # pairs Δ apart, or viewslam's all-Δ sample
+    TUM = "tum"  # TUM evaluate_rpe.py's default pairs and error (:mod:`.tum_rpe`)
 
 
 @dataclass
@@ -45,7 +52,7 @@ class Evaluation:
     delta: float | None
     delta_unit: str  # a DeltaUnit, or "all" for all-Δ RPE
     offset: float = 0.0
-    rpe_mode: str = "delta"
+    rpe_mode: RpeMode = RpeMode.DELTA
     node_ate: ErrorSeries | None = None
 
     def to_dict(self) -> dict[str, Any]:
@@ -91,7 +98,7 @@ def evaluate(
     seed: int = 0,
     span: Span | tuple[float, float] | None = None,
     frame_period: float | None = None,
-    rpe_mode: str = "delta",
+    rpe_mode: RpeMode = RpeMode.DELTA,
 ) -> Evaluation:
     """Score ``estimate`` against ``groundtruth``, both in time order (definitions in docs/metrics.md).
 
@@ -108,9 +115,10 @@ def evaluate(
     ``rpe_mode="tum"`` scores RPE as TUM's evaluate_rpe.py does by default (``delta`` and
     ``all_deltas`` then do not apply), so published figures can be replayed digit for digit.
     """
-    if rpe_mode not in RPE_MODES:
-        raise ValueError(f"rpe_mode must be one of {RPE_MODES}, got {rpe_mode!r}")
-    if rpe_mode == "tum" and all_deltas:
+    if rpe_mode not in tuple(RpeMode):
+        raise ValueError(f"rpe_mode must be one of {', '.join(RpeMode)}, got {rpe_mode!r}")
+    rpe_mode = RpeMode(rpe_mode)
+    if rpe_mode == RpeMode.TUM and all_deltas:
         raise ValueError("rpe_mode 'tum' draws its own pairs and cannot be combined with all_deltas")
     if delta_unit not in tuple(DeltaUnit):
         raise ValueError(f"delta_unit must be one of {', '.join(DeltaUnit)}, got {delta_unit!r}")
@@ -125,7 +133,7 @@ def evaluate(
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
     covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth)
-    every_delta = all_deltas or rpe_mode == "tum"
+    every_delta = all_deltas or rpe_mode == RpeMode.TUM
     reported_delta = None if every_delta else (int(delta) if delta_unit == DeltaUnit.FRAMES else float(delta))
     reported_unit = "all" if every_delta else delta_unit
 
@@ -157,7 +165,7 @@ def evaluate(
     rpe_trans, rpe_rot = relative_errors(reference, metric_scale, first, second)
     has_pairs = len(first) > 0
     rpe_stamps = stamps[second]
-    if rpe_mode == "tum":
+    if rpe_mode == RpeMode.TUM:
         rpe_stamps, rpe_trans, rpe_rot = _tum_rpe(groundtruth, estimate, offset, sim3_scale)
         has_pairs = len(rpe_stamps) > 0
 

@@ -24,7 +24,6 @@ from .python27_random import Python27Random
 
 MAX_PAIRS = 10_000
 SEED = 0
-MODE_NAME = "tum"
 MODE_TEXT = ("TUM evaluate_rpe.py's default: all pose pairs under 100 poses, else 10,000 pairs drawn by "
              "Python 2.7's random seeded 0")
 

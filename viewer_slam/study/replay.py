@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..evaluation import evaluate
+from ..evaluation.evaluation import RpeMode
 from ..geometry.trajectory import read_tum
 from .manifest import CHARTS, SEQUENCES, SYSTEMS, StudySequence, groundtruth_path, log_path, poses_path
 from .published import Printed, parse_chart, parse_log
@@ -41,7 +42,7 @@ class Run:
 def score_run(groundtruth_file: Path, poses_file: Path) -> dict:
     """The study's figures and the coverage-aware ones of one run (bare files: TUM's own association)."""
     groundtruth, estimate = read_tum(groundtruth_file), read_tum(poses_file)
-    evaluation = evaluate(groundtruth, estimate, rpe_mode="tum")
+    evaluation = evaluate(groundtruth, estimate, rpe_mode=RpeMode.TUM)
     span = evaluation.coverage.span
     lost = evaluation.coverage.lost_intervals
     stopped = evaluation.coverage.stopped_at
@@ -51,7 +52,7 @@ def score_run(groundtruth_file: Path, poses_file: Path) -> dict:
     return {
         "ate_rmse": ate and ate["rmse"], "ate_pairs": ate and ate["n"],
         "rpe_trans_rmse": trans and trans["rmse"], "rpe_rot_rmse_deg": rot and rot["rmse"],
-        "rpe_pairs": trans and trans["n"], "rpe_mode": "tum",
+        "rpe_pairs": trans and trans["n"], "rpe_mode": RpeMode.TUM,
         "coverage": evaluation.coverage.ratio, "penalized_ate_rmse": penalized and penalized["rmse"],
         "poses": len(estimate), "lost_intervals": [[start, end] for start, end in lost],
         "span": [span.start, span.end], "duration_s": span.end - span.start,

@@ -11,6 +11,7 @@ from typing import Any
 
 from ..atomic import StagedFiles
 from ..benchmark.plots import plot_all
+from ..evaluation.evaluation import RpeMode
 from .manifest import COMMIT, REPOSITORY, SYSTEMS
 from .replay import Run
 
@@ -19,7 +20,7 @@ TITLES = {system.name: system.title for system in SYSTEMS}
 
 def results(runs: list[Run], found: list[dict], mirror: str) -> dict:
     return {"source": {"repository": REPOSITORY, "commit": COMMIT, "fetched_from": mirror},
-            "rpe_mode": "tum", "rows": [run.to_dict() for run in runs], "discrepancies": found}
+            "rpe_mode": RpeMode.TUM, "rows": [run.to_dict() for run in runs], "discrepancies": found}
 
 
 def chart_rows(runs: list[Run]) -> list[dict]:
