@@ -2,7 +2,7 @@ import json
 import math
 import tempfile
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import pytest
 from hypothesis import given, settings
@@ -11,8 +11,8 @@ from pydantic import Field
 
 from viewer_slam.errors import InputError
 from viewer_slam.pipelines.params import (
+    EXACT_INT,
     INT_MAX,
-    CInt,
     PipelineParams,
     apply_overrides,
     bounds_of,
@@ -26,14 +26,14 @@ from viewer_slam.pipelines.rtabmap.params import RtabmapParams
 
 
 class OdometryParams(PipelineParams):
-    reset_countdown: CInt = Field(0, alias="Odom/ResetCountdown")
+    reset_countdown: int = Field(0, alias="Odom/ResetCountdown")
     nndr: float = Field(0.8, alias="Vis/CorNNDR")
     proximity: bool = Field(True, alias="RGBD/ProximityBySpace")
     detector: Literal["GFTT_ORB", "GFTT_BRIEF"] = Field("GFTT_ORB", alias="Kp/Detector")
 
 
 class GraphParams(PipelineParams):
-    predecessor_candidates: CInt = 4
+    predecessor_candidates: int = 4
     nndr: float = Field(0.95, alias="nn_distance_ratio")
 
 
@@ -56,6 +56,23 @@ def test_keys_and_conversion():
 def test_wrong_types_are_rejected(key, value, message):
     with pytest.raises(InputError, match=message):
         apply_overrides(OdometryParams(), {key: value}, "--param", text=True)
+
+
+def test_every_integer_is_a_c_int_without_declaring_it():
+    with pytest.raises(InputError, match=rf"^--param: parameter predecessor_candidates must be less than or equal to "
+                                         rf"{INT_MAX}, got {INT_MAX + 1}$"):
+        apply_overrides(GraphParams(), {"predecessor_candidates": str(INT_MAX + 1)}, "--param", text=True)
+    assert bounds_of(keyed_fields(GraphParams)["predecessor_candidates"]) == {}
+
+
+def test_a_choice_of_integers_takes_no_bool_and_no_fraction():
+    class Choice(PipelineParams):
+        mode: Annotated[Literal[0, 1], EXACT_INT] = 1
+
+    for value in (True, 1.0):
+        with pytest.raises(InputError, match=r"^c.toml: parameter mode expects an integer, got "):
+            apply_overrides(Choice(), {"mode": value}, "c.toml")
+    assert apply_overrides(Choice(), {"mode": "0"}, "--param", text=True).mode == 0
 
 
 def test_resolve_routes_keys_to_their_pipeline_and_config_tables(tmp_path):

@@ -15,17 +15,9 @@ import tomllib
 import typing
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Any, ClassVar, Literal
 
-import annotated_types
-from pydantic import (
-    AfterValidator,
-    BaseModel,
-    BeforeValidator,
-    ConfigDict,
-    ValidationError,
-    ValidationInfo,
-)
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, ValidationInfo, field_validator
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
 
@@ -35,25 +27,11 @@ from ..errors import InputError
 INT_MAX = 2**31 - 1
 
 
-def _fits_c_int(value: int) -> int:
-    if value > INT_MAX:
-        raise PydanticCustomError("less_than_equal", "Input should be less than or equal to {le}", {"le": INT_MAX})
-    if value < -INT_MAX:
-        raise PydanticCustomError("greater_than_equal", "Input should be greater than or equal to {ge}",
-                                  {"ge": -INT_MAX})
-    return value
-
-
 def _exact_int(value: Any) -> Any:
     if type(value) is not int:
         raise PydanticCustomError("int_type", "Input should be a valid integer")
     return value
 
-
-CInt = Annotated[int, AfterValidator(_fits_c_int)]
-"""An integer parameter: a C int. The range is checked after the field's own bounds, which it
-does not show among them (a bound on the type would be merged with, and could override, the
-field's)."""
 
 EXACT_INT = BeforeValidator(_exact_int)
 """For a ``Literal`` of integers: ``true`` and ``6.0`` are no integer choice (a ``Literal``
@@ -67,7 +45,8 @@ class PipelineParams(BaseModel):
     """The base of every pipeline's parameters.
 
     Validation is strict, as TOML types are: no ``true`` for a number, no text for a number,
-    no fraction for an integer; every number is finite. Command-line text is read as the
+    no fraction for an integer; every number is finite, every integer a C int (checked after
+    the field's own bounds, and not shown among them). Command-line text is read as the
     field's type by :func:`from_text` first. The parameters of a run never change, so the
     model is frozen.
     """
@@ -80,6 +59,16 @@ class PipelineParams(BaseModel):
 
     def tracking_minimum(self) -> int | None:
         return None if self.TRACKING_MINIMUM is None else int(getattr(self, self.TRACKING_MINIMUM))
+
+    @field_validator("*")
+    @classmethod
+    def _fits_c_int(cls, value: Any) -> Any:
+        if type(value) is int and value > INT_MAX:
+            raise PydanticCustomError("less_than_equal", "Input should be less than or equal to {le}", {"le": INT_MAX})
+        if type(value) is int and value < -INT_MAX:
+            raise PydanticCustomError("greater_than_equal", "Input should be greater than or equal to {ge}",
+                                      {"ge": -INT_MAX})
+        return value
 
 
 def check_ordered(params: P, info: ValidationInfo, lower: str, upper: str, *, strict: bool = True,
@@ -130,13 +119,11 @@ def kind_of(field: FieldInfo) -> type:
     return type(choices[0]) if choices else typing.cast(type, field.annotation)
 
 
-_BOUNDS = {annotated_types.Ge: "ge", annotated_types.Gt: "gt", annotated_types.Le: "le", annotated_types.Lt: "lt"}
-
-
 def bounds_of(field: FieldInfo) -> dict[str, float]:
     """The field's declared bounds by name (``ge``, ``gt``, ``le``, ``lt``); integers are also
     within the C int range (:data:`INT_MAX`)."""
-    return {_BOUNDS[type(item)]: getattr(item, _BOUNDS[type(item)]) for item in field.metadata if type(item) in _BOUNDS}
+    return {name: getattr(item, name) for item in field.metadata for name in ("ge", "gt", "le", "lt")
+            if getattr(item, name, None) is not None}
 
 
 def from_text(field: FieldInfo, text: str) -> Any:
