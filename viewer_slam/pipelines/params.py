@@ -158,9 +158,9 @@ def _problem(error: ValidationError, params_type: type[BaseModel]) -> str:
     value = detail["input"]
     if kind == "literal_error":
         choices = choices_of(keyed_fields(params_type)[key])
-        expected = type(choices[0])
-        problem = _EXPECTED[expected] if type(value) is not expected else \
-            "must be one of " + ", ".join(map(str, choices))
+        expected = type(choices[0])  # the type first, as for any other field, then the choices
+        problem = _EXPECTED.get(expected, "") if type(value) is not expected else ""
+        problem = problem or "must be one of " + ", ".join(map(str, choices))
     elif kind == "finite_number":
         problem = "expects a finite number"
     elif kind.split("_")[0] in _TYPE_ERRORS:
