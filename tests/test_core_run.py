@@ -48,7 +48,7 @@ class CountingPipeline(Pipeline):
         pose[0, 3] = 0.01 * frame.index
         self.tracked.append((frame.index, frame.timestamp, pose))
         if frame.index % 5 == 0:
-            events.append(KeyframeAdded(frame.index // 5, frame.index, frame.timestamp, pose, np.zeros((0, 2))))
+            events.append(KeyframeAdded(frame.index // 5, frame.index, frame.timestamp, pose))
         if frame.index == 7:
             events.append(GraphEdge(frame.index, 1, 0, accepted=False, reason="test", kind=EdgeKind.LOOP))
         return events + [FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK, timings_ms={"features": 1.0})]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from fixtures_eval import SHARED_DATA
 
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.pipelines.edges import EdgeClassifier
@@ -27,7 +27,7 @@ pytestmark = pytest.mark.skipif(not PER_FRAME.is_dir() or not TUM_200.is_dir(), 
 def test_node_ate_scores_the_nodes_as_the_original_exports_them():
     """A run whose nodes are the original's 7 default-mode nodes, among poses for every frame:
     node_ate is the ATE of those 7 poses alone, the figure the original computed for its file."""
-    sequence = open_sequence(TUM_200)
+    sequence = open_source(TUM_200)
     nodes = read_tum(DEFAULT / "poses_tum.txt")
     stamps = np.asarray(sequence.timestamps)
     node_frames = [int(np.argmin(np.abs(stamps - t))) for t in nodes.timestamps]
@@ -36,7 +36,7 @@ def test_node_ate_scores_the_nodes_as_the_original_exports_them():
     poses[node_frames] = nodes.poses
     run = PipelineRun("rtabmap", {}, 0)
     for frame in node_frames:
-        run.observe(KeyframeAdded(frame, frame, stamps[frame], poses[frame], np.zeros((0, 2))))
+        run.observe(KeyframeAdded(frame, frame, stamps[frame], poses[frame]))
     run.observe(TrajectoryFinal(np.arange(len(stamps)), stamps, poses, poses))
     scores, _ = evaluate_run(sequence.groundtruth, run, stamps)
     expected = json.loads((DEFAULT / "summary.json").read_text())["ate_tool_poses"]
@@ -45,7 +45,7 @@ def test_node_ate_scores_the_nodes_as_the_original_exports_them():
 
 
 def test_odometry_ate_of_the_original_matches_its_own_figure():
-    sequence = open_sequence(TUM_200)
+    sequence = open_source(TUM_200)
     expected = json.loads((PER_FRAME / "summary.json").read_text())["ate_db_odom_poses"]["rmse"]
     assert evaluate(sequence.groundtruth, read_tum(PER_FRAME / "db_poses_odom_tum.txt")).ate.stats()["rmse"] \
         == pytest.approx(expected, abs=1e-5)

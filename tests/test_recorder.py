@@ -118,11 +118,11 @@ class ScriptedPipeline(Pipeline):
             events.append(TrackingRecovered(frame.index, frame.timestamp, "relocalised on keyframe 0"))
         current = self.rng.uniform(0, [self.camera.width, self.camera.height], (20, 2))
         inliers = np.arange(20) < 15
-        events.append(FeatureMatches(frame.index, "keyframe", frame.index - 1, current, current + 1.5, inliers))
+        events.append(FeatureMatches(frame.index, "keyframe", current, current + 1.5, inliers))
         if frame.index % self.params.keyframe_every == 0:
             keyframe_id = len(self.keyframe_poses)
             self.keyframe_poses.append(pose)
-            events.append(KeyframeAdded(keyframe_id, frame.index, frame.timestamp, pose, current))
+            events.append(KeyframeAdded(keyframe_id, frame.index, frame.timestamp, pose))
             points = pose[:3, 3] + self.rng.normal(0.0, 0.3, (200, 3))
             events.append(MapUpdated(frame.index, points, np.full((200, 3), 128, np.uint8)))
             if keyframe_id == 6:

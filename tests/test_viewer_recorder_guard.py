@@ -49,7 +49,7 @@ def test_nothing_to_draw_is_sent_as_a_clear_never_as_an_empty_batch():
     recorder = PipelineRecorder(stream, "p", CAMERA, palette.run_colour("p"), scene_extent=1.0)
     recorder.begin_frame(frame(0))
     points = np.zeros((4, 2))
-    recorder(FeatureMatches(0, "keyframe", None, points, points + 1, np.ones(4, bool)))  # no outliers
+    recorder(FeatureMatches(0, "keyframe", points, points + 1, np.ones(4, bool)))  # no outliers
     recorder(MapUpdated(0, np.zeros((0, 3)), np.zeros((0, 3), np.uint8)))
     recorder(GraphOptimized(0, np.zeros(0, int), np.zeros((0, 4, 4)), 0.0, 0.0))
     recorder(FrameTracked(0, 0.0, None, TrackingStatus.LOST))

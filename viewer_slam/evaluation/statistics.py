@@ -4,8 +4,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-STATISTICS = ("rmse", "mean", "median", "std", "min", "max", "n")
-
 
 @dataclass
 class ErrorSeries:

@@ -55,7 +55,6 @@ class KeyframeAdded:
     frame_index: int
     timestamp: float
     pose: np.ndarray
-    keypoints: np.ndarray
     image: np.ndarray | None = None
     depth: np.ndarray | None = None
 
@@ -71,7 +70,6 @@ class FeatureMatches:
 
     frame_index: int
     reference: str
-    reference_frame_index: int | None
     points_current: np.ndarray
     points_reference: np.ndarray
     inlier_mask: np.ndarray
@@ -92,7 +90,6 @@ class GraphEdge:
     accepted: bool
     reason: str
     kind: EdgeKind
-    relative_pose: np.ndarray | None = None
     score: float = 0.0
     inliers: int = 0
     detection: str = "appearance"

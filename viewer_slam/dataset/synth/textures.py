@@ -33,13 +33,6 @@ def fractal_noise(rng: np.random.Generator, height: int, width: int, coarsest: f
     return total / np.float32(np.sqrt(norm) * 2.5)
 
 
-def tint(field: np.ndarray, dark, light) -> np.ndarray:
-    """Map a field in [-1, 1] onto the colour ramp from ``dark`` to ``light`` (RGB)."""
-    s = np.clip(field * 0.5 + 0.5, 0.0, 1.0)[..., None]
-    dark, light = np.asarray(dark, np.float32), np.asarray(light, np.float32)
-    return np.clip(dark + s * (light - dark), 0, 255).astype(np.uint8)
-
-
 def plaster(rng, height, width, base=(200, 196, 186), contrast=28.0) -> np.ndarray:
     """Painted wall or concrete: mottled multi-octave noise with dark specks."""
     field = fractal_noise(rng, height, width, coarsest=96, finest=2, persistence=0.7)

@@ -253,7 +253,7 @@ class RgbdSlam(Pipeline):
             motion = best.motion
             reference = self.graph.nodes[best.node_id]
             current_keypoints = features.keypoints[features.has_depth][motion.frame_index]
-            events.append(FeatureMatches(frame.index, f"node {best.node_id}", reference.frame_index, current_keypoints,
+            events.append(FeatureMatches(frame.index, f"node {best.node_id}", current_keypoints,
                                          reference.measured.features.keypoints[motion.node_index],
                                          motion.inliers.copy()))
             inliers = motion.inlier_count
@@ -312,8 +312,8 @@ class RgbdSlam(Pipeline):
         """Put ``node`` in the graph at ``pose``; the frame becomes its first tracked frame."""
         self.graph.add(node, pose, odometry)
         self._attach(frame, node.node_id, np.eye(4), odometry)
-        events.append(KeyframeAdded(node.node_id, frame.index, frame.timestamp, pose.copy(),
-                                    node.measured.features.keypoints.copy(), thumbnail(frame.rgb), frame.depth.copy()))
+        events.append(KeyframeAdded(node.node_id, frame.index, frame.timestamp, pose.copy(), thumbnail(frame.rgb),
+                                    frame.depth.copy()))
         if node.measured_pose:
             points, colors = node.cloud(self.camera)
             events.append(MapUpdated(frame.index, transform_points(pose, points), colors))
@@ -398,8 +398,7 @@ class RgbdSlam(Pipeline):
             return GraphEdge(frame.index, attempt.node_id, node_id, False, attempt.reason, kind,
                              detection=attempt.kind)
         return GraphEdge(frame.index, attempt.node_id, node_id, True,
-                         f"{motion.inlier_count} inliers of {attempt.matches} matches", kind, motion.transform.copy(),
-                         score=float(motion.inlier_count), inliers=motion.inlier_count, detection=attempt.kind)
+                         f"{motion.inlier_count} inliers of {attempt.matches} matches", kind, score=float(motion.inlier_count), inliers=motion.inlier_count, detection=attempt.kind)
 
     def _optimise(self, frame_index: int, iterations: float) -> GraphOptimized:
         """v2's optimizer_iterations: that many iterations when >= 1, else until the error

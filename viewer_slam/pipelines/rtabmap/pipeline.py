@@ -95,7 +95,7 @@ class Rtabmap(Pipeline):
         odometry = watch("odometry", self.odometry.process, features, frame.timestamp)
         events: list[Event] = []
         if odometry.matched_pixels is not None and len(odometry.matched_pixels):
-            events.append(FeatureMatches(frame.index, "local map", None, odometry.matched_pixels,
+            events.append(FeatureMatches(frame.index, "local map", odometry.matched_pixels,
                                          odometry.projected_pixels, odometry.inlier_mask))
         pose = None
         if odometry.pose is None:
@@ -215,10 +215,9 @@ class Rtabmap(Pipeline):
         self.current_location = location_id
         pose = self.graph.poses[location_id]
         events: list[Event] = [
-            KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), kept.keypoints,
-                          *self._thumbnails(frame)),
+            KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), *self._thumbnails(frame)),
             *([GraphEdge(frame.index, previous, location_id, True, "odometry link", self.edges.kind(previous, location_id),
-                         invert(self.memory.locations[previous].odometry_pose) @ odometry_pose, detection="odometry")]
+                         detection="odometry")]
               if continues_chain else []),
             MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
                        location.cloud_colors),
@@ -303,13 +302,13 @@ class Rtabmap(Pipeline):
         registration = watch("verification", register, old, new, self.camera, self.params)
         if registration.relative is None:
             events.append(GraphEdge(frame.index, old.id, new.id, False, registration.rejected,
-                                    self.edges.kind(old.id, new.id), None, score, registration.inliers,
+                                    self.edges.kind(old.id, new.id), score, registration.inliers,
                                     DETECTION[link]))
             return False
         outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
                         registration.variance)
         events.append(GraphEdge(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
-                                self.edges.kind(old.id, new.id), registration.relative, score, registration.inliers,
+                                self.edges.kind(old.id, new.id), score, registration.inliers,
                                 DETECTION[link]))
         if not outcome.accepted:
             return False
