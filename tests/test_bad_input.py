@@ -475,24 +475,24 @@ def test_a_read_only_cache_is_one_line_naming_the_variable(arguments, read_only_
 
 
 def test_a_bom_in_the_listings_is_read_like_any_text(excerpt, tmp_path):
-    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.dataset.sources import open_source
 
     seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
     for listing in ("rgb.txt", "depth.txt"):
         (seq / listing).write_bytes(b"\xef\xbb\xbf" + (seq / listing).read_bytes())
-    assert len(open_sequence(seq)) == len(open_sequence(excerpt)) == 3
+    assert len(open_source(seq)) == len(open_source(excerpt)) == 3
 
 
 def test_groundtruth_beside_the_frames_is_a_warning_not_silence(excerpt, tmp_path, caplog):
-    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.dataset.sources import open_source
 
     seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
     (seq / "groundtruth.txt").write_text("1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")
-    open_sequence(seq)
+    open_source(seq)
     assert [record.levelname for record in caplog.records] == ["WARNING"]
     assert "groundtruth.txt: no frame lies within the groundtruth's time span" in caplog.text
     caplog.clear()
-    open_sequence(excerpt)
+    open_source(excerpt)
     assert not caplog.records
 
 
@@ -509,11 +509,11 @@ def png_chunks(data: bytes) -> list[bytes]:
 
 
 def test_the_png_check_accepts_every_image_of_the_real_excerpt(excerpt):
-    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.dataset.sources import open_source
 
     for image in sorted((excerpt / "rgb").iterdir()) + sorted((excerpt / "depth").iterdir()):
         assert png_chunks(image.read_bytes())[-1] == b"IEND"
-    frames = list(open_sequence(excerpt).frames())
+    frames = list(open_source(excerpt).frames())
     assert [frame.rgb.shape for frame in frames] == [(480, 640, 3)] * 3
 
 
@@ -521,14 +521,14 @@ def test_a_damaged_jpeg_is_read_without_libjpeg_noise(excerpt, tmp_path, capfd):
     import cv2
     import numpy as np
 
-    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.dataset.sources import open_source
 
     seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
     image = cv2.imread(str(first_image(seq, "rgb")))
     data = bytearray(cv2.imencode(".jpg", image)[1].tobytes())
     data[len(data) // 2:len(data) // 2 + 20] = b"\xff\xd9" * 10  # an end marker inside the scan data
     first_image(seq, "rgb").write_bytes(bytes(data))
-    frame = open_sequence(seq).frame(0)
+    frame = open_source(seq).frame(0)
     assert frame.rgb.shape == (480, 640, 3) and frame.rgb.dtype == np.uint8
     assert capfd.readouterr().err == ""
 

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from viewer_slam.cli import main
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth.generate import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 pytestmark = pytest.mark.slow
@@ -34,7 +34,7 @@ def folders(tmp_path_factory):
     """A's and B's results folders, B's stdout, and the estimate file."""
     root = tmp_path_factory.mktemp("compare")
     scenario = cached_scenario("360_kidnap", frames=FRAMES, resolution=(320, 240), seed=0)
-    sequence = open_sequence(scenario)
+    sequence = open_source(scenario)
     posed = [k for k in range(FRAMES) if k not in GAP]
     poses, _ = sequence.groundtruth_at(sequence.timestamps[posed])
     poses[:, :3, 3] += np.random.default_rng(3).normal(0.0, 0.01, (len(posed), 3))
@@ -106,7 +106,7 @@ def test_an_estimate_row_scores_as_evaluate_and_has_no_timing(folders):
     assert row["coverage"] == pytest.approx(expected["coverage"]["ratio"], abs=1e-12)
     assert row["penalized_ate_rmse"] == pytest.approx(expected["penalized_ate"]["rmse"], abs=1e-12)
     assert row["rpe_trans_rmse"] == pytest.approx(expected["rpe"]["trans"]["rmse"], abs=1e-12)
-    stamps = open_sequence(scenario).timestamps
+    stamps = open_source(scenario).timestamps
     assert row["lost_intervals"] == [[pytest.approx(stamps[GAP[0] - 1]), pytest.approx(stamps[GAP[-1] + 1])]]
     report = (root / "b/report.md").read_text()
     line = next(line for line in report.splitlines() if line.startswith("| 360_kidnap | noisy |"))

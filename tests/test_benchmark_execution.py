@@ -1,14 +1,18 @@
 """Benchmark tasks, executors, crash isolation, timeouts and the result cache (scripted pipeline)."""
 
+import json
+
 import numpy as np
 import pytest
-from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, write_tum_folder
+from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, FakeParams, write_tum_folder
 
 from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
 from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
 from viewer_slam.benchmark.suite import run_benchmark
 from viewer_slam.pipelines import base
+from viewer_slam.recording.session import RecordOptions, record
+from viewer_slam.runs.report import write_report
 
 
 @pytest.fixture(autouse=True)
@@ -23,7 +27,7 @@ def folder(tmp_path):
 
 
 def task(folder, name="tiny", **parameters):
-    return BenchmarkTask(name=name, sequence=folder, pipeline="fake", parameters=parameters)
+    return BenchmarkTask(name=name, sequence=folder, pipeline="fake", params=FakeParams(**parameters))
 
 
 def test_task_scores_the_run_against_groundtruth(folder):
@@ -54,7 +58,7 @@ def test_failures_are_reported_and_the_other_tasks_finish(folder, tmp_path):
         task(folder, name="raises", fail="raise"),
         task(folder, name="exits", fail="exit"),
         task(folder, name="calls-sys-exit", fail="sys.exit"),
-        BenchmarkTask(name="hangs", sequence=folder, pipeline="fake", parameters={"fail": "hang"}, timeout_s=2),
+        BenchmarkTask(name="hangs", sequence=folder, pipeline="fake", params=FakeParams(fail="hang"), timeout_s=2),
         BenchmarkTask(name="corrupt", sequence=corrupt, pipeline="fake"),
         task(folder, name="b"),
     ]
@@ -113,7 +117,7 @@ def test_results_do_not_depend_on_the_number_of_workers(folder):
 def test_recorded_task_writes_a_recording_and_scores_the_same(folder, tmp_path):
     recording = tmp_path / "rec" / "tiny.fake.rrd"
     recorded = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake",
-                                          parameters={"lost_from": 8}, recording=recording))
+                                          params=FakeParams(lost_from=8), recording=recording))
     plain = execute_task(task(folder, lost_from=8))
     assert recorded.ok, recorded.error
     assert recording.stat().st_size > 0 and recording.with_suffix(".json").is_file()
@@ -134,3 +138,19 @@ def test_an_estimate_task_is_cached_under_its_file_s_bytes(folder, tmp_path):
     assert run_benchmark([replay], LocalExecutor(jobs=1), cache, progress=False).results[0].cached
     estimate.write_text(estimate.read_text() + "# the same poses, other bytes\n")
     assert cache.load(replay) is None
+
+
+def test_record_and_a_benchmark_task_score_the_same_run_alike(folder, tmp_path):
+    """One run service: `record` with the parameters as text and a task with them as a validated
+    object give the same report block (timing aside) and the same trajectory file."""
+    recorded = record(RecordOptions(sequence=str(folder), pipeline="fake", out=tmp_path / "run.rrd", max_frames=20,
+                                    params=["lost_from=8", "lost_until=14"], quiet=True))
+    task_result = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", max_frames=20,
+                                             params=FakeParams(lost_from=8, lost_until=14)))
+    assert task_result.ok, task_result.error
+    write_report(tmp_path / "task.json", {"pipelines": {"fake": task_result.report}})
+    blocks = [json.loads(path.read_text())["pipelines"]["fake"] for path in (recorded.report_path, tmp_path / "task.json")]
+    assert [{k: v for k, v in block.items() if k != "timing"} for block in blocks] == \
+           [{k: v for k, v in blocks[0].items() if k != "timing"}] * 2
+    assert blocks[0]["tracking_lost"] and blocks[0]["ate"]["n"] == 14
+    assert recorded.trajectories["fake"].read_text() == task_result.trajectory

@@ -5,7 +5,7 @@ import json
 from pathlib import Path
 
 import pytest
-from benchmark_fake_pipeline import MODULE, write_tum_folder
+from benchmark_fake_pipeline import MODULE, FakeParams, write_tum_folder
 
 from viewer_slam.benchmark.plots import CHARTS
 from viewer_slam.benchmark.report import findings, write_outputs
@@ -32,7 +32,7 @@ def results(tmp_path_factory):
     folder = write_tum_folder(tmp_path_factory.mktemp("seq") / "tiny", frames=30)
     plan = [("kidnap", "steady", {"wobble_m": 0.05}), ("kidnap", "quitter", {"lost_from": 10}),
             ("covered", "steady", {"wobble_m": 0.05}), ("covered", "quitter", {"lost_from": 10, "lost_until": 20})]
-    done = [execute_task(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline, parameters=parameters))
+    done = [execute_task(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline, params=FakeParams(**parameters)))
             for name, pipeline, parameters in plan]
     for name in ("steady", "quitter"):
         del base.PIPELINE_MODULES[name]

@@ -6,7 +6,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from benchmark_fake_pipeline import MODULE
+from benchmark_fake_pipeline import MODULE, FakeParams
 
 from viewer_slam.benchmark.executors import LocalExecutor, RayExecutor, run_tasks
 from viewer_slam.benchmark.plan import plan_tasks
@@ -83,7 +83,7 @@ def test_ray_gives_the_local_results(tmp_path, monkeypatch):
     # Ray's workers are fresh interpreters: they find the scripted pipeline's module via PYTHONPATH.
     monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))
     tasks = plan_tasks(["360_kidnap"], ["rgbdslam", "rtabmap"], scenario_frames=FRAMES, resolution=(160, 120))
-    crash = BenchmarkTask(name="crash", sequence=tasks[0].sequence, pipeline="fake", parameters={"fail": "exit"})
+    crash = BenchmarkTask(name="crash", sequence=tasks[0].sequence, pipeline="fake", params=FakeParams(fail="exit"))
     local = run_tasks(tasks, LocalExecutor(jobs=2))
     remote = run_tasks([*tasks, crash], RayExecutor(jobs=2))
     assert [result.status for result in remote] == ["ok", "ok", "failed"]

@@ -9,8 +9,8 @@ from rich.filesize import decimal
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import TUM_SEQUENCES, known_tum_sequence, resolve_sequence, tum_cache_dir, tum_sequence
 from viewer_slam.dataset.download import TUM_MIRROR, archive_url
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import SCENARIOS
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.errors import InputError
 
 # The seven sequences of the study.
@@ -62,7 +62,7 @@ def test_tum_name_needs_a_download_then_resolves(cache):
 def test_scenario_name_generates_into_the_cache(cache):
     folder = resolve_sequence("360_kidnap", frames=6, resolution=(64, 48))
     assert folder.is_relative_to(cache)
-    sequence = open_sequence(folder)
+    sequence = open_source(folder)
     assert len(sequence) == 6 and (sequence.camera.width, sequence.camera.height) == (64, 48)
     assert resolve_sequence("360_kidnap", frames=6, resolution=(64, 48)) == folder
 

@@ -12,7 +12,7 @@ from fixtures_eval import TRAJECTORIES, TUM_RPY, perturbed
 from test_trajectory_formats import write_euroc, write_kitti
 
 from viewer_slam.cli import main
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
@@ -87,7 +87,7 @@ def test_a_sequence_folder_as_groundtruth_measures_coverage_over_its_frames(caps
     (tmp_path / "est.txt").write_text((sequence / "groundtruth.txt").read_text())
     assert run(capsys, sequence, tmp_path / "est.txt", "--json", tmp_path / "folder.json")[0] == 0
     assert run(capsys, sequence / "groundtruth.txt", tmp_path / "est.txt", "--json", tmp_path / "file.json")[0] == 0
-    frames = open_sequence(sequence).timestamps
+    frames = open_source(sequence).timestamps
     assert json.loads((tmp_path / "folder.json").read_text())["coverage"] == {
         "ratio": 1.0, "lost_intervals": [], "span": {"start": frames[0], "end": frames[-1], "rule": "sequence frames"}}
     assert json.loads((tmp_path / "file.json").read_text())["ate"]["n"] == len(groundtruth)
@@ -186,7 +186,7 @@ def test_span_and_sequence_options_set_the_coverage_span(capsys, tmp_path):
     (tmp_path / "est.txt").write_text((sequence / "groundtruth.txt").read_text())
     assert run(capsys, sequence / "groundtruth.txt", tmp_path / "est.txt", "--sequence", sequence,
                "--json", tmp_path / "q.json")[0] == 0
-    frames = open_sequence(sequence).timestamps
+    frames = open_source(sequence).timestamps
     assert json.loads((tmp_path / "q.json").read_text())["coverage"]["span"] == {
         "start": frames[0], "end": frames[-1], "rule": "sequence frames"}
 
@@ -300,7 +300,7 @@ def test_kitti_and_euroc_estimates_score_as_their_tum_twin(capsys, tmp_path):
     """The format is detected (KITTI takes the sequence's frame stamps) and named in the output."""
     sequence = tmp_path / "rgbd_dataset_freiburg1_rpy"
     shutil.copytree(TUM_RPY, sequence, ignore=shutil.ignore_patterns("*.png"))
-    frames = open_sequence(sequence)
+    frames = open_source(sequence)
     poses, covered = frames.groundtruth_at(frames.timestamps)
     assert covered.all()
     estimate = perturbed(Trajectory(frames.timestamps, poses), seed=5, sigma_m=0.01)

@@ -12,14 +12,15 @@ import cv2
 import numpy as np
 import pytest
 
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth.generate import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.diagnosis import SignalRecorder, diagnose_losses
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.run import run_pipeline
-from viewer_slam.runs.replay import replay_estimate
+from viewer_slam.runs.replay import estimate_replay
+from viewer_slam.runs.service import score_run
 
 pytestmark = pytest.mark.slow
 REAL = Path("/work/shared/data/tum/rgbd_dataset_freiburg1_rpy")
@@ -44,7 +45,7 @@ def diagnosed(sequence, pipeline: str, max_frames: int | None = None, **override
 
 def synthetic(name: str, frames: int):
     folder = cached_scenario(name, frames=frames, resolution=(320, 240), seed=0)
-    return open_sequence(folder), json.loads((folder / "scenario.json").read_text())
+    return open_source(folder), json.loads((folder / "scenario.json").read_text())
 
 
 def test_each_covering_of_360_kidnap_is_a_blocked_sensor(cache):
@@ -71,14 +72,14 @@ def blank(tmp_path: Path, colour: bool, depth: bool):
     """A copy of the real excerpt with frames 20..29 black and/or without depth."""
     copy = tmp_path / REAL.name
     shutil.copytree(REAL, copy)
-    stamps = open_sequence(copy).timestamps
+    stamps = open_source(copy).timestamps
     first, last = stamps[BLANKED[0]] - 0.01, stamps[BLANKED[-1]] + 0.01
     for listing, wanted in (("rgb.txt", colour), ("depth.txt", depth)):
         for line in (copy / listing).read_text().splitlines():
             if wanted and not line.startswith("#") and first <= float(line.split()[0]) <= last:
                 path = copy / line.split()[1]
                 cv2.imwrite(str(path), np.zeros_like(cv2.imread(str(path), cv2.IMREAD_UNCHANGED)))
-    return open_sequence(copy)
+    return open_source(copy)
 
 
 def test_real_frames_blanked_in_colour_and_depth_are_a_blocked_sensor(tmp_path):
@@ -103,8 +104,7 @@ def test_an_imported_estimate_with_a_gap_over_blanked_frames_is_a_blocked_sensor
     poses, covered = sequence.groundtruth_at(sequence.timestamps[kept])
     estimate = tmp_path / "estimate.txt"
     write_tum(estimate, Trajectory(sequence.timestamps[kept][covered], poses[covered]))
-    recorder = SignalRecorder()
-    run = replay_estimate(sequence, "other", estimate, max_frames=45, sinks=(recorder,), frame_sinks=(recorder.frame,))
-    losses = diagnose_losses("other", run.tracking_lost, recorder.signals(), run.tracking_minimum, sequence.groundtruth)
+    losses = score_run(sequence, estimate_replay(sequence, estimate, max_frames=45), "other",
+                       max_frames=45).run.tracking_lost
     assert [loss["frame"] for loss in losses] == [BLANKED[0]]
     assert losses[0]["cause"] == "sensor blocked" and "keypoints" not in losses[0]["evidence"]

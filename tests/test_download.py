@@ -17,7 +17,7 @@ from fixtures_eval import TUM_RPY, tum_excerpt
 
 from viewer_slam.cli import main
 from viewer_slam.dataset.catalog import resolve_sequence
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 
 NAME = "rgbd_dataset_freiburg1_xyz"
 
@@ -115,7 +115,7 @@ def test_download_extracts_verifies_and_publishes_then_is_not_repeated(mirror, t
     assert download(dest, mirror.url) == 0
     folder = dest / NAME
     assert capsys.readouterr().out == f"fr1/xyz: {folder}\n"
-    assert same_files(folder, source) and len(open_sequence(folder)) == 6
+    assert same_files(folder, source) and len(open_source(folder)) == 6
     assert [p.name for p in dest.iterdir()] == [NAME]  # no scratch folder and no .part left behind
     assert download(dest, mirror.url) == 0
     assert capsys.readouterr().out == f"fr1/xyz: {folder}\n" and mirror.ranges == [None]
@@ -306,7 +306,7 @@ def test_download_bag_fetches_the_bag_resumably_and_the_name_resolves_to_it(mirr
     assert capsys.readouterr().out == f"fr1/xyz: {tum / f'{NAME}.bag'}\n"
     assert mirror.ranges == [None, f"bytes={cut}-"] and mirror.sent == len(bag)
     assert (tum / f"{NAME}.bag").read_bytes() == bag and [p.name for p in tum.iterdir()] == [f"{NAME}.bag"]
-    assert resolve_sequence("fr1/xyz") == tum / f"{NAME}.bag" and len(open_sequence(tum / f"{NAME}.bag")) == 4
+    assert resolve_sequence("fr1/xyz") == tum / f"{NAME}.bag" and len(open_source(tum / f"{NAME}.bag")) == 4
     assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "bag"] in \
         [line.split() for line in capsys.readouterr().out.splitlines()]
 

@@ -23,8 +23,8 @@ from rerun.chunk import RrdReader
 
 from viewer_slam import palette
 from viewer_slam.cli import main
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 from viewer_slam.recording import layout
 from viewer_slam.recording.session import output_path
@@ -57,8 +57,8 @@ def write_kitti(path: Path, poses: np.ndarray) -> None:
 @pytest.fixture(scope="module")
 def recorded(scenario, tmp_path_factory):
     folder = tmp_path_factory.mktemp("estimates")
-    stamps = open_sequence(scenario).timestamps
-    poses, covered = open_sequence(scenario).groundtruth_at(stamps)
+    stamps = open_source(scenario).timestamps
+    poses, covered = open_source(scenario).groundtruth_at(stamps)
     assert covered.all()
     posed = [k for k in range(LAST_POSE + 1) if k not in GAP and k != DROPPED]
     tum = Trajectory(stamps[posed], noisy(poses[posed], seed=1))
@@ -198,8 +198,8 @@ def test_a_bag_is_recorded_under_its_stem(sequence, expected):
 def test_a_bag_records_with_its_topics_and_groundtruth_given_on_the_command_line(tmp_path, monkeypatch, capfd):
     excerpt = tum_excerpt(tmp_path / "rgbd_dataset_freiburg1_rpy", frames=3)
     bag = write_tum_bag(excerpt, tmp_path / "rgbd_dataset_freiburg1_rpy.bag", ros=1)
-    stamps = open_sequence(excerpt).timestamps
-    groundtruth = open_sequence(excerpt).groundtruth
+    stamps = open_source(excerpt).timestamps
+    groundtruth = open_source(excerpt).groundtruth
     short = groundtruth.subset(groundtruth.timestamps <= stamps[1])  # covers the first two frames only
     write_tum(tmp_path / "short.txt", short)
     monkeypatch.chdir(tmp_path)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from fixtures_eval import TUM_RPY, perturbed
 
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
@@ -23,7 +23,7 @@ STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 
 @pytest.fixture(scope="module")
 def sequence():
-    return open_sequence(TUM_RPY)
+    return open_source(TUM_RPY)
 
 
 def finished_run(sequence) -> PipelineRun:

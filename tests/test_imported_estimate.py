@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 from benchmark_fake_pipeline import groundtruth_pose, write_tum_folder
 
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.errors import InputError
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
-from viewer_slam.runs.replay import parse_estimate, replay_estimate
+from viewer_slam.pipelines.run import drive
+from viewer_slam.runs.replay import estimate_replay, parse_estimate
 from viewer_slam.runs.report import pipeline_report
 from viewer_slam.runs.scoring import evaluate_run
 
@@ -20,7 +21,7 @@ OFFSET_M = 0.03
 
 @pytest.fixture(scope="module")
 def sequence(tmp_path_factory):
-    return open_sequence(write_tum_folder(tmp_path_factory.mktemp("seq") / "tiny", frames=FRAMES))
+    return open_source(write_tum_folder(tmp_path_factory.mktemp("seq") / "tiny", frames=FRAMES))
 
 
 def estimate_file(path, sequence, frames) -> Trajectory:
@@ -34,8 +35,8 @@ def estimate_file(path, sequence, frames) -> Trajectory:
 
 def replay(sequence, path, **options):
     tracked = []
-    run = replay_estimate(sequence, "mine", path, sinks=(lambda e: tracked.append(e)
-                                                         if isinstance(e, FrameTracked) else None,), **options)
+    run = drive(estimate_replay(sequence, path, **options), "mine", sequence,
+                sinks=(lambda e: tracked.append(e) if isinstance(e, FrameTracked) else None,), **options)
     return run, tracked
 
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from viewer_slam.cli import main as cli_main
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import write_tum
 from viewer_slam.pipelines.edges import EdgeKind
@@ -32,7 +32,7 @@ RESOLUTION = (320, 240)
 
 
 def run(path, frames=None, seed=0, params=None):
-    sequence = open_sequence(path)
+    sequence = open_source(path)
     events = []
     result = run_pipeline(sequence, "rgbdslam", params or RgbdSlamParams(), seed=seed, max_frames=frames,
                           sinks=[events.append])

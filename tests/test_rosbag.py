@@ -11,9 +11,10 @@ from fixtures_eval import TUM_RPY, tum_excerpt
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.cli import main
+from viewer_slam.dataset.cameras import FREIBURG_CAMERAS
 from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.rosbag import BagSequence, open_bag
-from viewer_slam.dataset.tum import FREIBURG_CAMERAS, open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.se3 import make_pose, pose_to_tq
@@ -46,7 +47,7 @@ def bag(request, excerpt, tmp_path_factory) -> Path:
 
 @needs_excerpt
 def test_a_tum_bag_opens_with_no_options_and_gives_the_folder_frames(bag, excerpt):
-    folder, sequence = open_sequence(excerpt), open_sequence(bag)
+    folder, sequence = open_source(excerpt), open_source(bag)
     assert isinstance(sequence, BagSequence) and sequence.name == NAME
     assert sequence.topics == ("/camera/rgb/image_color", "/camera/depth/image")
     assert len(sequence) == len(folder) == FRAMES
@@ -64,7 +65,7 @@ def test_a_tum_bag_opens_with_no_options_and_gives_the_folder_frames(bag, excerp
 
 @needs_excerpt
 def test_the_tf_chain_from_world_to_the_colour_frame_is_the_groundtruth(bag, excerpt):
-    folder, sequence = open_sequence(excerpt), open_sequence(bag)
+    folder, sequence = open_source(excerpt), open_source(bag)
     ours, covered = sequence.groundtruth_at(sequence.timestamps)
     theirs, folder_covered = folder.groundtruth_at(folder.timestamps)
     assert covered.all() and folder_covered.all()
@@ -76,7 +77,7 @@ def test_the_tf_chain_from_world_to_the_colour_frame_is_the_groundtruth(bag, exc
 @needs_excerpt
 def test_a_groundtruth_file_replaces_the_tf_chain(bag, excerpt):
     sequence = open_bag(bag, groundtruth=excerpt / "groundtruth.txt")
-    assert len(sequence.groundtruth) == len(open_sequence(excerpt).groundtruth)
+    assert len(sequence.groundtruth) == len(open_source(excerpt).groundtruth)
 
 
 @needs_excerpt
@@ -117,7 +118,7 @@ def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
 def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_path):
     path = tmp_path / "desk"
     bgr, millimetres = synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})
-    sequence = open_sequence(path)
+    sequence = open_source(path)
     assert (sequence.camera.fx, sequence.camera.fy, sequence.camera.cx, sequence.camera.cy) == (40.0, 41.0, 15.5, 11.5)
     assert sequence.camera.distortion == (0.1, -0.2, 0.0, 0.0, 0.05) and sequence.groundtruth is None
     np.testing.assert_array_equal(sequence.timestamps, 5 + np.arange(3) * 0.033333333)
@@ -130,7 +131,7 @@ def test_bgr_colour_and_millimetre_depth_with_the_camera_info_beside_them(tmp_pa
 def test_a_plain_bag_with_no_tf_topic_records_without_groundtruth(tmp_path, capsys, ros):
     path = tmp_path / ("plain.bag" if ros == 1 else "plain")
     synthetic_bag(path, ros, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, tf=False)
-    assert open_sequence(path).groundtruth is None
+    assert open_source(path).groundtruth is None
     out = tmp_path / "run.rrd"
     assert main(["record", str(path), "--pipeline", "rgbdslam", "--out", str(out), "--quiet"]) == 0
     assert json.loads(out.with_suffix(".json").read_text())["pipelines"]["rgbdslam"]["ate"] is None
@@ -207,7 +208,7 @@ def test_groundtruth_from_a_pose_topic(tmp_path, ros):
 def test_a_ros1_bag_path_resolves_as_a_sequence(tmp_path):
     path = tmp_path / "desk.bag"
     synthetic_bag(path, 1, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})
-    assert resolve_sequence(str(path)) == path and len(open_sequence(path)) == 3
+    assert resolve_sequence(str(path)) == path and len(open_source(path)) == 3
 
 
 @pytest.mark.parametrize("topics, options, problem", [
@@ -247,7 +248,7 @@ def test_an_image_whose_data_do_not_fill_it_is_one_line(tmp_path):
         bag.image("/cam/depth_mm", 6 * 10**9, "cam", np.zeros((24, 32), np.uint16), "16UC1")
 
     synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=truncated)
-    sequence = open_sequence(path)
+    sequence = open_source(path)
     assert len(sequence) == 4 and sequence.frame(2).rgb.shape == (24, 32, 3)
     with pytest.raises(InputError, match=rf"^{path}: frame 3 \(6.000000 s\): malformed image \(ValueError: "):
         sequence.frame(3)
@@ -268,7 +269,7 @@ def test_a_folder_that_is_not_a_bag_is_one_line(tmp_path):
     path.mkdir()
     (path / "metadata.yaml").write_text("not: [a, rosbag2")
     with pytest.raises(InputError, match=rf"^{path}: not a readable ROS bag: "):
-        open_sequence(path)
+        open_source(path)
 
 
 def evaluated(capsys, groundtruth: Path, estimate: Path, out: Path, *options: str) -> dict:
@@ -292,7 +293,7 @@ def assert_same_scores(ours: dict, theirs: dict) -> None:
 
 @needs_excerpt
 def test_a_tum_bag_as_evaluate_groundtruth_scores_as_its_folder(bag, excerpt, tmp_path, capsys):
-    folder = open_sequence(excerpt)
+    folder = open_source(excerpt)
     poses, _ = folder.groundtruth_at(folder.timestamps)
     poses[:, :3, 3] += np.random.default_rng(5).normal(0.0, 0.02, (len(poses), 3))
     estimate = tmp_path / "estimate.txt"

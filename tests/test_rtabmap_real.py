@@ -5,7 +5,7 @@ back, not noise."""
 import pytest
 from fixtures_eval import TUM_RPY
 
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
@@ -21,7 +21,7 @@ pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt
     ({"OdomF2M/BundleAdjustment": 0}, 0.120),
 ])
 def test_every_frame_has_a_pose_and_the_ate_stays_within_its_bound(overrides, bound_m):
-    sequence = open_sequence(TUM_RPY)
+    sequence = open_source(TUM_RPY)
     result = run_pipeline(sequence, "rtabmap", apply_overrides(RtabmapParams(), overrides, "test"), seed=0,
                           sinks=[lambda event: None])
     assert len(result.trajectory) == len(sequence)

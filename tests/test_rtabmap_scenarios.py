@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from viewer_slam.dataset.resting import RestingStart
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth.generate import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import write_tum
 from viewer_slam.pipelines.events import (
@@ -40,7 +40,7 @@ FAST_LOOP = {"Rtabmap/DetectionRate": 10}
 
 def scenario(name: str, frames: int = FRAMES):
     folder = cached_scenario(name, frames=frames, resolution=(320, 240), seed=0)
-    return open_sequence(folder), json.loads((folder / "scenario.json").read_text())
+    return open_source(folder), json.loads((folder / "scenario.json").read_text())
 
 
 def run(sequence, max_frames=None, **overrides):

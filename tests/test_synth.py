@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import SCENARIOS, STUDY_SCENARIOS, generate_scenario, preview_frames, read_info
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.geometry.se3 import invert, make_pose
 
 RESOLUTION = (320, 240)
@@ -95,7 +95,7 @@ def depth_agreement(sequence, i, j, max_depth=np.inf):
 def test_every_scenario_is_a_tum_sequence_with_its_description(generated):
     for name in SCENARIOS:
         folder = generated(name)
-        sequence = open_sequence(folder)
+        sequence = open_source(folder)
         frames = FRAMES.get(name, 40)
         assert len(sequence) == frames
         info = read_info(folder)
@@ -119,7 +119,7 @@ def test_every_scenario_is_a_tum_sequence_with_its_description(generated):
 # The kidnap variant shares 360_kidnap's room and renderer; its short sweeps face far walls.
 @pytest.mark.parametrize("name", STUDY_SCENARIOS)
 def test_depth_warped_with_groundtruth_agrees(generated, name):
-    sequence = open_sequence(generated(name))
+    sequence = open_source(generated(name))
     info = read_info(sequence.path)
     covered = [(a, b) for a, b in info["covered_intervals"]]
     usable = [k for k, t in enumerate(sequence.timestamps) if not any(a - 0.05 <= t <= b + 0.05 for a, b in covered)]
@@ -154,7 +154,7 @@ def colour_error(sequence, i, j, perturbation=IDENTITY):
 
 @pytest.mark.parametrize("name", TEXTURED)
 def test_colour_warped_with_groundtruth_agrees(generated, name):
-    sequence = open_sequence(generated(name))
+    sequence = open_source(generated(name))
     i = 8
     error = colour_error(sequence, i, i + 2)
     assert error < 8.0
@@ -163,7 +163,7 @@ def test_colour_warped_with_groundtruth_agrees(generated, name):
 
 
 def test_kidnap_is_covered_exactly_in_its_intervals_and_moved_elsewhere(generated):
-    sequence = open_sequence(generated("360_kidnap"))
+    sequence = open_source(generated("360_kidnap"))
     intervals = read_info(sequence.path)["covered_intervals"]
     assert len(intervals) == 2
     covered = np.zeros(len(sequence), bool)
@@ -185,7 +185,7 @@ def test_kidnap_is_covered_exactly_in_its_intervals_and_moved_elsewhere(generate
 
 @pytest.mark.parametrize("name", [n for n in SCENARIOS if n not in ("sitting_static", "360_kidnap_norevisit")])
 def test_loop_scenarios_come_back_over_their_start(generated, name):
-    sequence = open_sequence(generated(name))
+    sequence = open_source(generated(name))
     assert read_info(sequence.path)["loop"] is True
     last_quarter = range(3 * len(sequence) // 4, len(sequence), 2)
     overlap = max(depth_agreement(sequence, 0, k)[3] for k in last_quarter)
@@ -194,7 +194,7 @@ def test_loop_scenarios_come_back_over_their_start(generated, name):
 
 @pytest.mark.parametrize("name, revisits", [("360_kidnap", True), ("360_kidnap_norevisit", False)])
 def test_after_each_covering_the_first_view_returns_unless_the_variant_says_not(generated, name, revisits):
-    sequence = open_sequence(generated(name))
+    sequence = open_source(generated(name))
     intervals = read_info(sequence.path)["covered_intervals"]
     assert read_info(sequence.path)["loop"] is revisits
     first_sweep = np.flatnonzero(sequence.timestamps < intervals[0][0])[::3]
@@ -212,8 +212,8 @@ def orb_counts(sequence):
 
 
 def test_orb_finds_far_fewer_features_without_texture(generated):
-    plain = orb_counts(open_sequence(generated("nostructure_notexture_near_withloop")))
-    posters = orb_counts(open_sequence(generated("nostructure_texture_near_withloop")))
+    plain = orb_counts(open_source(generated("nostructure_notexture_near_withloop")))
+    posters = orb_counts(open_source(generated("nostructure_texture_near_withloop")))
     assert np.median(posters) > 150
     assert np.median(posters) > 8 * np.median(plain)
     # The featureless stretch in the middle (about a quarter of the run) gives next to nothing.
@@ -231,7 +231,7 @@ def test_same_arguments_give_identical_files_and_another_seed_does_not(tmp_path)
     assert first == second
     # A preview renders the same frame as the run writes.
     (index, rgb, depth), = preview_frames("desk_with_person", [0.5], frames=12, resolution=(96, 72), seed=3)
-    sequence = open_sequence(tmp_path / "a")
+    sequence = open_source(tmp_path / "a")
     assert index == 6 and np.array_equal(sequence.frame(index).rgb, rgb)
     assert np.allclose(sequence.frame(index).depth, depth, atol=1e-4)
     other = files(generate_scenario("desk_with_person", tmp_path / "c", frames=12, resolution=(96, 72), seed=4))

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from viewer_slam.cli import main
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import GENERATOR_VERSION, SCENARIOS, cached_scenario, generate_scenario, read_info
-from viewer_slam.dataset.tum import open_sequence
 
 TINY = ["--frames", "6", "--resolution", "64x48"]
 
@@ -42,10 +42,10 @@ def test_non_empty_folder_is_refused_without_force(tmp_path, capsys):
     assert "not empty; use --force" in capsys.readouterr().err
     assert main(["synth", "sitting_static", "--out", str(out), *TINY, "--force"]) == 0
     assert (out / "keep.txt").read_text() == "mine"
-    assert len(open_sequence(out)) == 6
+    assert len(open_source(out)) == 6
     assert main(["synth", "sitting_static", "--out", str(out), "--frames", "4", "--resolution", "64x48",
                  "--force", "--camera", "fr1"]) == 0
-    sequence = open_sequence(out)
+    sequence = open_source(out)
     assert len(sequence) == 4 and len(list((out / "rgb").iterdir())) == 4
     assert sequence.camera.fx == pytest.approx(517.3 / 10)
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no staging folder left
@@ -66,7 +66,7 @@ def test_cached_scenario_generates_once(tmp_path, monkeypatch):
     assert cached_scenario("nostructure_texture_near_withloop", frames=5, resolution=(64, 48), seed=1) == folder
     assert (folder / "scenario.json").stat().st_mtime_ns == stamp
     assert [p.name for p in (tmp_path / "synth").iterdir()] == [folder.name]
-    assert np.mean(open_sequence(folder).frame(0).depth > 0) > 0.97  # the plane fills the view
+    assert np.mean(open_source(folder).frame(0).depth > 0) > 0.97  # the plane fills the view
 
 
 def _files(folder: Path) -> dict[str, bytes]:
@@ -78,18 +78,18 @@ def test_a_cut_renders_only_its_frames_byte_identical_to_the_whole_run(tmp_path,
     monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
     size = {"frames": 10, "resolution": (64, 48), "seed": 1}
     cut = cached_scenario("360_kidnap", **size, first=4)
-    assert cut.name.endswith("-first4") and len(open_sequence(cut)) == 4
+    assert cut.name.endswith("-first4") and len(open_source(cut)) == 4
     assert read_info(cut)["frames"] == 10 and read_info(cut)["rendered_frames"] == 4
     whole = generate_scenario("360_kidnap", tmp_path / "whole", **size)
     cut_files, whole_files = _files(cut), _files(whole)
     assert len(cut_files) == 8 and all(whole_files[name] == data for name, data in cut_files.items())
     assert (cut / "groundtruth.txt").read_bytes() == (whole / "groundtruth.txt").read_bytes()
-    np.testing.assert_array_equal(open_sequence(cut).timestamps, open_sequence(whole).timestamps[:4])
+    np.testing.assert_array_equal(open_source(cut).timestamps, open_source(whole).timestamps[:4])
     assert cached_scenario("360_kidnap", **size, first=3) == cut  # a longer cut serves a shorter one
     longer = cached_scenario("360_kidnap", **size, first=6)
-    assert longer != cut and len(open_sequence(longer)) == 6  # never a short cut for a longer request
+    assert longer != cut and len(open_source(longer)) == 6  # never a short cut for a longer request
     complete = cached_scenario("360_kidnap", **size)
-    assert "first" not in complete.name and len(open_sequence(complete)) == 10
+    assert "first" not in complete.name and len(open_source(complete)) == 10
     assert "rendered_frames" not in read_info(complete)
     assert cached_scenario("360_kidnap", **size, first=6) == complete  # the whole run serves every cut
 

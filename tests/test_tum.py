@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from fixtures_eval import TUM_RPY, read_tum_file_list, tum_associate
 
-from viewer_slam.dataset.tum import FREIBURG_CAMERAS, ROS_DEFAULT_CAMERA, open_sequence
+from viewer_slam.dataset.cameras import FREIBURG_CAMERAS, ROS_DEFAULT_CAMERA
+from viewer_slam.dataset.tum import open_tum
 from viewer_slam.errors import InputError
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import invert, rotation_angle
@@ -16,7 +17,7 @@ from viewer_slam.geometry.se3 import invert, rotation_angle
 
 @pytest.fixture(scope="module")
 def rpy():
-    return open_sequence(TUM_RPY)
+    return open_tum(TUM_RPY)
 
 
 def make_sequence(folder: Path, frames: int = 4, size=(32, 24), camera: Camera | None = None,
@@ -99,7 +100,7 @@ def test_every_frame_of_the_excerpt_has_groundtruth_and_stamps_beyond_it_do_not(
 
 
 def test_frames_outside_groundtruth_are_reported(tmp_path):
-    sequence = open_sequence(make_sequence(tmp_path / "freiburg3_x", frames=6, size=(640, 480),
+    sequence = open_tum(make_sequence(tmp_path / "freiburg3_x", frames=6, size=(640, 480),
                                            groundtruth_span=(10.0, 10.105)))
     assert sequence.frames_outside_groundtruth().tolist() == [4, 5]  # stamps 10.133, 10.167
 
@@ -107,11 +108,11 @@ def test_frames_outside_groundtruth_are_reported(tmp_path):
 def test_accelerometer_is_read_when_present(rpy, tmp_path):
     assert rpy.accelerometer.shape == (1942, 4)
     assert rpy.accelerometer[0].tolist() == [1305031229.029918, -4.789573, 6.094731, -6.082757]
-    assert open_sequence(make_sequence(tmp_path / "freiburg2_x")).accelerometer is None
+    assert open_tum(make_sequence(tmp_path / "freiburg2_x")).accelerometer is None
 
 
 def test_frames_are_lazy_with_stride_and_limit(tmp_path):
-    sequence = open_sequence(make_sequence(tmp_path / "seq", frames=7, camera=Camera(30, 30, 16, 12, 32, 24)))
+    sequence = open_tum(make_sequence(tmp_path / "seq", frames=7, camera=Camera(30, 30, 16, 12, 32, 24)))
     frames = sequence.frames(max_frames=3, stride=2)
     assert not isinstance(frames, list)
     chosen = list(frames)
@@ -122,7 +123,7 @@ def test_frames_are_lazy_with_stride_and_limit(tmp_path):
 
 def test_reading_ahead_keeps_the_order_raises_in_place_and_stops_with_the_consumer(tmp_path):
     folder = make_sequence(tmp_path / "seq", frames=8, camera=Camera(30, 30, 16, 12, 32, 24))
-    sequence = open_sequence(folder)
+    sequence = open_tum(folder)
     read = []
     frame = sequence.frame
     sequence.frame = lambda index: read.append(index) or frame(index)
@@ -141,27 +142,27 @@ def test_reading_ahead_keeps_the_order_raises_in_place_and_stops_with_the_consum
 
 def test_camera_json_wins_then_the_folder_name_then_the_ros_default(tmp_path, caplog):
     own = Camera(30.0, 31.0, 16.0, 12.0, 32, 24, depth_factor=1000.0)
-    assert open_sequence(make_sequence(tmp_path / "freiburg1_with_json", camera=own)).camera == own
-    named = open_sequence(make_sequence(tmp_path / "rgbd_dataset_freiburg2_desk"))
+    assert open_tum(make_sequence(tmp_path / "freiburg1_with_json", camera=own)).camera == own
+    named = open_tum(make_sequence(tmp_path / "rgbd_dataset_freiburg2_desk"))
     assert named.camera == FREIBURG_CAMERAS["freiburg2"]
     with caplog.at_level(logging.WARNING):
-        assert open_sequence(make_sequence(tmp_path / "my_sequence")).camera == ROS_DEFAULT_CAMERA
+        assert open_tum(make_sequence(tmp_path / "my_sequence")).camera == ROS_DEFAULT_CAMERA
     [record] = caplog.records
     assert "my_sequence" in record.getMessage() and "ROS default" in record.getMessage()
 
 
 def test_depth_factor_comes_from_the_camera(tmp_path):
     camera = Camera(30.0, 30.0, 16.0, 12.0, 32, 24, depth_factor=1000.0)
-    frame = open_sequence(make_sequence(tmp_path / "seq", camera=camera)).frame(0)
+    frame = open_tum(make_sequence(tmp_path / "seq", camera=camera)).frame(0)
     assert float(frame.depth[0, 0]) == 5.0
 
 
 def test_a_folder_without_rgb_and_depth_lists_is_not_a_sequence(tmp_path):
     (tmp_path / "rgb.txt").write_text("1.0 rgb/1.png\n")
     with pytest.raises(InputError, match=r"not a TUM RGB-D sequence \(no depth.txt\)"):
-        open_sequence(tmp_path)
+        open_tum(tmp_path)
     with pytest.raises(InputError, match="no such folder"):
-        open_sequence(tmp_path / "absent")
+        open_tum(tmp_path / "absent")
 
 
 @pytest.mark.parametrize(("content", "problem"), [(b"not a png at all", "not a readable image"),
@@ -171,7 +172,7 @@ def test_an_unreadable_png_names_the_file(tmp_path, content, problem):
     broken = sorted((folder / "rgb").iterdir())[1]
     intact = broken.read_bytes()
     broken.write_bytes(intact[: len(intact) // 2] if content is None else content)
-    sequence = open_sequence(folder)
+    sequence = open_tum(folder)
     sequence.frame(0)
     with pytest.raises(InputError) as error:
         sequence.frame(1)
@@ -182,12 +183,12 @@ def test_a_malformed_listing_line_is_reported_with_its_number(tmp_path):
     folder = make_sequence(tmp_path / "seq")
     (folder / "depth.txt").write_text("# depth maps\n10.0 depth/a.png\n10.1 depth/b.png extra\n")
     with pytest.raises(InputError) as error:
-        open_sequence(folder)
+        open_tum(folder)
     assert str(error.value) == f"{folder / 'depth.txt'}:3: expected 2 fields, found 3"
 
 
 def test_images_that_do_not_fit_the_camera_are_refused(tmp_path):
-    sequence = open_sequence(make_sequence(tmp_path / "freiburg1_small"))  # 32x24 images, 640x480 camera
+    sequence = open_tum(make_sequence(tmp_path / "freiburg1_small"))  # 32x24 images, 640x480 camera
     first_rgb = sorted((tmp_path / "freiburg1_small" / "rgb").iterdir())[0]
     with pytest.raises(InputError) as error:
         sequence.frame(0)
@@ -199,4 +200,4 @@ def test_a_depth_image_that_is_not_16_bit_is_refused(tmp_path):
     first_depth = sorted((folder / "depth").iterdir())[0]
     cv2.imwrite(str(first_depth), np.zeros((24, 32), np.uint8))
     with pytest.raises(InputError, match="depth image must be single-channel 16-bit, found uint8"):
-        open_sequence(folder).frame(0)
+        open_tum(folder).frame(0)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..cache import cache_dir
+from ..pipelines.base import pipeline_class
 from .runner import BenchmarkTask, TaskResult
 
 # Files whose bytes define a TUM sequence; images are represented by their names and sizes.
@@ -54,6 +55,14 @@ def _file_digest(path: Path) -> str | None:
         return None
 
 
+def _parameters(task: BenchmarkTask) -> dict:
+    """The task's complete parameter set under its external keys (an estimate has none): a task
+    given the defaults implicitly is the same task as one given them explicitly."""
+    if task.estimate is not None:
+        return {}
+    return (task.params if task.params is not None else pipeline_class(task.pipeline).Params()).model_dump(by_alias=True)
+
+
 class ResultCache:
     """Task results on disk, one JSON file per key, under ``cache_dir("benchmark")`` by default."""
 
@@ -70,7 +79,7 @@ class ResultCache:
             "sequence": self._fingerprints[folder],
             "pipeline": task.pipeline,
             "module": task.pipeline_modules.get(task.pipeline),
-            "parameters": task.parameters,
+            "parameters": _parameters(task),
             "seed": task.seed,
             "max_frames": task.max_frames,
             "estimate": _file_digest(task.estimate) if task.estimate is not None else None,

@@ -4,7 +4,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ..dataset.catalog import resolve_sequence, study_scenarios
-from ..dataset.tum import open_sequence
+from ..dataset.frame import frames_read
+from ..dataset.sources import open_source
 from ..errors import InputError
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
@@ -41,15 +42,15 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
     tasks = []
     for spec in specs or study_scenarios():
         folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED,
-                                  first=max_frames, progress=progress)
+                                  first=frames_read(max_frames), progress=progress)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
         for pipeline in pipelines:
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
-                                       parameters=params[pipeline].model_dump(by_alias=True), seed=seed, max_frames=max_frames,
+                                       params=params[pipeline], seed=seed, max_frames=max_frames,
                                        timeout_s=timeout_s, recording=_recording(recordings, name, pipeline)))
         for estimate, file in estimates:
             # Read now: a file that is no trajectory fails before any task runs, and its format is settled.
-            replay = estimate_replay(open_sequence(folder), file, estimate_format, max_frames=max_frames)
+            replay = estimate_replay(open_source(folder), file, estimate_format, max_frames=max_frames)
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=estimate, max_frames=max_frames,
                                        timeout_s=timeout_s, recording=_recording(recordings, name, estimate), estimate=file,
                                        estimate_format=replay.params.format))

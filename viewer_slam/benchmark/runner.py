@@ -16,22 +16,19 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset.tum import open_sequence
-from ..diagnosis import SignalRecorder, diagnose_run
+from ..dataset.sources import RgbdSequence, open_source
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
-from ..pipelines.params import apply_overrides
-from ..pipelines.run import run_pipeline
-from ..runs.replay import replay_estimate
-from ..runs.report import pipeline_report, sequence_block
-from ..runs.scoring import evaluate_run
+from ..runs.report import sequence_block
+from ..runs.service import EstimateSpec, PipelineSpec, RunSpec, ScoredRun, build_run, score_run
 
 
 @dataclass(frozen=True)
 class BenchmarkTask:
     """Run ``pipeline`` over the TUM folder ``sequence``, shown in tables as ``name``.
 
-    ``parameters`` is the pipeline's complete parameter set under its external keys.
+    ``params`` is an instance of the pipeline's ``Params``, validated when the task was planned
+    (None: the defaults).
     ``pipeline_modules`` is the pipeline registry the task was planned with, so worker
     processes (which may not share the planner's interpreter) build the same pipelines.
     With ``estimate`` (a trajectory file, read in ``estimate_format`` or a detected one)
@@ -41,7 +38,7 @@ class BenchmarkTask:
     name: str
     sequence: Path
     pipeline: str
-    parameters: dict[str, Any] = field(default_factory=dict)
+    params: Any = None
     seed: int = 0
     max_frames: int | None = None
     timeout_s: float | None = None
@@ -53,6 +50,13 @@ class BenchmarkTask:
     @property
     def label(self) -> str:
         return f"{self.name}/{self.pipeline}"
+
+    @property
+    def run(self) -> RunSpec:
+        """The task's run, as the run service takes it."""
+        if self.estimate is not None:
+            return EstimateSpec(self.estimate, self.estimate_format)
+        return PipelineSpec(self.pipeline, self.params, self.seed)
 
 
 def recording_path(recordings: Path, sequence: str, run: str) -> Path:
@@ -138,44 +142,30 @@ def execute_task(task: BenchmarkTask) -> TaskResult:
 
 def _run(task: BenchmarkTask) -> TaskResult:
     base.PIPELINE_MODULES.update(task.pipeline_modules)
-    sequence = open_sequence(task.sequence)
-    if task.recording is not None:
-        report, trajectory = _record(task)
-        frames = len(sequence) if task.max_frames is None else min(len(sequence), task.max_frames)
-    else:
-        signals = SignalRecorder()
-        sinks: dict[str, Any] = {"sinks": [signals], "frame_sinks": [signals.frame]}
-        if task.estimate is not None:
-            run = replay_estimate(sequence, task.pipeline, task.estimate, task.estimate_format,
-                                  max_frames=task.max_frames, **sinks)
-        else:
-            params = apply_overrides(base.pipeline_class(task.pipeline).Params(), task.parameters, task.label)
-            run = run_pipeline(sequence, task.pipeline, params, seed=task.seed, max_frames=task.max_frames, **sinks)
-        diagnose_run(run, signals, sequence.groundtruth)
-        frames = run.frames
-        report = pipeline_report(run, *evaluate_run(sequence.groundtruth, run, sequence.timestamps[:frames]))
-        trajectory = format_tum(run.trajectory)
+    sequence = open_source(task.sequence)
+    scored = _record(task) if task.recording is not None else _score(task, sequence)
+    frames = scored.run.frames
     if frames == 0:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
-    return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(report),
-                      frames=frames, time_span=time_span, trajectory=trajectory,
+    return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(scored.report),
+                      frames=frames, time_span=time_span, trajectory=format_tum(scored.run.trajectory),
                       sequence_block=sequence_block(sequence))
 
 
-def _record(task: BenchmarkTask) -> tuple[dict[str, Any], str]:
-    """Run through `viewslam record` (recording, report and trajectory beside it); the run's block and poses."""
-    from ..recording.session import RecordOptions, record  # Rerun is loaded only by tasks that record
+def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
+    """The task's run over ``sequence``, with no sink but the scoring's own."""
+    run = build_run(task.run, sequence, max_frames=task.max_frames)
+    return score_run(sequence, run, task.pipeline, max_frames=task.max_frames)
 
-    runs: dict[str, Any]
-    if task.estimate is not None:
-        runs = {"estimates": [f"{task.pipeline}={task.estimate}"], "format": task.estimate_format}
-    else:
-        runs = {"pipeline": task.pipeline, "params": [f"{key}={value}" for key, value in task.parameters.items()]}
+
+def _record(task: BenchmarkTask) -> ScoredRun:
+    """The task's run recorded as `viewslam record` records it (recording, report and trajectory beside it)."""
+    from ..recording.session import RecordOptions, record_runs  # Rerun is loaded only by tasks that record
+
     options = RecordOptions(sequence=str(task.sequence), out=task.recording, max_frames=task.max_frames,
-                            seed=task.seed, quiet=True, **runs)
-    result = record(options)
-    return result.report["pipelines"][task.pipeline], result.trajectories[task.pipeline].read_text()
+                            seed=task.seed, quiet=True)
+    return record_runs(options, {task.pipeline: task.run}).scored[task.pipeline]
 
 
 def _plain(value: Any) -> Any:

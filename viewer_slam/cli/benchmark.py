@@ -59,15 +59,13 @@ def benchmark(
     from ..benchmark.suite import run_benchmark
     from ..benchmark.tables import print_results
     from ..comparison.results import check_planned_sequences, load_results
-    from ..dataset.tum import open_sequence
-    from ..pipelines.selection import select_pipelines
-    from ..runs.replay import named_estimates
+    from ..dataset.sources import open_source
     from ..runs.report import sequence_block
+    from ..runs.selection import select_runs
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     chosen = pipelines + pipeline
-    names = select_pipelines(",".join(chosen) if chosen else "both") if chosen or not estimate else []
-    estimates = named_estimates(estimate, names)
+    names, estimates = select_runs(",".join(chosen) if chosen else None, estimate)
     other = load_results(compare) if compare is not None else None
     if out.exists() and not out.is_dir():
         raise InputError.at(out, "is a file; --out takes a folder")
@@ -89,7 +87,7 @@ def benchmark(
                                f"({'given' if format else 'detected'})", err=True)
         if other is not None:
             folders = {task.name: task.sequence for task in tasks}
-            check_planned_sequences(other, {name: sequence_block(open_sequence(folder))
+            check_planned_sequences(other, {name: sequence_block(open_source(folder))
                                             for name, folder in folders.items()})
         outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
         paths = write_outputs(outcome.results, out, compare_with=other, recorded=record)

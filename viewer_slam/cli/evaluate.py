@@ -12,7 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
-from ..dataset.tum import open_sequence
+from ..dataset.sources import open_source
 from ..errors import InputError
 from ..evaluation import Evaluation, evaluate
 from ..evaluation.alignment import Alignment
@@ -205,7 +205,7 @@ def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajec
         raise InputError(f"--groundtruth-topic: only for a ROS bag, and {path} is not one")
     if not path.is_dir():
         return read_tum(path), Clock()
-    sequence = open_sequence(path)
+    sequence = open_source(path)
     if sequence.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
     return sequence.groundtruth, _clock_of(sequence)
@@ -226,7 +226,7 @@ def _sequence_clock(path: Path) -> Clock:
 
     if not path.is_dir() and not is_bag(path):
         raise InputError(f"--sequence {path}: not a folder or a ROS bag")
-    return _clock_of(open_sequence(path))
+    return _clock_of(open_source(path))
 
 
 def _clock_of(sequence) -> Clock:

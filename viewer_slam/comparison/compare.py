@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset.tum import TumSequence, open_sequence
+from ..dataset.sources import RgbdSequence, open_source
 from ..errors import InputError
 from ..evaluation import evaluate
 from ..geometry.association import associate
@@ -79,7 +79,7 @@ class RunComparison:
 class Comparison:
     a: RecordReport
     b: RecordReport
-    sequence: TumSequence
+    sequence: RgbdSequence
     runs: list[RunComparison]
 
 
@@ -125,7 +125,7 @@ def run_pairs(a: RecordReport, b: RecordReport) -> list[tuple[RecordedRun, Recor
     raise InputError(f"{a.path} and {b.path} share no run to compare ({', '.join(a.runs)}; {', '.join(b.runs)})")
 
 
-def compare_runs(a: RecordedRun, b: RecordedRun, sequence: TumSequence) -> RunComparison:
+def compare_runs(a: RecordedRun, b: RecordedRun, sequence: RgbdSequence) -> RunComparison:
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)
     tracked_a, tracked_b = _tracked(a.trajectory, stamps), _tracked(b.trajectory, stamps)
     (ate_a, alignment_a), (ate_b, alignment_b) = _frame_errors(a.trajectory, sequence), \
@@ -141,12 +141,12 @@ def compare_runs(a: RecordedRun, b: RecordedRun, sequence: TumSequence) -> RunCo
     )
 
 
-def open_compared_sequence(a: RecordReport, b: RecordReport) -> TumSequence:
+def open_compared_sequence(a: RecordReport, b: RecordReport) -> RgbdSequence:
     """The sequence folder either report names (the first that still exists)."""
     paths = [Path(report.sequence["path"]) for report in (a, b) if report.sequence.get("path")]
     for path in paths:
         if path.is_dir():
-            return open_sequence(path)
+            return open_source(path)
     raise InputError.at(a.path, f"the sequence folder it names is gone ({paths[0] if paths else 'no path'}); "
                                 f"the groundtruth is needed to compare the errors")
 
@@ -162,7 +162,7 @@ def _tracked(trajectory: Trajectory, stamps: np.ndarray) -> np.ndarray:
     return tracked
 
 
-def _frame_errors(trajectory: Trajectory, sequence: TumSequence) -> tuple[np.ndarray, np.ndarray | None]:
+def _frame_errors(trajectory: Trajectory, sequence: RgbdSequence) -> tuple[np.ndarray, np.ndarray | None]:
     """The run's ATE at each frame (NaN: none) and the alignment it is measured under."""
     errors = np.full(len(sequence), np.nan)
     if sequence.groundtruth is None or len(trajectory) == 0:

@@ -252,10 +252,10 @@ def _safe_member(member: tarfile.TarInfo, dest: str) -> tarfile.TarInfo:
 
 def _verify(folder: Path, scratch: Path, url: str) -> None:
     """Open the extracted folder as a TUM sequence; the problem names files as in the archive."""
-    from .tum import open_sequence
+    from .tum import open_tum
 
     try:
-        open_sequence(folder).check_images()
+        open_tum(folder).check_images()
     except InputError as error:
         problem = str(error).replace(str(scratch), "<archive>")
         raise BadArchive(f"{url}: archive is not a TUM sequence ({problem})") from None

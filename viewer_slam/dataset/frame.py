@@ -28,19 +28,42 @@ class Frame:
     depth: np.ndarray
 
 
-class Sequence(Protocol):
-    """What pipelines and tools need of a sequence (a TUM folder implements it).
+def select_frames(length: int, max_frames: int | None = None, stride: int = 1) -> range:
+    """The indices of the frames a run processes out of ``length``: every ``stride``-th, then at
+    most the first ``max_frames`` of those (``--stride`` and ``--max-frames``).
 
-    ``frames`` yields lazily, one frame in memory at a time; ``max_frames`` counts yielded
-    frames, ``stride`` keeps every k-th associated pair.
+    Sequences yield these frames, and whoever needs to know them before the frames are read
+    (a replayed estimate, a progress bar) asks here, so the rule is written once.
+    """
+    if stride < 1:
+        raise ValueError(f"stride must be at least 1, got {stride}")
+    indices = range(0, length, stride)
+    return indices if max_frames is None else indices[:max_frames]
+
+
+def frames_read(max_frames: int | None = None, stride: int = 1) -> int | None:
+    """How many leading frames of a sequence :func:`select_frames` reaches into (None: all of them),
+    so a synthetic scenario need be rendered that far only."""
+    return None if max_frames is None else (max_frames - 1) * stride + 1
+
+
+class Sequence(Protocol):
+    """What pipelines and tools need of a sequence (a TUM folder and a ROS bag implement it).
+
+    ``timestamps`` holds every frame's colour stamp (seconds, increasing). ``frames`` yields
+    lazily, one frame in memory at a time, the frames :func:`select_frames` names.
     """
 
     name: str
     path: Path
     camera: Camera
     groundtruth: Trajectory | None
+    timestamps: np.ndarray
 
     def __len__(self) -> int: ...
+
+    @property
+    def duration_s(self) -> float: ...
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]: ...
 

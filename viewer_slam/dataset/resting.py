@@ -4,7 +4,11 @@ import dataclasses
 import itertools
 from collections.abc import Iterator
 
-from .frame import Frame, Sequence
+import numpy as np
+
+from .frame import Frame, Sequence, select_frames
+
+REST_RATE_HZ = 30.0
 
 
 class RestingStart:
@@ -20,15 +24,21 @@ class RestingStart:
         self.sequence, self.rest = sequence, rest
         self.name, self.path = f"{sequence.name}-rest{rest}", sequence.path
         self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
+        first = float(sequence.timestamps[0])
+        self.timestamps = np.concatenate([first - (rest - np.arange(rest)) / REST_RATE_HZ, sequence.timestamps])
 
     def __len__(self) -> int:
-        return len(self.sequence) + self.rest
+        return len(self.timestamps)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.timestamps[-1] - self.timestamps[0])
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
+        selected = select_frames(len(self), max_frames, stride)
         inner = self.sequence.frames()
         first = next(inner)
-        resting = (dataclasses.replace(first, index=i, timestamp=first.timestamp - (self.rest - i) / 30.0)
-                   for i in range(self.rest))
+        resting = (dataclasses.replace(first, index=i, timestamp=float(self.timestamps[i])) for i in range(self.rest))
         moving = (dataclasses.replace(frame, index=frame.index + self.rest) for frame in itertools.chain([first], inner))
-        strided = (frame for frame in itertools.chain(resting, moving) if frame.index % stride == 0)
-        return itertools.islice(strided, max_frames)
+        kept = (frame for frame in itertools.chain(resting, moving) if frame.index in selected)
+        return itertools.islice(kept, len(selected))

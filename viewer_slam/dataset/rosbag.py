@@ -36,8 +36,8 @@ from ..geometry.interpolation import interpolate_poses
 from ..geometry.se3 import pose_from_tq
 from ..geometry.trajectory import Trajectory, pose_problem
 from ..geometry.trajectory_formats import read_trajectory
-from .frame import Frame, TimedFrames
-from .tum import ASSOCIATION_MAX_DIFFERENCE_S, ROS_DEFAULT_CAMERA, freiburg_camera
+from .cameras import ASSOCIATION_MAX_DIFFERENCE_S, ROS_DEFAULT_CAMERA, freiburg_camera
+from .frame import Frame, TimedFrames, select_frames
 
 if TYPE_CHECKING:
     from rosbags.highlevel import AnyReader
@@ -106,10 +106,7 @@ class BagSequence(TimedFrames):
         return next(self._read([index]))
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
-        if stride < 1:
-            raise ValueError(f"stride must be at least 1, got {stride}")
-        indices = range(0, len(self), stride)
-        return self._read(indices if max_frames is None else indices[:max_frames])
+        return self._read(select_frames(len(self), max_frames, stride))
 
     def _read(self, indices: Iterable[int]) -> Iterator[Frame]:
         """The frames at ``indices`` in that order, from one pass over the messages they need."""

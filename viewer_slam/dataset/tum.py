@@ -8,7 +8,6 @@ overlaps with the processing of the frames before.
 
 import io
 import logging
-import re
 import struct
 import warnings
 import zlib
@@ -17,7 +16,6 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,23 +23,12 @@ from ..errors import InputError
 from ..geometry.association import associate
 from ..geometry.camera import Camera
 from ..geometry.trajectory import Trajectory, read_tum
-from .frame import Frame, TimedFrames
-
-if TYPE_CHECKING:
-    from .rosbag import BagSequence
+from .cameras import ASSOCIATION_MAX_DIFFERENCE_S, ROS_DEFAULT_CAMERA, freiburg_camera
+from .frame import Frame, TimedFrames, select_frames
 
 log = logging.getLogger(__name__)
 
-ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 READ_AHEAD_FRAMES = 2
-
-# Published with the dataset (cvg.cit.tum.de/data/datasets/rgbd-dataset/file_formats).
-FREIBURG_CAMERAS = {
-    "freiburg1": Camera(517.3, 516.5, 318.6, 255.3, 640, 480, distortion=(0.2624, -0.9531, -0.0054, 0.0026, 1.1633)),
-    "freiburg2": Camera(520.9, 521.0, 325.1, 249.7, 640, 480, distortion=(0.2312, -0.7849, -0.0033, -0.0001, 0.9172)),
-    "freiburg3": Camera(535.4, 539.2, 320.1, 247.6, 640, 480),
-}
-ROS_DEFAULT_CAMERA = Camera(525.0, 525.0, 319.5, 239.5, 640, 480)
 
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -89,13 +76,11 @@ class TumSequence(TimedFrames):
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
-        if stride < 1:
-            raise ValueError(f"stride must be at least 1, got {stride}")
-        indices = range(0, len(self), stride)
+        indices = select_frames(len(self), max_frames, stride)
         pending: deque = deque()
         with ThreadPoolExecutor(1, thread_name_prefix="tum-reader") as reader:
             try:
-                for index in indices if max_frames is None else indices[:max_frames]:
+                for index in indices:
                     pending.append(reader.submit(self.frame, index))
                     if len(pending) > READ_AHEAD_FRAMES:
                         yield pending.popleft().result()
@@ -198,14 +183,10 @@ def _check_png(path: Path, data: bytes) -> None:
     raise InputError.at(path, "truncated PNG")
 
 
-def open_sequence(path: Path, **bag_options) -> "TumSequence | BagSequence":
-    """Open a TUM RGB-D folder, or a ROS bag (see :func:`~viewer_slam.dataset.rosbag.open_bag`
-    for ``bag_options``); :class:`InputError` if it is neither."""
-    from .rosbag import is_bag, open_bag  # a bag's reader loads only for a bag
-
+def open_tum(path: Path) -> TumSequence:
+    """Open a TUM RGB-D folder; :class:`InputError` if it is not one (any source:
+    :func:`~viewer_slam.dataset.sources.open_source`)."""
     path = Path(path)
-    if is_bag(path):
-        return open_bag(path, **bag_options)
     if not path.is_dir():
         raise InputError.at(path, "no such folder" if not path.exists() else "not a folder")
     for required in ("rgb.txt", "depth.txt"):
@@ -239,12 +220,6 @@ def _camera_for(path: Path) -> Camera:
     log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
                 "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
     return ROS_DEFAULT_CAMERA
-
-
-def freiburg_camera(name: str) -> Camera | None:
-    """The published calibration of the sensor a TUM name (folder or bag) says, if it says one."""
-    match = re.search(r"freiburg[123]", name)
-    return FREIBURG_CAMERAS[match.group(0)] if match else None
 
 
 def _read_listing(path: Path, value_fields: int) -> _Listing:

@@ -21,27 +21,22 @@ import json
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .. import palette
 from ..atomic import StagedFiles, check_writable, exclusive, refuse_inputs_as_outputs
-from ..dataset.catalog import resolve_sequence
-from ..dataset.frame import Frame, Sequence
-from ..dataset.tum import TumSequence, open_sequence
-from ..diagnosis import SignalRecorder, diagnose_run
+from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_frames
+from ..dataset.sources import NotABag, RgbdSequence, open_source
 from ..errors import InputError
 from ..geometry.trajectory import Trajectory, write_tum
 from ..geometry.trajectory_formats import TrajectoryFormat
-from ..pipelines.base import Pipeline, make_pipeline, pipeline_class
-from ..pipelines.params import resolve_params
-from ..pipelines.run import drive
-from ..pipelines.selection import BOTH, select_pipelines
-from ..runs.replay import estimate_replay, named_estimates
-from ..runs.report import build_report, pipeline_report, write_report
-from ..runs.scoring import evaluate_run
+from ..pipelines.base import Pipeline
+from ..runs.replay import EstimateReplay
+from ..runs.report import build_report, write_report
+from ..runs.selection import run_specs, select_runs
+from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
 from .blueprint import default_blueprint
 from .console import RecordProgress
 from .interrupt import StopRequest
@@ -95,6 +90,7 @@ class RecordResult:
     trajectories: dict[str, Path]
     report: dict[str, Any]
     written: list[Path] = field(default_factory=list)
+    scored: dict[str, ScoredRun] = field(default_factory=dict)
 
     @property
     def interrupted(self) -> bool:
@@ -127,34 +123,25 @@ def check_outputs(out: Path, pipelines: list[str], inputs: dict[Path, str] | Non
 
 
 def open_input(sequence: str | None, bag: BagOptions | None = None, first: int | None = None,
-               progress: bool = False) -> TumSequence:
+               progress: bool = False) -> RgbdSequence:
     """The sequence to record; ``bag`` options (set ones only) for a ROS bag, an error for anything else.
 
     A synthetic scenario (or the demo) is rendered up to frame ``first`` only, showing
     ``progress`` on stderr.
     """
-    from ..dataset.rosbag import is_bag
-
     if sequence is None:
         from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
 
-        path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION, first=first,
-                               progress=progress)
+        source: str | Path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION,
+                                             first=first, progress=progress)
     else:
-        path = resolve_sequence(sequence, first=first, progress=progress)
-    bag = {key: value for key, value in (bag or {}).items() if value is not None}
-    if bag and not is_bag(path):
-        flag = BAG_FLAGS[next(iter(bag))]
+        source = sequence
+    try:
+        return open_source(source, bag=bag, first=first, progress=progress)
+    except NotABag as error:
+        flag = BAG_FLAGS[error.option]
         alone = " (without SEQUENCE, --groundtruth records trajectory files alone)" if flag == "--groundtruth" else ""
-        raise InputError(f"{flag}: only for a ROS bag, and {sequence or 'the demo'} is not one{alone}")
-    return open_sequence(path, **bag)
-
-
-def select_runs(choice: str | None, estimates: list[str]) -> tuple[list[str], list[tuple[str, Path]]]:
-    """The pipelines (``--pipeline``; by default both, or none beside estimates) and the
-    estimates (``--estimate NAME=FILE``); every name must be unique among them."""
-    pipelines = select_pipelines(choice) if choice is not None else [] if estimates else select_pipelines(BOTH)
-    return pipelines, named_estimates(estimates, pipelines)
+        raise InputError(f"{flag}: only for a ROS bag, and {sequence or 'the demo'} is not one{alone}") from None
 
 
 def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]]:
@@ -162,7 +149,7 @@ def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]
     return out.with_suffix(".json"), {name: out.with_name(f"{out.stem}.{name}.txt") for name in pipelines}
 
 
-class GuardedSequence:
+class GuardedSequence(TimedFrames):
     """A sequence whose first unreadable frame ends the frames there, as a stop request would.
 
     The error is kept in ``error``: the pipeline finishes on what it saw, and the caller saves
@@ -173,11 +160,9 @@ class GuardedSequence:
         self._sequence = sequence
         self.name, self.path = sequence.name, sequence.path
         self.camera, self.groundtruth = sequence.camera, sequence.groundtruth
+        self.timestamps = sequence.timestamps
         self.error: InputError | None = None
         self.read = 0
-
-    def __len__(self) -> int:
-        return len(self._sequence)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
         try:
@@ -188,11 +173,6 @@ class GuardedSequence:
             self.error = error
 
 
-def frame_count(sequence: Sequence, max_frames: int | None, stride: int) -> int:
-    count = len(range(0, len(sequence), stride))
-    return count if max_frames is None else min(count, max_frames)
-
-
 def record(options: RecordOptions) -> RecordResult:
     """Check the options, then record every selected run (see the module docstring); ``--groundtruth``
     without a sequence records trajectory files alone (:mod:`.trajectory_files`)."""
@@ -201,29 +181,36 @@ def record(options: RecordOptions) -> RecordResult:
     if is_files_only(options):
         return record_files(options)
     pipelines, estimates = select_runs(options.pipeline, options.estimates)
-    params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, options.params,
-                            options.config)
+    return record_runs(options, run_specs(pipelines, estimates, assignments=options.params, config=options.config,
+                                          seed=options.seed, format=options.format))
+
+
+def record_runs(options: RecordOptions, specs: dict[str, RunSpec]) -> RecordResult:
+    """Record the runs ``specs`` over ``options.sequence``; the options' own run selection is not read.
+
+    The outputs are checked before the sequence is opened, and every run is built (an estimate
+    file read) before the first frame.
+    """
     out = output_path(options.sequence, options.out)
     viewer = live_viewer(options.spawn, options.connect, out)
-    inputs = {Path(file): f"--estimate {name}={file}" for name, file in estimates}
+    inputs = {Path(spec.file): f"--estimate {name}={spec.file}" for name, spec in specs.items()
+              if isinstance(spec, EstimateSpec)}
     if options.config is not None:
         inputs[Path(options.config)] = f"--config {options.config}"
     if options.sequence is not None and Path(options.sequence).exists():
         inputs[Path(options.sequence)] = f"the sequence {options.sequence}"
-    check_outputs(out, [*pipelines, *(name for name, _ in estimates)], inputs)
+    check_outputs(out, list(specs), inputs)
     with exclusive([out]):
-        read = None if options.max_frames is None else (options.max_frames - 1) * options.stride + 1
-        sequence = open_input(options.sequence, options.bag, first=read, progress=not options.quiet)
-        runs: dict[str, Pipeline] = {name: make_pipeline(name, sequence.camera, params[name], options.seed)
-                                     for name in pipelines}
-        replays = {name: estimate_replay(sequence, file, options.format, max_frames=options.max_frames,
-                                         stride=options.stride) for name, file in estimates}
+        sequence = open_input(options.sequence, options.bag, first=frames_read(options.max_frames, options.stride),
+                              progress=not options.quiet)
+        runs = {name: build_run(spec, sequence, max_frames=options.max_frames, stride=options.stride)
+                for name, spec in specs.items()}
         if not options.quiet:
             how = "given" if options.format else "detected"
-            for name, replay in replays.items():
-                print(f"estimate {name}: {replay.params.file} read as {replay.params.format} ({how})",
-                      file=sys.stderr)
-        runs.update(replays)
+            for name, run in runs.items():
+                if isinstance(run, EstimateReplay):
+                    print(f"estimate {name}: {run.params.file} read as {run.params.format} ({how})",
+                          file=sys.stderr)
         return record_sequence(sequence, runs, out, options, viewer)
 
 
@@ -240,6 +227,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     pipelines = list(runs)
     report_path, trajectory_paths = report_paths(out, pipelines)
     blocks: dict[str, dict] = {}
+    scored_runs: dict[str, ScoredRun] = {}
     trajectories: dict[str, Trajectory] = {}
     interrupted = False
     failure: Exception | None = None
@@ -247,7 +235,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
     counted = [name for name in pipelines if _counts_features(runs[name])]
     blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.poses, counted)
     scene_extent = None if groundtruth is None else extent(groundtruth.positions)
-    total = frame_count(sequence, options.max_frames, options.stride)
+    total = len(select_frames(len(sequence), options.max_frames, options.stride))
     earlier = earlier_trajectories(out)
     with StagedFiles() as staged, StopRequest().installed() as stop:
         recording = RecordingFile(staged.path(out), out, blueprint, viewer)
@@ -267,11 +255,10 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                             log_frame_image(stream, frame)
 
                     guarded = GuardedSequence(sequence)
-                    signals = SignalRecorder()
                     try:
-                        run = drive(runs[name], name, guarded, max_frames=options.max_frames, stride=options.stride,
-                                    sinks=[recorder, progress.sink(name), signals],
-                                    frame_sinks=[on_frame, signals.frame], should_stop=stop)
+                        scored = score_run(guarded, runs[name], name, max_frames=options.max_frames,
+                                           stride=options.stride, sinks=[recorder, progress.sink(name)],
+                                           frame_sinks=[on_frame], should_stop=stop)
                     except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
                         if isinstance(error, SystemExit):  # a plugin that exits: that pipeline's failure
                             error = InputError(f"pipeline {name} called sys.exit({error.code!r})")
@@ -279,18 +266,16 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                             raise error
                         failure = error
                         break
+                    run = scored.run
                     failure = guarded.error
                     if failure is not None and not run.frames:
                         raise failure  # not one frame was read: there is nothing to keep
                     interrupted = interrupted or run.interrupted or failure is not None
-                    frame_signals = diagnose_run(run, signals, sequence.groundtruth)
-                    log_loss_causes(stream, name, run.tracking_lost, frame_signals)
-                    evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run,
-                                                                   recorder.frame_timestamps)
-                    if evaluation is not None:
-                        log_evaluation(stream, name, evaluation, np.array(recorder.frame_indices),
-                                       np.array(recorder.frame_timestamps))
-                    blocks[name] = pipeline_report(run, evaluation, odometry_evaluation)
+                    log_loss_causes(stream, name, run.tracking_lost, scored.signals)
+                    if scored.evaluation is not None:
+                        log_evaluation(stream, name, scored.evaluation, scored.frame_indices, scored.frame_timestamps)
+                    blocks[name] = scored.report
+                    scored_runs[name] = scored
                     trajectories[name] = run.trajectory
                     if failure is not None:
                         break
@@ -299,8 +284,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
         for name, trajectory in trajectories.items():  # written once a failed recording made room
-            write_staged(trajectory_paths[name], lambda path, trajectory=trajectory: write_tum(path, trajectory),
-                         staged)
+            write_staged(trajectory_paths[name], partial(write_tum, trajectory=trajectory), staged)
         report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
         errors = [str(failure) if failure is not None else None,
                   f"{out}: {recording.error}" if recording.error is not None else None]
@@ -320,7 +304,8 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                          f"trajectories beside it")
     if failure is not None:
         raise failure
-    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written)
+    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written,
+                        scored_runs)
 
 
 def earlier_trajectories(out: Path) -> list[Path]:

@@ -12,21 +12,20 @@ gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 """
 
 import re
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from pydantic import Field
 
-from ..dataset.frame import Frame, Sequence
+from ..dataset.frame import Frame, Sequence, select_frames
 from ..errors import InputError
 from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
+from ..geometry.camera import Camera
 from ..geometry.trajectory_formats import read_trajectory
 from ..pipelines.base import Pipeline
 from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from ..pipelines.params import PipelineParams
-from ..pipelines.run import PipelineRun, Sink, drive
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 # An estimate's name becomes entity paths and a file name.
@@ -72,7 +71,7 @@ class EstimateReplay(Pipeline):
     """The events of an estimate over the frames at ``frame_stamps`` (the ones the run processes).
 
     ``sequence_stamps`` are all the sequence's frame stamps: a KITTI file has one pose per
-    frame of the sequence.
+    frame of the sequence. ``camera`` is the sequence's, which the estimate's poses are of.
     """
 
     name = "estimate"
@@ -80,8 +79,8 @@ class EstimateReplay(Pipeline):
     Params = EstimateParams
     params: EstimateParams
 
-    def __init__(self, params: EstimateParams, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):
-        super().__init__(camera=None, params=params)
+    def __init__(self, params: EstimateParams, camera: Camera, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):
+        super().__init__(camera=camera, params=params)
         estimate, detected = read_trajectory(Path(params.file), params.format or None, sequence_stamps)
         self.params = EstimateParams(file=params.file, format=detected)
         inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & \
@@ -132,16 +131,8 @@ class EstimateReplay(Pipeline):
 
 def estimate_replay(sequence: Sequence, path: Path, format: str | None = None, *,
                     max_frames: int | None = None, stride: int = 1) -> EstimateReplay:
-    """The replay of the estimate in ``path`` over the frames :func:`drive` feeds from ``sequence``;
-    reading it checks the file (an :class:`InputError` naming it) and settles its format."""
+    """The replay of the estimate in ``path`` over the frames ``sequence`` yields with ``max_frames`` and
+    ``stride``; reading it checks the file (an :class:`InputError` naming it) and settles its format."""
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)
-    processed = stamps[range(0, len(stamps), stride)][:max_frames]
-    return EstimateReplay(EstimateParams(file=str(path), format=format or ""), stamps, processed)
-
-
-def replay_estimate(sequence: Sequence, name: str, path: Path, format: str | None = None, *,
-                    max_frames: int | None = None, stride: int = 1, sinks: tuple[Sink, ...] = (),
-                    frame_sinks: tuple[Callable[[Frame], None], ...] = ()) -> PipelineRun:
-    """The run ``name`` of the estimate in ``path`` over ``sequence``'s frames (as :func:`drive` feeds them)."""
-    replay = estimate_replay(sequence, path, format, max_frames=max_frames, stride=stride)
-    return drive(replay, name, sequence, max_frames=max_frames, stride=stride, sinks=sinks, frame_sinks=frame_sinks)
+    processed = stamps[select_frames(len(stamps), max_frames, stride)]
+    return EstimateReplay(EstimateParams(file=str(path), format=format or ""), sequence.camera, stamps, processed)
