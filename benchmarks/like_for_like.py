@@ -41,14 +41,14 @@ sys.path.insert(0, str(ROOT))
 
 from viewer_slam.comparison.compare import compare_reports  # noqa: E402
 from viewer_slam.comparison.output import print_comparison  # noqa: E402
-from viewer_slam.dataset.tum import open_sequence  # noqa: E402
+from viewer_slam.dataset.sources import open_source  # noqa: E402
 from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
 from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
 from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered  # noqa: E402
 from viewer_slam.pipelines.params import apply_overrides  # noqa: E402
 from viewer_slam.pipelines.rtabmap import RtabmapParams  # noqa: E402
 from viewer_slam.pipelines.run import drive  # noqa: E402
-from viewer_slam.runs.replay import replay_estimate  # noqa: E402
+from viewer_slam.runs.replay import estimate_replay  # noqa: E402
 from viewer_slam.runs.report import build_report, pipeline_report, write_report  # noqa: E402
 from viewer_slam.runs.scoring import evaluate_run  # noqa: E402
 
@@ -254,19 +254,19 @@ def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) 
 
 def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
     listed, equal, differing_images = same_frames(run, frames)
-    sequence = open_sequence(frames)
+    sequence = open_source(frames)
     with tempfile.TemporaryDirectory() as views:
         view = camera_view(frames, reference_camera(sequence.camera, run), Path(views))
-        sequence = open_sequence(view)
+        sequence = open_source(view)
         params = apply_overrides(apply_overrides(RtabmapParams(), run.overrides, "like_for_like"), extra,
                                  "--param", text=True)
         events = []
         ours = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence,
                      sinks=[events.append])
         stamps = np.asarray(sequence.timestamps)
-        replays = {REFERENCE_NAME: replay_estimate(sequence, REFERENCE_NAME, run.folder / "poses_tum.txt"),
-                   f"{REFERENCE_NAME}-odometry": replay_estimate(sequence, f"{REFERENCE_NAME}-odometry",
-                                                                 run.folder / "db_poses_odom_tum.txt")}
+        replays = {name: drive(estimate_replay(sequence, run.folder / file), name, sequence)
+                   for name, file in ((REFERENCE_NAME, "poses_tum.txt"),
+                                      (f"{REFERENCE_NAME}-odometry", "db_poses_odom_tum.txt"))}
         blocks, trajectories = {}, {}
         for name, result in {"rtabmap": ours, **replays}.items():
             blocks[name] = pipeline_report(result, *evaluate_run(sequence.groundtruth, result, stamps))

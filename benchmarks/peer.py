@@ -16,8 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from viewer_slam.dataset.catalog import resolve_sequence
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.open3d_loader import import_open3d
@@ -65,7 +64,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=["rgbdslam", "rtabmap"])
     args = parser.parse_args()
-    sequence = open_sequence(resolve_sequence(args.sequence))
+    sequence = open_source(args.sequence)
     frames = min(len(sequence), args.frames or len(sequence))
     print(f"sequence {sequence.name}: {frames} frames, {sequence.camera.width}x{sequence.camera.height}")
 

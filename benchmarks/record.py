@@ -30,9 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from viewer_slam.dataset.frame import Frame
+from viewer_slam.dataset.frame import Frame, select_frames
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
-from viewer_slam.dataset.tum import TumSequence, open_sequence
+from viewer_slam.dataset.tum import TumSequence
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.base import PIPELINE_MODULES, make_pipeline
 from viewer_slam.pipelines.run import run_pipeline
@@ -85,7 +86,7 @@ def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict, float, 
 
 
 def bare_pipelines(folder: Path, frames: int) -> float:
-    sequence = open_sequence(folder)
+    sequence = open_source(folder)
     start = time.perf_counter()
     for name in PIPELINE_MODULES:
         run_pipeline(sequence, name, max_frames=frames)
@@ -114,15 +115,14 @@ class PingPong:
         return float(self.timestamps[-1] - self.timestamps[0])
 
     def frames(self, max_frames=None, stride=1):
-        indices = range(0, len(self), stride)
-        for index in indices if max_frames is None else indices[:max_frames]:
+        for index in select_frames(len(self), max_frames, stride):
             source = self._sequence.frame(int(self._source[index]))
             yield Frame(index, float(self.timestamps[index]), source.rgb, source.depth)
 
 
 def measure_memory(folder: Path, frames: int, out: Path) -> None:
     """Child process: record both pipelines over the ping-pong sequence, print peak RSS in GiB."""
-    sequence = PingPong(open_sequence(folder), frames)
+    sequence = PingPong(open_source(folder), frames)
     runs = {name: make_pipeline(name, sequence.camera) for name in PIPELINE_MODULES}
     result = record_sequence(sequence, runs, out, RecordOptions(quiet=True))
     print(json.dumps({"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,

@@ -21,9 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from viewer_slam.dataset.catalog import resolve_sequence
 from viewer_slam.dataset.frame import Frame
-from viewer_slam.dataset.tum import open_sequence
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.events import FrameTracked
@@ -66,7 +65,7 @@ class PingPong:
 
 
 def speed(args) -> None:
-    sequence = open_sequence(resolve_sequence(args.sequence, frames=args.frames))
+    sequence = open_source(args.sequence, frames=args.frames)
     print(f"sequence {sequence.name}: {min(len(sequence), args.frames or len(sequence))} frames, "
           f"{sequence.camera.width}x{sequence.camera.height}")
     header = "| detector | fps (wall) | fps (CPU time) | " + " | ".join(f"{s} ms (median / mean)" for s in STAGES) + \
@@ -96,7 +95,7 @@ def speed(args) -> None:
 
 
 def memory(args) -> None:
-    sequence = PingPong(open_sequence(resolve_sequence(args.sequence)), args.frames)
+    sequence = PingPong(open_source(args.sequence), args.frames)
     before = peak_rss_mb()
     start = time.perf_counter()
     run = run_pipeline(sequence, "rgbdslam", apply_overrides(RgbdSlamParams(), args.overrides, "benchmark", text=True),

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from viewer_slam.dataset.resting import RestingStart
+from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth.generate import cached_scenario
-from viewer_slam.dataset.tum import open_sequence
 from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.events import FrameTracked, GraphEdge
 from viewer_slam.pipelines.params import apply_overrides
@@ -31,7 +31,7 @@ def run(name: str, frames: int, resolution: tuple[int, int], rest: int = 0, max_
         **overrides):
     """``name`` is a synthetic scenario or a TUM folder (then ``frames`` and ``resolution`` are unused)."""
     folder = Path(name) if Path(name).is_dir() else cached_scenario(name, frames=frames, resolution=resolution, seed=0)
-    sequence = open_sequence(folder)
+    sequence = open_source(folder)
     events = []
     params = apply_overrides(RtabmapParams(), overrides, "benchmark")
     fed = RestingStart(sequence, rest) if rest else sequence

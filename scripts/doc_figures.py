@@ -86,12 +86,12 @@ def demo() -> str:
 def segments() -> str:
     """On the demo, each pipeline's ATE under one alignment and with each tracked segment
     aligned on its own, before its first loss and over the run."""
-    from viewer_slam.dataset.tum import open_sequence
+    from viewer_slam.dataset.sources import open_source
     from viewer_slam.evaluation import evaluate
     from viewer_slam.geometry.trajectory import read_tum
 
     report = json.loads((demo_run() / "demo.json").read_text())
-    sequence = open_sequence(Path(report["sequence"]["path"]))
+    sequence = open_source(Path(report["sequence"]["path"]))
     lines = []
     for name in report["pipelines"]:
         trajectory = read_tum(demo_run() / f"demo.{name}.txt")

@@ -8,13 +8,14 @@ from viewer_slam.dataset.resting import RestingStart
 
 class Numbered:
     name, path, camera, groundtruth = "numbered", Path("numbered"), None, None
+    timestamps = 10.0 + np.arange(5)
 
     def __len__(self):
         return 5
 
     def frames(self, max_frames=None, stride=1):
         for i in range(5):
-            yield Frame(i, 10.0 + i, np.full((2, 2, 3), i, np.uint8), np.zeros((2, 2), np.float32))
+            yield Frame(i, float(self.timestamps[i]), np.full((2, 2, 3), i, np.uint8), np.zeros((2, 2), np.float32))
 
 
 def test_rest_precedes_the_sequence_with_copies_of_its_first_frame():

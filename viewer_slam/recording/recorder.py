@@ -1,6 +1,6 @@
 """Pipeline events to Rerun: one :class:`PipelineRecorder` per pipeline, under its own roots.
 
-The recorder is a sink for :func:`viewer_slam.pipelines.run.run_pipeline`. The session
+The recorder is a sink for :func:`viewer_slam.runs.service.score_run`. The session
 calls :meth:`PipelineRecorder.begin_frame` as each frame is read, which sets the ``frame``
 and ``time`` timelines for every event that frame produces. Poses and points arrive in the
 pipeline's map frame and are logged under ``world/<pipeline>``, whose transform to
