@@ -199,12 +199,12 @@ def test_a_third_stop_signal_aborts_and_leaves_the_earlier_outputs(excerpt, tmp_
 
 
 def test_ctrl_c_during_start_up_is_one_line_and_exit_130(excerpt, tmp_path, monkeypatch, capsys):
-    import viewer_slam.recording.session as session
+    import viewer_slam.runs.selection as selection
 
     def interrupted(*arguments, **options):
         signal.raise_signal(signal.SIGINT)  # Ctrl-C while the options are being checked
 
-    monkeypatch.setattr(session, "resolve_params", interrupted)
+    monkeypatch.setattr(selection, "resolve_params", interrupted)
     assert main(["record", str(excerpt), "--out", str(tmp_path / "run.rrd"), "--quiet"]) == 130
     assert capsys.readouterr().err == "viewslam: interrupted\n"
     assert list(tmp_path.iterdir()) == []
@@ -220,7 +220,7 @@ def test_ctrl_c_while_importing_is_one_line_and_exit_130(excerpt, tmp_path):
 
 
 def test_ctrl_c_inside_a_compiled_extensions_import_is_one_line_and_exit_130(tmp_path, monkeypatch, capsys):
-    import viewer_slam.recording.session as session
+    import viewer_slam.runs.selection as selection
     from viewer_slam.errors import Interrupted
 
     def extension_interrupted_while_loading(*arguments, **options):
@@ -229,7 +229,7 @@ def test_ctrl_c_inside_a_compiled_extensions_import_is_one_line_and_exit_130(tmp
         except Interrupted as interrupt:  # what pybind11's module initialisation does with it
             raise ImportError("initialization failed") from interrupt
 
-    monkeypatch.setattr(session, "resolve_params", extension_interrupted_while_loading)
+    monkeypatch.setattr(selection, "resolve_params", extension_interrupted_while_loading)
     monkeypatch.setenv("VIEWSLAM_LOG_DIR", str(tmp_path))
     assert main(["record", str(TUM_RPY), "--out", str(tmp_path / "run.rrd"), "--quiet"]) == 130
     assert capsys.readouterr().err == "viewslam: interrupted\n"
