@@ -9,7 +9,7 @@ writes the run's report block. So every run is scored by the same chain, whateve
 """
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +59,7 @@ class ScoredRun:
     signals: FrameSignals
     frame_indices: np.ndarray
     frame_timestamps: np.ndarray
-    report: dict[str, Any] = field(default_factory=dict)
+    report: dict[str, Any]
 
 
 def build_run(spec: RunSpec, sequence: Sequence, *, max_frames: int | None = None, stride: int = 1) -> Pipeline:
