@@ -468,16 +468,17 @@ def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(ex
 
 
 def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatch, tmp_path):
+    from viewer_slam.dataset import sources
     from viewer_slam.errors import InputError
     from viewer_slam.recording import session
 
     asked = []
 
-    def resolve(spec, *, first=None, progress=False):
+    def resolve(spec, *, first=None, progress=False, **sizes):
         asked.append((spec, first, progress))
         raise InputError("stop here")
 
-    monkeypatch.setattr(session, "resolve_sequence", resolve)
+    monkeypatch.setattr(sources, "resolve_sequence", resolve)
     for stride, quiet in ((1, True), (3, False)):
         with pytest.raises(InputError, match="stop here"):
             session.record(session.RecordOptions(sequence="360_kidnap", max_frames=4, stride=stride, quiet=quiet,
