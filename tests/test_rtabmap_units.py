@@ -21,7 +21,7 @@ from viewer_slam.pipelines.rtabmap.bayes import (
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
-from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
+from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, uncontested, velocity_of
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
 RNG = np.random.default_rng(0)
@@ -392,6 +392,19 @@ def test_a_registration_made_without_a_guess_is_redone_with_its_result_as_the_gu
         assert odometry.process(view(world, np.eye(4), descriptors(300, rng)), 1 / 30).pose is None
         back = odometry.process(view(world, moved, seen), 2 / 30)
         assert back.inliers == inliers and np.allclose(back.pose, moved, atol=1e-3)
+
+
+def test_a_repeated_registration_goes_on_without_the_features_that_took_one_map_word():
+    """RegistrationVis without a guess keeps of the frame only the word ids that occur once:
+    two features whose nearest map word is the same (2 and 3 bits from it, about 128 from
+    every other) both leave the frame; a feature 1 bit from another word stays, as do one
+    that passes no ratio test (a new word) and an exact copy of a third word."""
+    rng = np.random.default_rng(7)
+    words = descriptors(5, rng)
+    frame = np.concatenate([flip_bits(words[:1], 2, rng), flip_bits(words[:1], 3, rng), flip_bits(words[1:2], 1, rng),
+                            descriptors(1, rng), words[2:3]])
+    features = Features(np.zeros((5, 2), np.float32), frame, np.ones(5), np.ones((5, 3)), True)
+    assert uncontested(features, words, 0.8).tolist() == [2, 3, 4]
 
 
 def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():

@@ -186,14 +186,22 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
 def match_with_ratios(query: np.ndarray, train: np.ndarray, binary: bool,
                       ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`match_descriptors` with each match's nearest / second-nearest distance ratio."""
+    q, t, d, ratios = nearest_passing_ratio(query, train, binary, ratio)
+    best_first = np.argsort(d, kind="stable")
+    _, unique = np.unique(t[best_first], return_index=True)
+    keep = np.sort(best_first[unique])
+    return q[keep], t[keep], ratios[keep]
+
+
+def nearest_passing_ratio(query: np.ndarray, train: np.ndarray, binary: bool,
+                          ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each query's nearest train descriptor where it passes the ratio test against the second
+    nearest: query indices (ascending), train indices (a train descriptor may be the nearest
+    of several queries), the nearest distances and the distance ratios."""
     if len(query) == 0 or len(train) < 2:
-        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0)
     # batchDistance gives the two nearest neighbours as arrays (knnMatch's exact results,
     # without a Python object per match) and releases the GIL while it searches.
     distance, nearest = cv2.batchDistance(query, train, -1, normType=cv2.NORM_HAMMING if binary else cv2.NORM_L2, K=2)
     q = np.flatnonzero(distance[:, 0] < ratio * distance[:, 1])
-    t, d = nearest[q, 0].astype(int), distance[q, 0]
-    best_first = np.argsort(d, kind="stable")
-    _, unique = np.unique(t[best_first], return_index=True)
-    keep = np.sort(best_first[unique])
-    return q[keep], t[keep], distance[q[keep], 0] / distance[q[keep], 1]
+    return q, nearest[q, 0].astype(int), distance[q, 0], distance[q, 0] / distance[q, 1]

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
-from ...frontend.features import Features, match_descriptors
+from ...frontend.features import Features, match_descriptors, nearest_passing_ratio
 from ...frontend.hamming import nearest_within_radius
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
@@ -124,11 +124,24 @@ class OdometryResult:
     map_points: np.ndarray | None = None
     key_frame: bool = False
     local_map_size: int = 0
+    kept: np.ndarray | None = None
 
 
 def scaled_down(variance: float, floor: float) -> float:
     """A variance after the bundle adjustment: BUNDLE_VARIANCE_SCALE times it where it exceeds ``floor``."""
     return variance * BUNDLE_VARIANCE_SCALE if variance > floor else variance
+
+
+def uncontested(features: Features, map_descriptors: np.ndarray, ratio: float) -> np.ndarray:
+    """Indices of the frame's features that remain after matching the whole local map as
+    RegistrationVis does without a guess: each feature takes its nearest map word when the
+    ratio test passes, and every word id that then occurs twice is removed from the frame,
+    so features that took the same map word all leave it. Reg/RepeatOnce's second
+    registration (Registration::computeTransformationMod) runs on the frame as the first left
+    it, so those features take no part in it, nor in the local map or the location after it."""
+    query, train, _, _ = nearest_passing_ratio(features.descriptors, map_descriptors, True, ratio)
+    shared = np.bincount(train, minlength=len(map_descriptors))[train] > 1
+    return np.setdiff1d(np.arange(len(features)), query[shared])
 
 
 def velocity_of(motion: np.ndarray, elapsed: float) -> np.ndarray:
@@ -220,7 +233,8 @@ class FrameToMapOdometry:
         the whole local map (OdometryF2M::computeTransform's second try without a guess),
         redone with its own pose as the guess (Registration::computeTransformationMod with
         Reg/RepeatOnce: the whole-map ratio test leaves out every map point whose descriptor
-        looks like another's, the window around its projection does not)."""
+        looks like another's, the window around its projection does not) on the features the
+        first registration left (:func:`uncontested`)."""
         result = None
         if guess is not None and self.params.guess_window > 0:
             predicted = self.pose @ guess
@@ -229,7 +243,10 @@ class FrameToMapOdometry:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)
             if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
+                kept = uncontested(features, self.map.descriptors, self.params.correspondence_nndr)
+                features = features.subset(kept)
                 result = self._solve(features, *self.guided_matches(features, result.pose), result.pose)
+                result.kept = kept
         result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
             result.key_frame = self._update_map(features, result)

@@ -93,6 +93,8 @@ class Rtabmap(Pipeline):
         watch = Stopwatch(STAGES)
         features = watch("features", self.extractor.extract, frame.rgb, frame.depth)
         odometry = watch("odometry", self.odometry.process, features, frame.timestamp)
+        if odometry.kept is not None:
+            features = features.subset(odometry.kept)
         events: list[Event] = []
         if odometry.matched_pixels is not None and len(odometry.matched_pixels):
             events.append(FeatureMatches(frame.index, "local map", odometry.matched_pixels,
