@@ -119,10 +119,12 @@ def cluttered_desk(rng, corner, facing_yaw: float, size=(1.6, 0.8, 0.74)) -> lis
     return desk(rng, corner, size) + desk_clutter(rng, corner, size, facing_yaw)
 
 
-def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
-    """A monitor, keyboard, papers, books and mugs on a desk whose user looks along ``facing_yaw``."""
+def desk_frame(corner, size, facing_yaw: float):
+    """Where things stand on a desk, in the frame of the user who looks along ``facing_yaw``:
+    ``at(along, across)`` maps -1..1 along the desk's depth and width to world x, y; with the
+    forward and sideways unit vectors."""
     x, y, _ = corner
-    w, d, top = size
+    w, d, _ = size
     c, s = np.cos(facing_yaw), np.sin(facing_yaw)
     centre = np.array([x + w / 2, y + d / 2])
     forward, side = np.array([c, s]), np.array([-s, c])
@@ -130,6 +132,13 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     def at(along, across):
         return centre + forward * along * d / 2 + side * across * w / 2
 
+    return at, forward, side
+
+
+def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
+    """A monitor, keyboard, papers, books and mugs on a desk whose user looks along ``facing_yaw``."""
+    top = size[2]
+    at, forward, _ = desk_frame(corner, size, facing_yaw)
     surfaces = box(rng, (*at(0.6, -0.3), top + 0.25), (0.05, 0.55, 0.34), _flat((30, 30, 32)), 0.003,
                    yaw=facing_yaw)
     screen_centre = at(0.6, -0.3) - forward * 0.03
@@ -167,15 +176,8 @@ def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     table cloth: the household side of a desk pair. Nothing on it repeats the office desk's
     monitor, keyboard or book stack, so that the two desks, set back to back, do not look
     alike from opposite sides of the room (as the real sequence's two desks do not)."""
-    x, y, _ = corner
-    w, d, top = size
-    c, s = np.cos(facing_yaw), np.sin(facing_yaw)
-    centre = np.array([x + w / 2, y + d / 2])
-    forward, side = np.array([c, s]), np.array([-s, c])
-
-    def at(along, across):
-        return centre + forward * along * d / 2 + side * across * w / 2
-
+    top = size[2]
+    at, forward, side = desk_frame(corner, size, facing_yaw)
     cloth_corner = at(-0.9, -0.55)
     surfaces = [quad(rng, (*cloth_corner, top + 0.001), (*(side * 0.9), 0.0), (*(forward * 0.65), 0.0),
                      _cloth((170, 40, 45)), 0.002)]
