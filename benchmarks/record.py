@@ -37,8 +37,9 @@ from viewer_slam.dataset.tum import TumSequence
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.base import PIPELINE_MODULES, make_pipeline
 from viewer_slam.pipelines.run import run_pipeline
-from viewer_slam.recording import session
-from viewer_slam.recording.session import RecordOptions, record, record_sequence
+from viewer_slam.record import session
+from viewer_slam.record.options import RecordOptions
+from viewer_slam.record.session import record, record_sequence
 
 RESOLUTION = (640, 480)
 REPO = Path(__file__).resolve().parent.parent

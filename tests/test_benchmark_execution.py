@@ -11,7 +11,8 @@ from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
 from viewer_slam.benchmark.suite import run_benchmark
 from viewer_slam.pipelines import base
-from viewer_slam.recording.session import RecordOptions, record
+from viewer_slam.record.options import RecordOptions
+from viewer_slam.record.session import record
 from viewer_slam.runs.report import write_report
 
 

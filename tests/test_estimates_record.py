@@ -26,8 +26,8 @@ from viewer_slam.cli import main
 from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
+from viewer_slam.record.outputs import output_path
 from viewer_slam.recording import layout
-from viewer_slam.recording.session import output_path
 
 pytestmark = pytest.mark.slow
 

@@ -470,7 +470,8 @@ def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(ex
 def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatch, tmp_path):
     from viewer_slam.dataset import sources
     from viewer_slam.errors import InputError
-    from viewer_slam.recording import session
+    from viewer_slam.record import session
+    from viewer_slam.record.options import RecordOptions
 
     asked = []
 
@@ -481,6 +482,6 @@ def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatc
     monkeypatch.setattr(sources, "resolve_sequence", resolve)
     for stride, quiet in ((1, True), (3, False)):
         with pytest.raises(InputError, match="stop here"):
-            session.record(session.RecordOptions(sequence="360_kidnap", max_frames=4, stride=stride, quiet=quiet,
-                                                 out=tmp_path / "x.rrd"))
+            session.record(RecordOptions(sequence="360_kidnap", max_frames=4, stride=stride, quiet=quiet,
+                                         out=tmp_path / "x.rrd"))
     assert asked == [("360_kidnap", 4, False), ("360_kidnap", 10, True)]  # frames 0, 3, 6, 9

@@ -193,7 +193,7 @@ def test_the_losses_follow_the_gaps_made_on_the_groundtruths_frames(capsys, smal
 def test_study_record_writes_the_same_recording_as_record(capsys, small, tmp_path):
     """`study --record` calls the same function: the files-only recording of `record` (checked here on the
     small files through the library, as the study calls it)."""
-    from viewer_slam.recording.trajectory_files import record_trajectory_files
+    from viewer_slam.record.files import record_trajectory_files
 
     folder, _ = small
     result = record_trajectory_files(folder / "groundtruth.txt", [("orb", folder / "orb.txt")], tmp_path / "s.rrd",

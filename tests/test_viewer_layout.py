@@ -37,9 +37,10 @@ from viewer_slam.cli.view import free_port
 from viewer_slam.geometry.se3 import make_pose, transform_points
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.events import FrameTracked, MapUpdated
+from viewer_slam.record.options import RecordOptions
+from viewer_slam.record.session import record
 from viewer_slam.recording import blueprint
 from viewer_slam.recording.recorder import lost_colour
-from viewer_slam.recording.session import RecordOptions, record
 
 RERUN = Path(sys.executable).with_name("rerun")
 VIEWSLAM = Path(sys.executable).with_name("viewslam")

@@ -23,9 +23,10 @@ from viewer_slam import palette
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.edges import LOOP_MIN_AGE_S, LOOP_MIN_NODE_GAP
+from viewer_slam.record.options import RecordOptions
+from viewer_slam.record.session import record
 from viewer_slam.recording import layout
 from viewer_slam.recording.recorder import MAP_BYTES_PER_FRAME, MAP_POINT_BYTES
-from viewer_slam.recording.session import RecordOptions, record
 from viewer_slam.recording.viewer import free_port
 
 pytestmark = pytest.mark.slow

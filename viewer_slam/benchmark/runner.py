@@ -161,7 +161,8 @@ def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
 
 def _record(task: BenchmarkTask) -> ScoredRun:
     """The task's run recorded as `viewslam record` records it (recording, report and trajectory beside it)."""
-    from ..recording.session import RecordOptions, record_runs  # Rerun is loaded only by tasks that record
+    from ..record.options import RecordOptions  # Rerun is loaded only by tasks that record
+    from ..record.session import record_runs
 
     options = RecordOptions(sequence=str(task.sequence), out=task.recording, max_frames=task.max_frames,
                             seed=task.seed, quiet=True)

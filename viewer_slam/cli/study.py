@@ -57,7 +57,7 @@ def study(
     written = write_all(out, runs, found, base, command)
     if record:
         from ..geometry.trajectory_formats import TrajectoryFormat
-        from ..recording.trajectory_files import record_trajectory_files
+        from ..record.files import record_trajectory_files
         from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
 
         for sequence in selected:

@@ -17,136 +17,34 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
-import json
 import sys
-from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from collections.abc import Iterator
 from functools import partial
 from pathlib import Path
-from typing import Any
 
 from .. import palette
-from ..atomic import StagedFiles, check_writable, exclusive, refuse_inputs_as_outputs
+from ..atomic import StagedFiles, exclusive
 from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_frames
-from ..dataset.sources import NotABag, RgbdSequence, open_source
 from ..errors import InputError
 from ..geometry.trajectory import Trajectory, write_tum
-from ..geometry.trajectory_formats import TrajectoryFormat
 from ..pipelines.base import Pipeline
+from ..recording.blueprint import default_blueprint
+from ..recording.console import RecordProgress
+from ..recording.interrupt import StopRequest
+from ..recording.loss_causes import log_loss_causes
+from ..recording.recorder import PipelineRecorder, log_frame_image, log_world
+from ..recording.rrd_file import RecordingFile
+from ..recording.sizes import extent
+from ..recording.timelines import log_evaluation
+from ..recording.viewer import LiveViewer, live_viewer
 from ..runs.replay import EstimateReplay
 from ..runs.report import build_report, write_report
 from ..runs.selection import run_specs, select_runs
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
-from .blueprint import default_blueprint
-from .console import RecordProgress
-from .interrupt import StopRequest
-from .loss_causes import log_loss_causes
-from .recorder import PipelineRecorder, log_frame_image, log_world
-from .rrd_file import RecordingFile
-from .sizes import extent
-from .timelines import log_evaluation
-from .viewer import LiveViewer, live_viewer
-
-DEMO_SCENARIO = "360_kidnap"
-DEMO_FRAMES = 240
-DEMO_RESOLUTION = (320, 240)
-DEMO_OUT = Path("recordings/demo.rrd")
-
-# open_bag's keywords and the flags that set them.
-BAG_FLAGS = {"rgb_topic": "--rgb-topic", "depth_topic": "--depth-topic", "camera_info_topic": "--camera-info-topic",
-             "groundtruth": "--groundtruth", "groundtruth_topic": "--groundtruth-topic"}
-BagOptions = dict[str, Any]
-
-
-@dataclass
-class RecordOptions:
-    """The `viewslam record` command line, as data. ``sequence=None`` is the built-in demo.
-
-    ``pipeline=None`` runs both built-in pipelines, or none when there are ``estimates``
-    (``NAME=FILE`` each, read in ``format`` or a detected one). The bag options apply to a
-    ROS bag only (see :func:`~viewer_slam.dataset.rosbag.open_bag`).
-    """
-
-    sequence: str | None = None
-    pipeline: str | None = None
-    out: Path | None = None
-    max_frames: int | None = None
-    stride: int = 1
-    params: list[str] = field(default_factory=list)
-    config: Path | None = None
-    seed: int = 0
-    quiet: bool = False
-    spawn: bool = False
-    connect: str | None = None
-    estimates: list[str] = field(default_factory=list)
-    format: TrajectoryFormat | None = None
-    bag: BagOptions = field(default_factory=dict)
-
-
-@dataclass
-class RecordResult:
-    recording: Path
-    report_path: Path
-    trajectories: dict[str, Path]
-    report: dict[str, Any]
-    written: list[Path] = field(default_factory=list)
-    scored: dict[str, ScoredRun] = field(default_factory=dict)
-
-    @property
-    def interrupted(self) -> bool:
-        return self.report["interrupted"]
-
-
-def output_path(sequence: str | None, out: Path | None) -> Path:
-    """``--out``, else ``recordings/<sequence name>.rrd`` (``recordings/demo.rrd`` for the demo;
-    a ROS 1 bag's name without ``.bag``)."""
-    if out is not None:
-        return Path(out)
-    if sequence is None:
-        return DEMO_OUT
-    path = Path(sequence.rstrip("/"))
-    return Path("recordings") / f"{path.stem if path.suffix == '.bag' else path.name}.rrd"
-
-
-def check_outputs(out: Path, pipelines: list[str], inputs: dict[Path, str] | None = None) -> None:
-    """Fail now, not after an hour of processing, if the recording or a file beside it cannot be
-    written, or would replace one of the ``inputs`` (path -> how it was given)."""
-    if out.suffix != ".rrd":
-        raise InputError.at(out, "the recording must have the .rrd extension")
-    if out.is_dir():
-        raise InputError.at(out, "is a folder; --out takes a file name ending in .rrd")
-    report, trajectories = report_paths(out, pipelines)
-    refuse_inputs_as_outputs({path: "--out" for path in (out, report, *trajectories.values())},
-                             inputs or {})
-    for path in (out, report, *trajectories.values()):
-        check_writable(path)
-
-
-def open_input(sequence: str | None, bag: BagOptions | None = None, first: int | None = None,
-               progress: bool = False) -> RgbdSequence:
-    """The sequence to record; ``bag`` options (set ones only) for a ROS bag, an error for anything else.
-
-    A synthetic scenario (or the demo) is rendered up to frame ``first`` only, showing
-    ``progress`` on stderr.
-    """
-    if sequence is None:
-        from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
-
-        source: str | Path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION,
-                                             first=first, progress=progress)
-    else:
-        source = sequence
-    try:
-        return open_source(source, bag=bag, first=first, progress=progress)
-    except NotABag as error:
-        flag = BAG_FLAGS[error.option]
-        alone = " (without SEQUENCE, --groundtruth records trajectory files alone)" if flag == "--groundtruth" else ""
-        raise InputError(f"{flag}: only for a ROS bag, and {sequence or 'the demo'} is not one{alone}") from None
-
-
-def report_paths(out: Path, pipelines: list[str]) -> tuple[Path, dict[str, Path]]:
-    """``NAME.json`` and ``NAME.<pipeline>.txt`` beside ``NAME.rrd``."""
-    return out.with_suffix(".json"), {name: out.with_name(f"{out.stem}.{name}.txt") for name in pipelines}
+from .files import is_files_only, record_files
+from .inputs import open_input
+from .options import RecordOptions, RecordResult
+from .outputs import check_outputs, earlier_trajectories, output_path, report_paths, write_staged
 
 
 class GuardedSequence(TimedFrames):
@@ -175,8 +73,7 @@ class GuardedSequence(TimedFrames):
 
 def record(options: RecordOptions) -> RecordResult:
     """Check the options, then record every selected run (see the module docstring); ``--groundtruth``
-    without a sequence records trajectory files alone (:mod:`.trajectory_files`)."""
-    from .trajectory_files import is_files_only, record_files  # it builds on this module
+    without a sequence records trajectory files alone (:mod:`.files`)."""
 
     if is_files_only(options):
         return record_files(options)
@@ -308,24 +205,6 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                         scored_runs)
 
 
-def earlier_trajectories(out: Path) -> list[Path]:
-    """The trajectory files of the run recorded at ``out`` before, as its report lists them (none
-    when it has no readable report)."""
-    try:
-        pipelines = json.loads(out.with_suffix(".json").read_text())["pipelines"]
-        return list(report_paths(out, [str(name) for name in pipelines])[1].values())
-    except (OSError, ValueError, KeyError, TypeError):
-        return []
-
-
 def _counts_features(run: Pipeline) -> bool:
     """Whether the run measures features, matches and inliers: an imported estimate has only poses."""
     return run.source != "estimate"
-
-
-def write_staged(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
-    """``write`` to ``target``'s temporary file; a failure (a full disk) is one line naming ``target``."""
-    try:
-        write(staged.path(target))
-    except OSError as error:
-        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None

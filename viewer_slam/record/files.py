@@ -1,0 +1,104 @@
+"""`viewslam record --groundtruth FILE --estimate NAME=FILE ...`: trajectory files alone, scored as
+``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajectory_files`) and recorded as
+:mod:`viewer_slam.recording.trajectory_files` lays them out, the report and trajectories beside
+the recording as ``record`` writes them.
+"""
+
+import sys
+from functools import partial
+from pathlib import Path
+
+from ..atomic import StagedFiles, exclusive
+from ..errors import InputError
+from ..geometry.trajectory import write_tum
+from ..geometry.trajectory_formats import TrajectoryFormat
+from ..recording.blueprint import files_blueprint
+from ..recording.rrd_file import RecordingFile
+from ..recording.trajectory_files import log_files
+from ..recording.viewer import LiveViewer, live_viewer
+from ..runs.replay import named_estimates
+from ..runs.report import write_report
+from ..runs.trajectory_files import score_files
+from .options import BAG_FLAGS, RecordOptions, RecordResult
+from .outputs import check_outputs, earlier_trajectories, report_paths, write_staged
+
+FILES_ONLY = "a recording of trajectory files alone (--groundtruth without SEQUENCE)"
+
+
+def is_files_only(options: RecordOptions) -> bool:
+    """``--groundtruth`` with no SEQUENCE: trajectory files alone (with a SEQUENCE it is a bag's groundtruth)."""
+    return options.sequence is None and options.bag.get("groundtruth") is not None
+
+
+def check_files_options(options: RecordOptions) -> None:
+    """Refuse, in one line naming the option, what a recording of trajectory files alone cannot use."""
+    if options.pipeline is not None:
+        raise InputError(f"--pipeline: {FILES_ONLY} has no images to run a pipeline on; give SEQUENCE to run one")
+    if not options.estimates:
+        raise InputError(f"--groundtruth {options.bag['groundtruth']}: {FILES_ONLY} needs at least one "
+                         f"--estimate NAME=FILE")
+    frame_options = {"--max-frames": options.max_frames is not None, "--stride": options.stride != 1,
+                     "--param": bool(options.params), "--config": options.config is not None}
+    for flag, given in frame_options.items():
+        if given:
+            raise InputError(f"{flag}: applies to a sequence's frames and pipelines; {FILES_ONLY} has neither")
+    for key, value in options.bag.items():
+        if key != "groundtruth" and value is not None:
+            raise InputError(f"{BAG_FLAGS[key]}: only for a ROS bag given as SEQUENCE")
+
+
+def record_files(options: RecordOptions) -> RecordResult:
+    """`viewslam record --groundtruth FILE --estimate NAME=FILE ...`: the options checked, then recorded.
+
+    ``--out`` defaults to ``recordings/<groundtruth file name without extension>.rrd``.
+    """
+    check_files_options(options)
+    groundtruth = Path(options.bag["groundtruth"])
+    out = options.out if options.out is not None else Path("recordings") / f"{groundtruth.stem}.rrd"
+    return record_trajectory_files(groundtruth, named_estimates(options.estimates, []), Path(out),
+                                   format=options.format, quiet=options.quiet,
+                                   viewer=live_viewer(options.spawn, options.connect, Path(out)))
+
+
+def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
+                            format: TrajectoryFormat | None = None, name: str | None = None,
+                            viewer: LiveViewer | None = None,
+                            quiet: bool = True) -> RecordResult:
+    """Record the ``(name, file)`` estimates against the groundtruth file into ``out`` (.rrd), the
+    report and trajectories beside it (module docstring).
+
+    ``format`` is every estimate's (default: detected; unless ``quiet``, stderr says which was
+    read); ``name`` names the groundtruth in the report and summary (default: its file name
+    without extension); ``viewer`` is also shown the recording live. Outputs are checked before anything is read, never replace an input,
+    and are written under temporary names renamed into place together at the end.
+    """
+    names = [run for run, _ in estimates]
+    inputs = {Path(groundtruth): f"--groundtruth {groundtruth}",
+              **{Path(file): f"--estimate {run}={file}" for run, file in estimates}}
+    check_outputs(out, names, inputs)
+    with exclusive([out]):
+        scored = score_files(groundtruth, estimates, format, name)
+        if not quiet:
+            how = "given" if format else "detected"
+            for run in scored.runs:
+                print(f"estimate {run.name}: {run.path} read as {run.format} ({how})", file=sys.stderr)
+        report = scored.report()
+        report_path, trajectory_paths = report_paths(out, names)
+        earlier = earlier_trajectories(out)
+        error_top = max(float(run.ate.errors.max()) for run in scored.runs)
+        with StagedFiles() as staged:
+            recording = RecordingFile(staged.path(out), out,
+                                      files_blueprint(names, scored.groundtruth.poses, error_top), viewer)
+            try:
+                log_files(recording.stream, scored, error_top)
+            finally:
+                recording.close()
+            if recording.error is not None:
+                raise InputError(f"{out}: recording not written: {recording.error}")
+            for run in scored.runs:
+                write_staged(trajectory_paths[run.name], partial(write_tum, trajectory=run.trajectory), staged)
+            write_staged(report_path, lambda path: write_report(path, report), staged)
+            staged.commit()
+    for path in set(earlier) - set(trajectory_paths.values()):
+        path.unlink(missing_ok=True)  # the earlier recording's, which the report now in place does not list
+    return RecordResult(out, report_path, trajectory_paths, report, [out, report_path, *trajectory_paths.values()])
