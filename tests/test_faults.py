@@ -170,7 +170,7 @@ def test_a_second_stop_signal_repeats_the_request_and_a_third_aborts(stops, caps
     """Signals of one kind sent together reach a process as one (the kernel does not queue
     them), so the second Ctrl-C is raised here, once the first has been handled."""
     from viewer_slam.errors import Interrupted
-    from viewer_slam.recording.interrupt import StopRequest
+    from viewer_slam.record.interrupt import StopRequest
 
     with StopRequest().installed() as stop:
         for stop_signal in stops[:2]:
@@ -305,7 +305,7 @@ def test_the_record_summary_is_not_cut_on_a_narrow_console():
 
     from rich.console import Console
 
-    from viewer_slam.recording.console import print_summary
+    from viewer_slam.record.console import print_summary
 
     block = {"frames_with_pose": 1234, "coverage": {"ratio": 0.5}, "ate": {"rmse": 0.123456},
              "penalized_ate": {"rmse": 1.5}, "rpe": None, "loop_closures": {"accepted": 12, "rejected": 345},

@@ -42,10 +42,10 @@ from viewer_slam.pipelines.events import (
     TrajectoryFinal,
 )
 from viewer_slam.pipelines.params import PipelineParams
+from viewer_slam.record.console import print_summary
 from viewer_slam.record.options import RecordOptions
 from viewer_slam.record.session import record
 from viewer_slam.recording.budget import SnapshotBudget
-from viewer_slam.recording.console import print_summary
 from viewer_slam.recording.fit import CONTINUATION, LOG_LINE_CHARS
 from viewer_slam.recording.images import depth_png
 from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts

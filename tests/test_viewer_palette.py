@@ -8,7 +8,7 @@ from test_recorder import recorded, tum_folder  # noqa: F401  (fixtures)
 
 from viewer_slam import palette
 from viewer_slam.benchmark.plots import plot_metric
-from viewer_slam.recording.console import print_summary
+from viewer_slam.record.console import print_summary
 
 PIPELINES = ("rgbdslam", "rtabmap")
 

@@ -49,9 +49,9 @@ def record_command(
     """Run SLAM pipelines over SEQUENCE (a TUM folder, scenario, TUM name or ROS bag) into a Rerun
     recording, with a report and trajectories; --estimate adds other systems' trajectories as runs.
     --groundtruth FILE with no SEQUENCE records the --estimate files alone against it."""
+    from ..record.console import print_summary
     from ..record.options import RecordOptions
     from ..record.session import record
-    from ..recording.console import print_summary
 
     bag = {"rgb_topic": rgb_topic, "depth_topic": depth_topic, "camera_info_topic": camera_info_topic,
            "groundtruth": groundtruth, "groundtruth_topic": groundtruth_topic}

@@ -29,8 +29,6 @@ from ..errors import InputError
 from ..geometry.trajectory import Trajectory, write_tum
 from ..pipelines.base import Pipeline
 from ..recording.blueprint import default_blueprint
-from ..recording.console import RecordProgress
-from ..recording.interrupt import StopRequest
 from ..recording.loss_causes import log_loss_causes
 from ..recording.recorder import PipelineRecorder, log_frame_image, log_world
 from ..recording.rrd_file import RecordingFile
@@ -41,8 +39,10 @@ from ..runs.replay import EstimateReplay
 from ..runs.report import build_report, write_report
 from ..runs.selection import run_specs, select_runs
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
+from .console import RecordProgress
 from .files import is_files_only, record_files
 from .inputs import open_input
+from .interrupt import StopRequest
 from .options import RecordOptions, RecordResult
 from .outputs import check_outputs, earlier_trajectories, output_path, report_paths, write_staged
 
