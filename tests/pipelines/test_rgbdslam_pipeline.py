@@ -27,7 +27,7 @@ from viewer_slam.pipelines.events import (
 from viewer_slam.pipelines.rgbdslam import RgbdSlamParams
 from viewer_slam.pipelines.run import run_pipeline
 
-TUM_EXCERPT = Path(__file__).resolve().parents[2] / "shared/data/tum/rgbd_dataset_freiburg1_rpy"
+TUM_EXCERPT = Path(__file__).resolve().parents[3] / "shared/data/tum/rgbd_dataset_freiburg1_rpy"
 RESOLUTION = (320, 240)
 
 

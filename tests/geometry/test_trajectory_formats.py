@@ -1,10 +1,10 @@
 """TUM, KITTI and EuRoC/ASL trajectory files: detection, exact reading, and one-line errors."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 from fixtures_eval import perturbed, random_walk
+from trajectory_writers import nanoseconds, write_euroc, write_kitti
 
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
@@ -16,25 +16,6 @@ EUROC_GROUNDTRUTH_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m
                             "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], "
                             "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
                             "b_a_RS_S_z [m s^-2]")
-
-
-def write_kitti(path: Path, trajectory: Trajectory) -> Path:
-    """3x4 ``[R | t]`` row-major per line, full double precision."""
-    path.write_text("".join(" ".join(f"{v:.17g}" for v in pose[:3].reshape(-1)) + "\n" for pose in trajectory.poses))
-    return path
-
-
-def nanoseconds(stamps: np.ndarray) -> list[int]:
-    return [round(stamp * 1e9) for stamp in stamps]
-
-
-def write_euroc(path: Path, trajectory: Trajectory, header: str = "#timestamp [ns],tx,ty,tz,qw,qx,qy,qz",
-                extra_columns: int = 0) -> Path:
-    t, q = pose_to_tq(trajectory.poses)
-    rows = [",".join([str(ns), *(f"{v:.17g}" for v in (*p, r[3], r[0], r[1], r[2])), *["0.5"] * extra_columns])
-            for ns, p, r in zip(nanoseconds(trajectory.timestamps), t, q)]
-    path.write_text(header + "\n" + "\n".join(rows) + "\n")
-    return path
 
 
 @pytest.fixture

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fixtures_eval import TUM_RPY
 from rerun.chunk import RrdReader
-from test_recorder import serve_scripted_pipeline, write_tum_folder
+from scripted_circle import serve_scripted_pipeline, write_tum_folder
 
 from viewer_slam import palette
 from viewer_slam.cli import main

@@ -17,7 +17,7 @@ from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.schemas import load_schema, schema_names, validator
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 OURS = ("report", "evaluate", "benchmark_results", "study_results")
 
 

@@ -12,7 +12,7 @@ from viewer_slam.geometry.trajectory import Trajectory
 # The shared data sits beside the checkout (``/work/shared`` for ``/work/main``, also for a
 # worktree deeper down): the nearest ancestor that has it.
 SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents
-                    if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[2] / "shared" / "data")
+                    if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[3] / "shared" / "data")
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 

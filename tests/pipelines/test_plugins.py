@@ -1,4 +1,4 @@
-"""Third-party pipelines: real `pip install`s of the plugin packages in tests/plugins, then the CLI."""
+"""Third-party pipelines: real `pip install`s of the plugin packages in tests/pipelines/plugins, then the CLI."""
 
 import json
 import os
@@ -9,13 +9,13 @@ from importlib.metadata import EntryPoint
 from pathlib import Path
 
 import pytest
-from benchmark_fake_pipeline import FakeParams, FakePipeline, write_tum_folder
+from benchmark_fake_pipeline import FakePipeline, write_tum_folder
 
 from viewer_slam.errors import InputError
-from viewer_slam.pipelines.base import ENTRY_POINT_GROUP, Pipeline, load_plugin
+from viewer_slam.pipelines.base import ENTRY_POINT_GROUP, load_plugin
 
 PLUGINS = Path(__file__).parent / "plugins"
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -101,25 +101,12 @@ def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     assert "stationary" in (tmp_path / "results/report.md").read_text()
 
 
-class HalfPipeline(Pipeline):
-    """Tracks frames but never finishes."""
-
-    Params = FakeParams
-
-    def process(self, frame):
-        return []
-
-
-class UnparametrisedPipeline(FakePipeline):
-    Params = dict
-
-
 @pytest.mark.parametrize("name, value, problem", [
     ("rgbdslam", "benchmark_fake_pipeline:FakePipeline", "the name is taken by a built-in pipeline"),
-    ("half", "test_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
-    ("bare", "test_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"),
+    ("half", "broken_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
+    ("bare", "broken_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"),
     ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
-    ("raising", "test_plugins:no_such_name", "cannot be imported: AttributeError: "),
+    ("raising", "broken_plugins:no_such_name", "cannot be imported: AttributeError: "),
 ])
 def test_what_a_plugin_must_be(name, value, problem):
     with pytest.raises(InputError) as raised:

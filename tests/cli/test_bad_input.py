@@ -553,7 +553,7 @@ def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, 
         (out / name).write_bytes(content)
     folder = seq if locked == "sequence" else seq.parent
     folder.chmod(mode)
-    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     try:
         assert subprocess.run(bound_by_modes(["test", "-r", str(seq / "rgb.txt")])).returncode == 1  # denied
         result = subprocess.run(bound_by_modes([sys.executable, "-m", "viewer_slam", "record", str(seq), "--out",

@@ -18,7 +18,7 @@ from viewer_slam.cli import main
 
 pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(sys.executable).parent
 TMPFS_BYTES = 600 * 1024
 FRAMES = 60

@@ -30,7 +30,7 @@ import cv2
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
-from test_recorder import MAP_FROM_WORLD, ScriptedPipeline, write_tum_folder
+from scripted_circle import MAP_FROM_WORLD, ScriptedPipeline, write_tum_folder
 
 from viewer_slam import palette
 from viewer_slam.cli.view import free_port

@@ -10,7 +10,7 @@ from pathlib import Path
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
-LOCK = Path(__file__).resolve().parents[1] / "requirements" / "test.txt"
+LOCK = Path(__file__).resolve().parents[2] / "requirements" / "test.txt"
 
 
 def locked() -> dict[str, str]:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 from fixtures_eval import TRAJECTORIES, TUM_RPY, perturbed
-from test_trajectory_formats import write_euroc, write_kitti
+from trajectory_writers import write_euroc, write_kitti
 
 from viewer_slam.cli import main
 from viewer_slam.dataset.sources import open_source

@@ -4,7 +4,6 @@ import re
 
 from rerun.chunk import RrdReader
 from rich.console import Console
-from test_recorder import recorded, tum_folder  # noqa: F401  (fixtures)
 
 from viewer_slam import palette
 from viewer_slam.benchmark.plots import plot_metric

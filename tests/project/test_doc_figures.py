@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 from fixtures_eval import TUM_RPY
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("doc_figures", REPO / "scripts" / "doc_figures.py")
 doc_figures = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(doc_figures)

@@ -81,7 +81,7 @@ def test_ray_gives_the_local_results(tmp_path, monkeypatch):
     pytest.importorskip("ray")
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
     # Ray's workers are fresh interpreters: they find the scripted pipeline's module via PYTHONPATH.
-    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))
+    monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parents[1] / "helpers"))
     tasks = plan_tasks(["360_kidnap"], ["rgbdslam", "rtabmap"], scenario_frames=FRAMES, resolution=(160, 120))
     crash = BenchmarkTask(name="crash", sequence=tasks[0].sequence, pipeline="fake", params=FakeParams(fail="exit"))
     local = run_tasks(tasks, LocalExecutor(jobs=2))
