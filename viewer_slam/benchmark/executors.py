@@ -38,7 +38,7 @@ def run_tasks(tasks: Sequence[BenchmarkTask], executor: Executor, *,
               on_start: Callable[[BenchmarkTask], None] = lambda task: None,
               on_finish: Callable[[BenchmarkTask, TaskResult], None] = lambda task, result: None) -> list[TaskResult]:
     """Run every task on ``executor``; results in the order of ``tasks``."""
-    results: list[TaskResult | None] = [None] * len(tasks)
+    results: dict[int, TaskResult] = {}
     queue = deque(range(len(tasks)))
     in_flight: dict[Any, int] = {}
     with executor:
@@ -51,7 +51,7 @@ def run_tasks(tasks: Sequence[BenchmarkTask], executor: Executor, *,
                 index = in_flight.pop(handle)
                 results[index] = executor.result(handle, tasks[index])
                 on_finish(tasks[index], results[index])
-    return results
+    return [results[index] for index in range(len(tasks))]
 
 
 def _worker_pool(workers: int) -> ProcessPoolExecutor:
@@ -82,15 +82,21 @@ class LocalExecutor:
         return self
 
     def __exit__(self, *exc) -> None:
-        self._pool.shutdown(wait=exc[0] is None, cancel_futures=True)  # an interrupt does not wait for tasks
+        self._started().shutdown(wait=exc[0] is None, cancel_futures=True)  # an interrupt does not wait for tasks
 
     def submit(self, task: BenchmarkTask) -> Future:
         try:
-            return self._pool.submit(execute_task, task)
+            return self._started().submit(execute_task, task)
         except BrokenProcessPool:
-            self._pool.shutdown(wait=False)
+            self._started().shutdown(wait=False)
             self._pool = _worker_pool(self.slots)
             return self._pool.submit(execute_task, task)
+
+    def _started(self) -> ProcessPoolExecutor:
+        """The pool ``__enter__`` started: tasks are submitted inside the ``with`` block only."""
+        if self._pool is None:
+            raise RuntimeError("LocalExecutor used outside its with block")
+        return self._pool
 
     def wait(self, handles: list[Future]) -> list[Future]:
         return list(wait(handles, return_when=FIRST_COMPLETED).done)

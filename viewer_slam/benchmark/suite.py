@@ -27,8 +27,8 @@ class BenchmarkOutcome:
 def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: ResultCache | None = None,
                   *, progress: bool = True) -> BenchmarkOutcome:
     """Results for ``tasks``; cached ones are not re-run, new successes are cached."""
-    results = {index: cache.load(task) for index, task in enumerate(tasks)} if cache is not None else {}
-    results = {index: result for index, result in results.items() if result is not None}
+    cached = {index: cache.load(task) for index, task in enumerate(tasks)} if cache is not None else {}
+    results: dict[int, TaskResult] = {index: result for index, result in cached.items() if result is not None}
     pending = [index for index in range(len(tasks)) if index not in results]
     position = {id(tasks[index]): index for index in pending}
     running: list[str] = []

@@ -1,9 +1,10 @@
 """`viewslam evaluate`: score trajectory files against groundtruth, one table row per estimate."""
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import typer
@@ -151,11 +152,12 @@ def evaluate_command(
     if repeated is not None:
         raise InputError.at(repeated, "given twice as an estimate")
     estimated, formats = zip(*(_read_estimate(path, format, clock, estimate_topic) for path in estimates))
+    coverage_span = cast(Span | None, span) or clock.span  # --span's callback (parse_span) made it a Span
     evaluations = []
     for path, trajectory in zip(estimates, estimated):
         evaluation = evaluate(reference, trajectory, max_difference=max_difference, offset=offset,
                               align=Alignment.SIM3 if scale else align, delta=delta, delta_unit=delta_unit,
-                              all_deltas=all_deltas, span=span or clock.span, frame_period=clock.frame_period,
+                              all_deltas=all_deltas, span=coverage_span, frame_period=clock.frame_period,
                               rpe_mode=rpe_mode)
         if evaluation.ate is None:
             raise InputError.at(path, why_no_pairs(reference, trajectory, offset, max_difference))
@@ -205,10 +207,10 @@ def _groundtruth_and_clock(path: Path, topic: str | None = None) -> tuple[Trajec
         raise InputError(f"--groundtruth-topic: only for a ROS bag, and {path} is not one")
     if not path.is_dir():
         return read_tum(path), Clock()
-    sequence = open_source(path)
-    if sequence.groundtruth is None:
+    folder = open_source(path)
+    if folder.groundtruth is None:
         raise InputError.at(path, "sequence has no groundtruth.txt")
-    return sequence.groundtruth, _clock_of(sequence)
+    return folder.groundtruth, _clock_of(folder)
 
 
 def _read_estimate(path: Path, format: TrajectoryFormat | None, clock: Clock,
@@ -235,11 +237,11 @@ def _clock_of(sequence) -> Clock:
     return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period, stamps)
 
 
-def plural(count: int, noun: str) -> str:
+def plural(count: float, noun: str) -> str:
     return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
 
 
-def _print_results(groundtruth: Path, labels: list[str], formats: list[str], evaluations: list[Evaluation]) -> None:
+def _print_results(groundtruth: Path, labels: list[str], formats: Sequence[str], evaluations: list[Evaluation]) -> None:
     """The legend of the columns (which alignment each uses), the table, and for each estimate the
     format it was read as and its coverage span."""
     first = evaluations[0]

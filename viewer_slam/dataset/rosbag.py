@@ -174,6 +174,7 @@ def open_bag(path: Path, *, rgb_topic: str | None = None, depth_topic: str | Non
         colour = _image_stream(path, reader, rgb_topic, "colour", COLOUR_ENCODINGS, "--rgb-topic")
         depth = _image_stream(path, reader, depth_topic, "depth", DEPTH_ENCODINGS, "--depth-topic")
         camera = _camera(path, reader, colour, camera_info_topic)
+        trajectory: Trajectory | None
         if groundtruth is not None:
             trajectory = read_trajectory(groundtruth)[0]
         elif groundtruth_topic is not None:
@@ -300,7 +301,7 @@ def _image_stream(path: Path, reader: AnyReader, topic: str | None, kind: str, e
     for connection, log_time, raw in _messages(path, reader, _connections(reader, chosen)):
         stamps.append(_stamp_ns(_deserialize(path, reader, raw, connection).header.stamp))
         log_times.append(log_time)
-    return _Stream(chosen, encoded[chosen], np.array(stamps, dtype=np.int64), np.array(log_times, dtype=np.int64))
+    return _Stream(chosen, str(encoded[chosen]), np.array(stamps, dtype=np.int64), np.array(log_times, dtype=np.int64))
 
 
 def _frame_id(path: Path, reader: AnyReader, topic: str) -> str:
@@ -369,11 +370,12 @@ def _tf_groundtruth(path: Path, reader: AnyReader, frame: str) -> Trajectory | N
                 stamp = _stamp_ns(transform.header.stamp)
                 entry[1].append((stamp, _pose(path, connection.topic, stamp, transform.transform.translation,
                                               transform.transform.rotation)))
-    chain, frame, seen = [], frame.strip("/"), set()
+    chain: list[Trajectory] = []
+    frame, seen = frame.strip("/"), set()
     while frame in samples and frame not in seen:  # up to the root
         seen.add(frame)
-        parent, edge = samples[frame]
-        chain.append(_trajectory([stamp for stamp, _ in edge], [pose for _, pose in edge]))
+        parent, timed_poses = samples[frame]
+        chain.append(_trajectory([stamp for stamp, _ in timed_poses], [pose for _, pose in timed_poses]))
         frame = parent
     moving = [edge for edge in chain if not (edge.poses == edge.poses[0]).all()]
     if not moving:
