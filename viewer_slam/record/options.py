@@ -40,6 +40,10 @@ class RecordOptions:
 
 @dataclass
 class RecordResult:
+    """What a record wrote (``written``, the files that exist) and the report it wrote; ``scored`` holds
+    each run's scores for a caller that goes on with them (a benchmark task).
+    """
+
     recording: Path
     report_path: Path
     trajectories: dict[str, Path]

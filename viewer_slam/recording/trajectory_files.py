@@ -1,4 +1,4 @@
-"""A recording of trajectory files alone: ``viewslam record --groundtruth FILE --estimate NAME=FILE ...``.
+"""What a recording of trajectory files alone holds (``viewslam record --groundtruth FILE --estimate NAME=FILE ...``).
 
 With no sequence there are no images and no camera: the recording shows what the files can
 show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajectory_files`):
@@ -15,8 +15,8 @@ show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajec
 The ``frame`` timeline counts the groundtruth's poses (each instant at the nearest one),
 ``time`` is the files' own clock. A run's series are logged at its poses and, inside its
 lost intervals, once per pose interval of the run, so the plots break where it had no
-pose and the lost band runs through that time. Beside ``NAME.rrd`` go ``NAME.json`` (the
-run report, every run an estimate) and ``NAME.<run>.txt`` (TUM), as ``record`` writes them.
+pose and the lost band runs through that time. The files are scored, and the report and
+trajectories written beside the recording, by :mod:`viewer_slam.record.files`.
 """
 
 import numpy as np
