@@ -138,10 +138,13 @@ class _Problem:
             self.held_rotation[rows], self.held_translation[rows] = to_camera[:3, :3], to_camera[:3, 3]
         self.camera = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance,
                                 settings.kernel_delta], dtype=np.float64)
+        self.link_to_measured: np.ndarray
+        self.link_information: np.ndarray
         self.link_to_measured, self.link_information = (link_terms(held[link.frame], link) if link is not None
                                                          else (np.eye(4), np.zeros(6)))
 
-    def edges(self):
+    def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                             np.ndarray, np.ndarray]:
         """The edge arrays, camera and link, as the compiled solver takes them."""
         return (self.point, self.free, self.stereo, self.measured, self.held_rotation, self.held_translation,
                 self.camera, self.link_to_measured, self.link_information)

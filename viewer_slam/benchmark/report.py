@@ -109,6 +109,7 @@ def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) ->
         written.append(path)
         for result in group:
             trajectory = path.with_name(f"{path.stem}.{result.pipeline}.txt")
+            assert result.trajectory is not None  # an ok result carries its run's trajectory
             staged.path(trajectory).write_text(result.trajectory)
             written.append(trajectory)
     return written
@@ -179,6 +180,7 @@ def findings(results: list[TaskResult]) -> list[str]:
 def tracking_finding(result: TaskResult) -> str | None:
     """Where ``result``'s pipeline had no pose, for how long, and whether it came back."""
     row = result_row(result)
+    assert result.time_span is not None  # an ok result carries its time span
     start, end = result.time_span
     who = f"**{result.pipeline}** on *{result.sequence}*"
     if not row["frames_with_pose"]:
@@ -186,6 +188,7 @@ def tracking_finding(result: TaskResult) -> str | None:
     intervals = row["lost_intervals"] or []
     if not intervals:
         return None
+    assert result.report is not None  # an ok result carries its report
     events = result.report.get("tracking_lost") or []
     parts = []
     for lost_from, lost_to in intervals:
@@ -200,7 +203,9 @@ def tracking_finding(result: TaskResult) -> str | None:
 
 def cause_findings(result: TaskResult) -> list[str]:
     """The diagnosed cause of each of ``result``'s losses, one line each."""
-    return [f"*{result.sequence}*: {event['text']}" for event in result.report.get("tracking_lost") or []
+    report = result.report
+    assert report is not None  # an ok result carries its report
+    return [f"*{result.sequence}*: {event['text']}" for event in report.get("tracking_lost") or []
             if "text" in event]
 
 

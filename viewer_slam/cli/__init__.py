@@ -15,6 +15,7 @@ import tempfile
 import time
 import traceback
 from pathlib import Path
+from typing import Protocol, cast
 
 from ..errors import InputError, Interrupted
 
@@ -64,11 +65,12 @@ def _run(argv: list[str] | None) -> int:
     except _typer_exception("Abort"):
         return _interrupted()
     except _typer_exception("TyperException") as error:  # usage errors: unknown option, missing argument
-        if not error.format_message():  # bare `viewslam`: help was printed
+        usage_error = cast(_UsageError, error)
+        if not usage_error.format_message():  # bare `viewslam`: help was printed
             return 0
         context = getattr(error, "ctx", None)
         command = context.command_path if context is not None else "viewslam"
-        _error_line(f"{command}: error: {error.format_message()}")
+        _error_line(f"{command}: error: {usage_error.format_message()}")
         return EXIT_BAD_INPUT
     except (Interrupted, KeyboardInterrupt):
         return _interrupted()
@@ -156,15 +158,22 @@ class _Never(Exception):
     pass
 
 
+class _UsageError(Protocol):
+    """What the command line reads of typer's usage errors (click's ``ClickException``)."""
+
+    def format_message(self) -> str: ...
+
+
 def _raised_by_an_interrupt(error: BaseException) -> bool:
     """Whether ``error`` wraps a Ctrl-C or stop signal: a compiled extension that is interrupted while
     it loads re-raises the signal's exception as ``ImportError: initialization failed`` (pybind11)."""
-    seen = set()
-    while error is not None and id(error) not in seen:
-        if isinstance(error, (Interrupted, KeyboardInterrupt)):
+    seen: set[int] = set()
+    link: BaseException | None = error
+    while link is not None and id(link) not in seen:
+        if isinstance(link, (Interrupted, KeyboardInterrupt)):
             return True
-        seen.add(id(error))
-        error = error.__cause__ or error.__context__
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
     return False
 
 

@@ -138,4 +138,4 @@ def _log_series(stream: rr.RecordingStream, path: str, frames: np.ndarray, stamp
     send_frame_columns(stream, path, frames[present], stamps[present], rr.Scalars.columns(scalars=values[present]))
     breaks = gap_starts(present)
     send_frame_columns(stream, path, frames[breaks], stamps[breaks],
-                       rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+                       rr.Clear.columns(is_recursive=[False] * len(breaks)))

@@ -8,6 +8,8 @@ pipeline's map frame and are logged under ``world/<pipeline>``, whose transform 
 """
 
 import re
+from collections.abc import Callable
+from typing import Any
 
 import cv2
 import numpy as np
@@ -94,7 +96,7 @@ def pinhole(camera: Camera, color, depth: float, width: float = FRUSTUM_WIDTH) -
     """A frustum ``depth`` metres deep (see :mod:`.sizes`)."""
     return rr.Pinhole(image_from_camera=camera.K, resolution=[camera.width, camera.height],
                       camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=depth, color=color,
-                      line_width=rr.Radius.ui_points(width))
+                      line_width=float(np.asarray(rr.Radius.ui_points(width))))
 
 
 def lost_colour(colour: palette.Colour) -> tuple[int, int, int]:
@@ -182,7 +184,8 @@ class PipelineRecorder:
         self._edges_budget = SnapshotBudget(EDGES_BYTES_PER_FRAME)
         self._depth_budget = SnapshotBudget(DEPTH_BYTES_PER_FRAME)
         self._thumbnail_budget = SnapshotBudget(THUMBNAIL_BYTES_PER_FRAME)
-        self._handlers = {
+        # Each handler takes the event type it is keyed by.
+        self._handlers: dict[type, Callable[[Any], None]] = {
             FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
             FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
             GraphOptimized: self._graph_optimized, MapUpdated: self._map_updated,
@@ -217,7 +220,7 @@ class PipelineRecorder:
         batch would say nothing the Clear does not, and no chunk of the recording is empty."""
         self._log(path, make(instances) if len(instances) else rr.Clear(recursive=False), static=static)
 
-    def _text(self, message: str, level: str) -> None:
+    def _text(self, message: str, level: rr.TextLogLevel) -> None:
         """A log message, in rows that the log view shows whole; the pipeline leads the text since
         log views truncate the entity path."""
         for row in log_rows(f"{self.name}: {message}"):
@@ -272,11 +275,11 @@ class PipelineRecorder:
                       pinhole(self.camera, lost_colour(self.colour), depth, LOST_FRUSTUM_WIDTH) if lost
                       else pinhole(self.camera, self.colour.rgb, depth))
         if changed:  # while lost, a label at the last pose says whose frustum it is
-            lost = status is TrackingStatus.LOST and self._last_pose is not None
+            last_pose = self._last_pose
             self._log(layout.lost_label(self.name),
-                      rr.Points3D([self._last_pose[:3, 3]], colors=[self.colour.rgb], radii=rr.Radius.ui_points(3.0),
+                      rr.Points3D([last_pose[:3, 3]], colors=[self.colour.rgb], radii=rr.Radius.ui_points(3.0),
                                   labels=[f"{self.name} lost"], show_labels=True)
-                      if lost else rr.Clear(recursive=False))
+                      if status is TrackingStatus.LOST and last_pose is not None else rr.Clear(recursive=False))
 
     def _feature_matches(self, event: FeatureMatches) -> None:
         """Lines from each keypoint to its match, inliers and outliers apart, thinned evenly."""

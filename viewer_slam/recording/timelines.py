@@ -91,7 +91,7 @@ def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation
         present[position[kept]] = True
         breaks = gap_starts(present)
         send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
-                           rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+                           rr.Clear.columns(is_recursive=[False] * len(breaks)))
     log_lost_band(stream, layout.metric(name, LOST_BAND), frame_indices, frame_timestamps,
                   lost_frames(frame_timestamps, evaluation.coverage.lost_intervals))
     if len(frame_timestamps) > 1:
@@ -106,7 +106,7 @@ def log_lost_band(stream: rr.RecordingStream, path: str, frame_indices: np.ndarr
     _send_series(stream, path, frame_indices[lost], frame_timestamps[lost], np.zeros(int(lost.sum())))
     breaks = gap_starts(lost)
     send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
-                       rr.Clear.columns(is_recursive=np.zeros(len(breaks), dtype=bool)))
+                       rr.Clear.columns(is_recursive=[False] * len(breaks)))
 
 
 def send_log_messages(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,

@@ -71,6 +71,13 @@ def parse_log(path: Path) -> dict[str, Printed]:
     return figures
 
 
+def _source_of(source: str, node: ast.expr) -> str:
+    """The text of ``node``; parsed from ``source``, it always carries its position."""
+    segment = ast.get_source_segment(source, node)
+    assert segment is not None
+    return segment
+
+
 def parse_chart(path: Path, variables: tuple[str, ...]) -> tuple[list[str], dict[str, list[Printed]]]:
     """The x tick labels (newlines removed) and, for each of ``variables``, the bar heights of a chart
     script (``rgbd = [ ... ]``), read from its syntax tree, never run."""
@@ -83,7 +90,7 @@ def parse_chart(path: Path, variables: tuple[str, ...]) -> tuple[list[str], dict
     for node in ast.walk(tree):
         if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name) \
                 and node.targets[0].id in variables and isinstance(node.value, ast.List):
-            bars[node.targets[0].id] = [Printed.parse(ast.get_source_segment(source, element).strip())
+            bars[node.targets[0].id] = [Printed.parse(_source_of(source, element).strip())
                                         for element in node.value.elts]
         if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "xticks" and len(node.args) == 2:
             labels = [" ".join(str(value).replace("/\n", "/").split()) for value in ast.literal_eval(node.args[1])]

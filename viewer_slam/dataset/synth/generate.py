@@ -22,7 +22,7 @@ import shutil
 import tempfile
 from collections import deque
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, ThreadPoolExecutor
 from pathlib import Path
 
 import cv2
@@ -254,7 +254,9 @@ class _Run:
         """Frames from the pool's ``size`` processes and from this one, which renders the next
         frame not yet handed out whenever the frame due is not ready: it works from the start,
         while the workers still import and build the scene, and takes over when they lag."""
-        queued, ready, handed = {}, {}, 0
+        queued: dict[int, Future[tuple[bytes, bytes]]] = {}
+        ready: dict[int, tuple[bytes, bytes]] = {}
+        handed = 0
         for i in range(count):
             while i not in ready:
                 while handed < count and sum(not f.done() for f in queued.values()) < 2 * size:
@@ -269,7 +271,7 @@ class _Run:
 
     def _encoded_in_process(self, count: int):
         with ThreadPoolExecutor(max_workers=2) as pool:
-            pending = deque()
+            pending: deque[Future[tuple[bytes, bytes]]] = deque()
             for i in range(count):
                 pending.append(pool.submit(writer.encode_frame, *self.frame(i), self.camera.depth_factor))
                 if len(pending) > 3:
@@ -328,6 +330,7 @@ def _start_worker(name: str, frames: int, camera: Camera, seed: int) -> None:
 
 
 def _worker_frame(i: int) -> tuple[bytes, bytes]:
+    assert _worker_run is not None  # the pool's initializer, _start_worker, ran first in this worker
     return _worker_run.encoded_frame(i)
 
 

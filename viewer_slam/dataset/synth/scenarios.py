@@ -213,13 +213,15 @@ def seated_person(rng, base: np.ndarray, sway: Callable, lift: Callable, shirt,
     stool = box(rng, (-0.05, 0, 0.2), (0.45, 0.45, 0.4), _flat((60, 60, 70), 6), 0.005)
     static = transformed(parts["legs"] + stool, base)
 
-    def torso_pose(t):
+    def torso_pose(t: float) -> np.ndarray:
         return base @ yaw_pose(0, 0, 0, sway(t))
 
     movers = [Mover(parts["torso"], torso_pose)]
     for side, (offset, arm) in enumerate(zip((-0.26, 0.26), parts["arms"])):
-        movers.append(Mover(arm, lambda t, side=side, offset=offset:
-                            torso_pose(t) @ yaw_pose(0.0, offset, 1.08, 0.0, -lift(t, side))))
+        def arm_pose(t: float, side: int = side, offset: float = offset) -> np.ndarray:
+            return torso_pose(t) @ yaw_pose(0.0, offset, 1.08, 0.0, -lift(t, side))
+
+        movers.append(Mover(arm, arm_pose))
     return static, movers
 
 

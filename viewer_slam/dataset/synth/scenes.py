@@ -8,6 +8,7 @@ texture detail a pixel sees. Moving things (people, a shifted object) are
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -63,7 +64,7 @@ def quad(rng, corner, edge_u, edge_v, painter: Painter, texel: float) -> Surface
     The texture reads the right way from the side that ``edge_v x edge_u`` points to.
     """
     corner, edge_u, edge_v = (np.asarray(a, np.float64) for a in (corner, edge_u, edge_v))
-    width, height, texel = texture_size(np.linalg.norm(edge_u), np.linalg.norm(edge_v), texel)
+    width, height, texel = texture_size(float(np.linalg.norm(edge_u)), float(np.linalg.norm(edge_v)), texel)
     vertices = np.stack([corner, corner + edge_u, corner + edge_u + edge_v, corner + edge_v])
     uvs = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
     return Surface(vertices, np.array([[0, 1, 2], [0, 2, 3]]), uvs, painter(rng, height, width), texel)
@@ -149,7 +150,15 @@ def desk(rng, corner, size=(1.6, 0.8, 0.74)) -> list[Surface]:
     return surfaces
 
 
-def person_parts(rng, shirt, trousers, skin=(205, 160, 130)) -> dict[str, list[Surface]]:
+class PersonParts(TypedDict):
+    """The separately movable parts of a person: static legs, a torso, and two arms."""
+
+    legs: list[Surface]
+    torso: list[Surface]
+    arms: list[list[Surface]]
+
+
+def person_parts(rng, shirt, trousers, skin=(205, 160, 130)) -> PersonParts:
     """A seated person in their own frame (origin on the floor below the seat, facing +x).
 
     Returned as named parts so that scenarios can move the torso and arms separately; each
@@ -174,4 +183,4 @@ def transformed(surfaces: Sequence[Surface], T: np.ndarray) -> list[Surface]:
 
 def yaw_pose(x: float, y: float, z: float, yaw: float, pitch: float = 0.0) -> np.ndarray:
     """Object pose from a position, a turn about the vertical and a tilt about the object's y axis."""
-    return make_pose(Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix() @ Rotation.from_rotvec([0.0, pitch, 0.0]).as_matrix(), [x, y, z])
+    return make_pose(Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix() @ Rotation.from_rotvec([0.0, pitch, 0.0]).as_matrix(), np.asarray([x, y, z], np.float64))

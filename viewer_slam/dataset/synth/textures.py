@@ -82,7 +82,8 @@ def fabric(rng, height, width, colour) -> np.ndarray:
 
 
 def random_colour(rng, low=0, high=255) -> tuple[int, int, int]:
-    return tuple(int(c) for c in rng.integers(low, high, 3))
+    red, green, blue = (int(c) for c in rng.integers(low, high, 3))
+    return red, green, blue
 
 
 def random_word(rng, length_range=(3, 9)) -> str:

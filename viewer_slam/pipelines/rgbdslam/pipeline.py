@@ -99,7 +99,12 @@ class TrackedFrame:
 
 def best_attempt(attempts: list[Attempt]) -> Attempt | None:
     """The successful attempt with most inliers (the earlier one on ties)."""
-    return max((a for a in attempts if a.motion is not None), key=lambda a: a.motion.inlier_count, default=None)
+    return max((a for a in attempts if a.motion is not None), key=_inlier_count, default=None)
+
+
+def _inlier_count(attempt: Attempt) -> int:
+    assert attempt.motion is not None  # best_attempt compares the successful attempts only
+    return attempt.motion.inlier_count
 
 
 def no_motion_information(gap_s: float) -> np.ndarray:
@@ -114,6 +119,7 @@ class RgbdSlam(Pipeline):
 
     name = "rgbdslam"
     Params = RgbdSlamParams
+    params: RgbdSlamParams
 
     def __init__(self, camera: Camera, params: RgbdSlamParams | None = None, seed: int = 0):
         super().__init__(camera, params, seed)
@@ -240,6 +246,7 @@ class RgbdSlam(Pipeline):
         if not self.lost:
             return TrackingStatus.OK
         self.lost = False
+        assert best.motion is not None  # recovered by a successful attempt
         events.append(TrackingRecovered(frame.index, frame.timestamp,
                                         f"relocalised against node {best.node_id} ({best.motion.inlier_count} inliers)"))
         return TrackingStatus.RELOCALISED
@@ -251,6 +258,7 @@ class RgbdSlam(Pipeline):
         inliers = 0
         if best is not None:
             motion = best.motion
+            assert motion is not None  # a frame's pose comes from a successful attempt
             reference = self.graph.nodes[best.node_id]
             current_keypoints = features.keypoints[features.has_depth][motion.frame_index]
             events.append(FeatureMatches(frame.index, f"node {best.node_id}", current_keypoints,
@@ -341,6 +349,7 @@ class RgbdSlam(Pipeline):
         else:
             node.segment = graph.segment[best.node_id]
             sequential = best_attempt([a for a in attempts if a.kind == PREDECESSOR]) or best
+            assert sequential.motion is not None and best.motion is not None  # best_attempt's choices succeeded
             odometry = graph.odometry[sequential.node_id] @ sequential.motion.transform
             # v2's no-motion edge also sets the new vertex's estimate to the newest node's pose.
             pose = graph.poses.poses[newest.node_id] if no_motion else graph.poses.poses[best.node_id] @ best.motion.transform

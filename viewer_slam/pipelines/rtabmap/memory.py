@@ -156,7 +156,7 @@ class Memory:
         recent = sum(1 for i in self.wm if i >= last) if last is not None else 0
         recent_immune = 1 < recent < recent_limit
         candidates = sorted((self.locations[i].weight, self.age[i], i) for i in self.wm
-                            if i != last and not (recent_immune and i > last) and i not in protected
+                            if i != last and not (recent_immune and last is not None and i > last) and i not in protected
                             and not stm.intersection(self.locations[i].links))
         chosen: list[int] = []
         recent_moved = 0

@@ -189,6 +189,7 @@ class FrameToMapOdometry:
             result = self._start_map(features)
             self.stamp = timestamp if result.pose is not None else None
             return result
+        assert self.pose is not None  # a started map started from a pose (_start_map)
         elapsed = timestamp - self.stamp if self.stamp is not None else 0.0
         guess = motion_over(self.velocity, elapsed) if self.velocity is not None and elapsed > 0 else None
         result = self._register(features, guess)
@@ -235,6 +236,7 @@ class FrameToMapOdometry:
         Reg/RepeatOnce: the whole-map ratio test leaves out every map point whose descriptor
         looks like another's, the window around its projection does not) on the features the
         first registration left (:func:`uncontested`)."""
+        assert self.pose is not None  # registration follows _start_map, which sets the pose
         result = None
         if guess is not None and self.params.guess_window > 0:
             predicted = self.pose @ guess
@@ -321,6 +323,7 @@ class FrameToMapOdometry:
                                            self._undistorted(features.keypoints[features_used]),
                                            features.points[features_used, 2], self.params.bundle_max_frames)
         last = self.key_frames.last
+        assert last is not None  # _start_map added the map's first key frame
         link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance.translation, variance.rotation)
         seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
         held = {frame: self.key_frames.poses[frame] for frame in seen_by}
@@ -353,6 +356,8 @@ class FrameToMapOdometry:
         feature carries its map word's id, inlier or not, so it is an observation of that word
         and never a new one)."""
         params = self.params
+        # A registered result (_solve's, with a pose) carries its matches.
+        assert result.pose is not None and result.map_index is not None and result.feature_index is not None
         inlier_points = result.map_index[result.match_inliers]
         self.map.observe(inlier_points, self.frame_count)
         if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0

@@ -62,6 +62,7 @@ class Rtabmap(Pipeline):
 
     name = "rtabmap"
     Params = RtabmapParams
+    params: RtabmapParams
 
     def __init__(self, camera: Camera, params: RtabmapParams | None = None, seed: int = 0):
         super().__init__(camera, params, seed)
@@ -118,6 +119,8 @@ class Rtabmap(Pipeline):
                     events += self._update_map(frame, features, odometry.pose, watch)
                 else:
                     watch("vocabulary", self._rehearse, features)
+            # A registered frame has a location: the first registration starts a session, which adds one.
+            assert self.current_location is not None
             self.records.append(_FrameRecord(frame.index, frame.timestamp, odometry.pose, self.current_location))
             pose = self.graph.correction(self.current_location) @ odometry.pose
         metrics = {"stm": len(self.memory.stm), "wm": len(self.memory.wm), "ltm": len(self.memory.ltm),
@@ -167,12 +170,14 @@ class Rtabmap(Pipeline):
 
     def _moved(self, odometry_pose: np.ndarray) -> bool:
         """RGBD/LinearUpdate, RGBD/AngularUpdate: motion since the last location."""
+        assert self.current_location is not None  # asked after the session's first location
         motion = invert(self.memory.locations[self.current_location].odometry_pose) @ odometry_pose
-        return (np.linalg.norm(motion[:3, 3]) >= self.params.linear_update
-                or rotation_angle(motion[:3, :3]) >= self.params.angular_update)
+        return bool(np.linalg.norm(motion[:3, 3]) >= self.params.linear_update
+                    or rotation_angle(motion[:3, :3]) >= self.params.angular_update)
 
     def _rehearse(self, features: Features) -> None:
         """The camera stayed: a view similar to the last location strengthens it (weight)."""
+        assert self.current_location is not None  # asked after the session's first location
         last = self.memory.locations[self.current_location]
         words = self.vocabulary.quantize(self._strongest(features).descriptors)
         if similarity(last.words, words) > self.params.rehearsal_similarity:
@@ -206,10 +211,10 @@ class Rtabmap(Pipeline):
                             kept.keypoints, kept.descriptors, kept.points, words, *self._cloud(frame))
         previous = self.current_location
         continues_chain = previous is not None and self.graph.session[previous] == self.session
-        if continues_chain:
+        if continues_chain and previous is not None:
             self._pass_weight(self.memory.locations[previous], location)
         self.memory.add(location)
-        if continues_chain:
+        if continues_chain and previous is not None:
             self.memory.link(previous, location_id, Link.NEIGHBOUR)
         self.edges.add_node(location_id, frame.timestamp)
         self.graph.add_location(location_id, self.session, odometry_pose, self.odometry_variance)
@@ -220,7 +225,7 @@ class Rtabmap(Pipeline):
             KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), *self._thumbnails(frame)),
             *([GraphEdge(frame.index, previous, location_id, True, "odometry link", self.edges.kind(previous, location_id),
                          detection="odometry")]
-              if continues_chain else []),
+              if continues_chain and previous is not None else []),
             MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
                        location.cloud_colors),
         ]
@@ -233,8 +238,8 @@ class Rtabmap(Pipeline):
                 order, immune = watch("memory", self.memory.retrieval_order, hypothesis.location, p.max_retrieved)
                 retrieved = watch("memory", self.memory.retrieve, order, p.max_retrieved)
                 protected |= immune | set(retrieved)
-        closed = hypothesis is not None and self._consider(frame, location, hypothesis, detection.states, watch,
-                                                           events)
+        closed = hypothesis is not None and detection is not None and self._consider(
+            frame, location, hypothesis, detection.states, watch, events)
         self.last_hypothesis = hypothesis.value if hypothesis is not None else 0.0
         if p.proximity_by_space and p.local_radius > 0 and not closed:
             self._proximity(frame, location, detection.likelihood if detection else {}, watch, events)

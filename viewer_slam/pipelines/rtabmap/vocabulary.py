@@ -17,8 +17,8 @@ import cv2
 import numpy as np
 
 FLANN_INDEX_LSH = 6
-LSH_PARAMS = {"algorithm": FLANN_INDEX_LSH, "table_number": 4, "key_size": 16, "multi_probe_level": 1}
-LSH_CHECKS = {"checks": 32}
+LSH_PARAMS: dict[str, bool | int | float | str] = {"algorithm": FLANN_INDEX_LSH, "table_number": 4, "key_size": 16, "multi_probe_level": 1}
+LSH_CHECKS: dict[str, bool | int | float | str] = {"checks": 32}
 # Words searched exhaustively before the LSH index is rebuilt over all active words.
 REBUILD_PENDING = 1000
 FAR = np.iinfo(np.int32).max
@@ -48,7 +48,7 @@ class Vocabulary:
         self._sizes: dict[int, int] = {}                                  # location -> words held
         self._active = np.zeros(0, bool)      # held by an indexed location
         self._in_lsh = np.zeros(0, bool)
-        self._index: cv2.flann_Index | None = None
+        self._index: cv2.flann.Index | None = None
         self._indexed = np.zeros(0, int)      # word id of each row of the LSH index
         self._pending: set[int] = set()       # active words not in the LSH index
 
@@ -122,7 +122,7 @@ class Vocabulary:
         self._in_lsh[:] = False
         self._in_lsh[self._indexed] = True
         cv2.setRNGSeed(self.seed)
-        self._index = cv2.flann_Index(self._descriptors[self._indexed], LSH_PARAMS)
+        self._index = cv2.flann.Index(self._descriptors[self._indexed], LSH_PARAMS)
         self._pending.clear()
 
     def scores(self, words: np.ndarray, candidates: list[int]) -> np.ndarray:
