@@ -258,3 +258,21 @@ def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_
     refused, reason = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0),
                                       min_inlier_ratio=0.3)  # viewslam_min_inlier_ratio, ours
     assert refused is None and reason == "too few of the matches are inliers (25 of 100, < 0.3)"
+
+
+def test_a_match_faster_than_v2s_bounds_per_second_is_refused():
+    from viewer_slam.pipelines.rgbdslam.motion import smooth_enough
+    defaults = RgbdSlamParams()
+    assert (defaults.max_translation_meter, defaults.max_rotation_degree) == (1e10, 360.0)  # parameter_server.cpp
+    def turned(degrees, metres=0.0):
+        return make_pose(Rotation.from_rotvec(np.radians(degrees) * np.array([0.6, 0.0, 0.8])).as_matrix(),
+                         np.array([metres, 0.0, 0.0]))
+    frame_gap = 1 / 30
+    # isSmallTrafo: angle / seconds < max_rotation_degree, dist / seconds < max_translation_meter
+    assert smooth_enough(turned(11.5), frame_gap, defaults)        # 345 deg/s
+    assert not smooth_enough(turned(12.5), frame_gap, defaults)    # 375 deg/s
+    assert smooth_enough(turned(60.0), 1.0, defaults)              # a loop closure a second back
+    assert smooth_enough(turned(170.0), 0.0, defaults)             # no time between: not tested
+    slow = apply_overrides(RgbdSlamParams(), {"max_translation_meter": "1"}, "--param", text=True)
+    assert smooth_enough(turned(0.0, 0.03), frame_gap, slow)       # 0.9 m/s
+    assert not smooth_enough(turned(0.0, 0.04), frame_gap, slow)   # 1.2 m/s

@@ -9,6 +9,7 @@ import numpy as np
 from ...frontend.features import Features, match_with_ratios
 from ...frontend.hamming import hamming_nearest_matches, hamming_ratio_matches
 from ...frontend.ransac import ransac_rigid
+from ...geometry.se3 import rotation_angle
 from .params import RgbdSlamParams
 
 # Floor on the RMS Mahalanobis distance in the edge information: exact synthetic data would
@@ -110,3 +111,26 @@ def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tu
         return None, f"too few of the matches are inliers ({inliers} of {len(frame_index)}, < {min_inlier_ratio:g})"
     return Motion(result.transform, frame_index, node_index, result.inliers, result.rms_mahalanobis,
                   edge_information(inliers, result.rms_mahalanobis)), ""
+
+
+def _speeds(node_from_frame: np.ndarray, gap_s: float) -> tuple[float, float]:
+    """Metres and degrees per second of a motion made in ``gap_s`` seconds."""
+    return (float(np.linalg.norm(node_from_frame[:3, 3])) / gap_s,
+            float(np.degrees(rotation_angle(node_from_frame[:3, :3]))) / gap_s)
+
+
+def smooth_enough(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamParams) -> bool:
+    """v2's ``isSmallTrafo``: a motion between two frames ``gap_s`` seconds apart moves less than
+    max_translation_meter and turns less than max_rotation_degree per second (a gap of zero or
+    less is not tested). At v2's defaults (1e10 m/s, 360 deg/s) it refuses a match that turns a
+    camera by more than 12 degrees from one frame to the next at 30 Hz."""
+    if gap_s <= 0:
+        return True
+    metres, degrees = _speeds(node_from_frame, gap_s)
+    return metres < params.max_translation_meter and degrees < params.max_rotation_degree
+
+
+def too_fast_reason(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamParams) -> str:
+    metres, degrees = _speeds(node_from_frame, gap_s)
+    return (f"motion too fast ({metres:.3g} m/s, {degrees:.3g} deg/s; max_translation_meter "
+            f"{params.max_translation_meter:g}, max_rotation_degree {params.max_rotation_degree:g})")

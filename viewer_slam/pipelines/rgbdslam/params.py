@@ -62,6 +62,14 @@ class RgbdSlamParams(PipelineParams):
     min_rotation_degree: float = Field(0.0, ge=0,
                                        description="rotation from the newest node below which a frame is no new "
                                                    "node")
+    max_translation_meter: float = Field(1e10, gt=0,
+                                         description="a match whose translation per second between the two "
+                                                     "frames' times reaches this is refused (v2's sanity check "
+                                                     "for smooth motion)")
+    max_rotation_degree: float = Field(360.0, gt=0,
+                                       description="a match whose rotation in degrees per second between the "
+                                                   "two frames' times reaches this is refused (v2's sanity "
+                                                   "check for smooth motion)")
     keep_all_nodes: bool = Field(False,
                                  description="keep frames that match no node, under a no-motion (constant position) "
                                              "assumption")

@@ -55,7 +55,7 @@ from ..thumbnails import thumbnail
 from .candidates import PREDECESSOR, edge_targets
 from .emm import observability
 from .graph import NodeGraph
-from .motion import MeasuredFeatures, Motion, estimate_motion, g2o_information, match
+from .motion import MeasuredFeatures, Motion, estimate_motion, g2o_information, match, smooth_enough, too_fast_reason
 from .node import Node
 from .params import RgbdSlamParams
 
@@ -172,11 +172,15 @@ class RgbdSlam(Pipeline):
         newest = self.graph.newest.node_id
         attempts: list[Attempt] = []
         if p.min_translation_meter > 0 or p.min_rotation_degree > 0:
-            # v2 first compares with the newest node; a frame that stayed near it is no node.
-            attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch)
-            if attempts[0].motion is not None and not self._moved_enough(attempts[0].motion.transform):
+            # v2 first compares with the newest node; a frame that stayed near it, or moved
+            # faster than v2's bounds allow, is no node.
+            attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch, bounded=False)
+            first = attempts[0].motion
+            gap_s = frame.timestamp - self.graph.newest.timestamp
+            if first is not None and not (self._moved_enough(first.transform)
+                                          and smooth_enough(first.transform, gap_s, p)):
                 status = self._recover(frame, attempts[0], events)
-                self._attach(frame, newest, attempts[0].motion.transform, self.graph.odometry[newest])
+                self._attach(frame, newest, first.transform, self.graph.odometry[newest])
                 return self._report(frame, features, attempts[0], attempts, events, watch, status)
             attempts = [a for a in attempts if a.motion is not None]
         targets = edge_targets(self.graph.order, self.graph.adjacency, self.graph.keyframes, newest,
@@ -204,9 +208,11 @@ class RgbdSlam(Pipeline):
         return self._report(frame, features, best, attempts, events, watch, status)
 
     def _compare(self, frame: Frame, measured: MeasuredFeatures, candidates: list[tuple[int, str]],
-                 watch: Stopwatch) -> list[Attempt]:
+                 watch: Stopwatch, bounded: bool = True) -> list[Attempt]:
         """Register the frame with each candidate node, in parallel; stage times are summed.
 
+        ``bounded``: as v2's edge construction, a motion faster than max_translation_meter or
+        max_rotation_degree per second between the frame's and the node's times is refused.
         With viewslam_min_inlier_ratio (ours, off by default) a loop closure, and a lost
         camera's match against the map, must also have that share of its matches as inliers.
         """
@@ -220,6 +226,10 @@ class RgbdSlam(Pipeline):
         for (node_id, kind), (matches, motion, reason, own) in zip(candidates, workers().map(register, candidates)):
             for stage, ms in own.ms.items():
                 watch.add(stage, ms)
+            gap_s = frame.timestamp - self.graph.nodes[node_id].timestamp
+            if bounded and motion is not None and not smooth_enough(motion.transform, gap_s, self.params):
+                reason = too_fast_reason(motion.transform, gap_s, self.params)
+                motion = None
             attempts.append(Attempt(node_id, kind, matches, motion, reason))
         return attempts
 
