@@ -56,13 +56,22 @@ def cache_entries(root: Path | None = None) -> list[CacheEntry]:
 
 
 def clear_cache(root: Path | None = None) -> list[CacheEntry]:
-    """Remove every entry but the downloads (:data:`KEPT_ON_CLEAR`); the entries removed."""
-    removed = [entry for entry in cache_entries(root) if entry.name.split("/")[0] not in KEPT_ON_CLEAR]
+    """Remove every entry but the downloads (:data:`KEPT_ON_CLEAR`) and the work in progress;
+    the entries removed. A name starting with a dot is a render, a download or a write being
+    staged by a process still running, which renames it into place or removes it: removing it
+    under that process would make it fail, so it stays."""
+    removed = [entry for entry in cache_entries(root)
+               if entry.name.split("/")[0] not in KEPT_ON_CLEAR and not entry.path.name.startswith(".")]
     for entry in removed:
-        if entry.path.is_dir() and not entry.path.is_symlink():
-            shutil.rmtree(entry.path)
-        else:
-            entry.path.unlink()
+        try:
+            if entry.path.is_dir() and not entry.path.is_symlink():
+                shutil.rmtree(entry.path)
+            else:
+                entry.path.unlink()
+        except FileNotFoundError:
+            continue  # removed meanwhile by another process
+        except OSError as error:
+            raise InputError(f"{entry.path}: cannot remove it from the cache: {error.strerror or error}") from None
     return removed
 
 

@@ -123,6 +123,9 @@ def test_sequences_shows_the_cache_entry_by_entry_and_clears_all_but_the_downloa
     (render / "frame.png").write_bytes(bytes(3000))
     (cache / "benchmark").mkdir()
     (cache / "benchmark" / "result.json").write_bytes(bytes(500))
+    rendering = cache / "synth" / ".360_kidnap-600-64x48-s0-v1.x1y2z3" / "run"  # another process renders into it
+    rendering.mkdir(parents=True)
+    (rendering / "frame.png").write_bytes(bytes(700))
     assert main(["sequences"]) == 0
     lines = capsys.readouterr().out.splitlines()
     total = sum(path.stat().st_size for path in cache.rglob("*") if path.is_file())
@@ -130,9 +133,11 @@ def test_sequences_shows_the_cache_entry_by_entry_and_clears_all_but_the_downloa
     assert lines[heading] == f"Cache {cache} ($VIEWSLAM_CACHE): {decimal(total)}"
     entries = {line.split()[0]: " ".join(line.split()[1:]) for line in lines[heading + 1:-1]}
     assert entries == {"benchmark": "500 bytes", "synth/360_kidnap-6-64x48-s0-v1": "3.0 kB",
-                       "tum/rgbd_dataset_freiburg1_xyz": decimal(total - 3500)}
+                       "synth/.360_kidnap-600-64x48-s0-v1.x1y2z3": "700 bytes",
+                       "tum/rgbd_dataset_freiburg1_xyz": decimal(total - 4200)}
     assert main(["sequences", "--clear-cache"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("Removed 2 cache entries, 3.5 kB.\n")
     assert not render.exists() and not (cache / "benchmark").exists()
+    assert (rendering / "frame.png").is_file()  # a render in progress is left to the process making it
     assert (cache / "tum" / "rgbd_dataset_freiburg1_xyz" / "rgb.txt").is_file()
