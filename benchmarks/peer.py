@@ -1,6 +1,6 @@
 """A peer baseline measured in the same run: Open3D's RGB-D odometry beside viewslam's pipelines.
 
-    python benchmarks/peer.py [--sequence SPEC] [--frames N] [--pipelines rgbdslam rtabmap]
+    python benchmarks/peer.py [--sequence SPEC] [--frames N] [--pipelines rgbdslam rtabmap] [--param KEY=VALUE]
 
 Open3D's frame-to-frame RGB-D odometry (the hybrid photometric and geometric term, its
 default) runs over exactly the frames each pipeline gets, recording off. Every figure comes
@@ -20,6 +20,8 @@ from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.open3d_loader import import_open3d
+from viewer_slam.pipelines.base import pipeline_class
+from viewer_slam.pipelines.params import resolve_params
 from viewer_slam.pipelines.run import run_pipeline
 
 DEFAULT_SEQUENCE = str(Path(__file__).resolve().parents[1].parent / "shared/data/tum/rgbd_dataset_freiburg1_rpy_200")
@@ -63,7 +65,10 @@ def main() -> None:
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=["rgbdslam", "rtabmap"])
+    parser.add_argument("--param", action="append", default=[],
+                        help="KEY=VALUE for the pipelines that have KEY, as `viewslam record --param`")
     args = parser.parse_args()
+    params = resolve_params({name: pipeline_class(name).Params for name in args.pipelines}, args.param)
     sequence = open_source(args.sequence)
     frames = min(len(sequence), args.frames or len(sequence))
     print(f"sequence {sequence.name}: {frames} frames, {sequence.camera.width}x{sequence.camera.height}")
@@ -78,7 +83,7 @@ def main() -> None:
           f"{peer_cpu_fps:.1f} | 1.00 |")
     for name in args.pipelines:
         cpu = process_cpu_s()
-        run = run_pipeline(sequence, name, seed=0, max_frames=args.frames)
+        run = run_pipeline(sequence, name, params[name], seed=0, max_frames=args.frames)
         cpu_fps = run.frames / (process_cpu_s() - cpu)
         ate, odometry_ate = (_ate_cm(sequence, trajectory) for trajectory in (run.trajectory, run.odometry))
         print(f"| {name} | {ate:.2f} | {odometry_ate:.2f} | {ate / (100 * peer_ate):.2f} | {run.fps:.1f} | "
