@@ -42,6 +42,7 @@ sys.path.insert(0, str(ROOT))
 from viewer_slam.comparison.compare import compare_reports  # noqa: E402
 from viewer_slam.comparison.output import print_comparison  # noqa: E402
 from viewer_slam.dataset.sources import open_source  # noqa: E402
+from viewer_slam.geometry.association import associate  # noqa: E402
 from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
 from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
 from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered  # noqa: E402
@@ -58,6 +59,7 @@ REFERENCE_NAME = "rtabmap-0.23.8"
 PER_FRAME = {"Rtabmap/DetectionRate": 0, "RGBD/LinearUpdate": 0, "RGBD/AngularUpdate": 0}
 THAT_BUILD = {"OdomF2M/BundleAdjustment": 0}
 SYNTHETIC_PREFIX = "rgbd_dataset_freiburg"
+FRAME_STAMP_TOLERANCE = 0.005  # s: a pose belongs to the frame taken within this (frames 33 ms apart)
 # A count differs when it is off by more than this share of the reference's (and by more than 2).
 COUNT_TOLERANCE = 0.2
 
@@ -290,6 +292,37 @@ def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
     return summary
 
 
+def first_loss(run: ReferenceRun) -> int | None:
+    """The first frame where the original's odometry is lost (frames.csv), or None."""
+    frames_csv = run.folder / "frames.csv"
+    if not frames_csv.is_file():
+        return None
+    with open(frames_csv, newline="") as file:
+        return next((int(row["frame"]) for row in csv.DictReader(file) if row["odom_lost"] == "1"), None)
+
+
+def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str:
+    """Position error (cm) of an odometry trajectory at each frame of ``frames``, laid onto the
+    groundtruth by its poses before frame ``before``: the rotation that best maps their
+    orientations onto the groundtruth's, then the mean offset of the positions. A camera
+    turning in place spans centimetres, too little for a fit of positions alone (the ATE's)
+    to fix the rotation, and a resumption metres from there would be judged by that guess."""
+    stamps = np.asarray(sequence.timestamps)
+    in_frames, at = associate(odometry.timestamps, stamps, max_difference=FRAME_STAMP_TOLERANCE)
+    with_truth, truth = associate(odometry.timestamps[in_frames], sequence.groundtruth.timestamps)
+    frame, estimate = at[with_truth], odometry.poses[in_frames][with_truth]
+    groundtruth = sequence.groundtruth.poses[truth]
+    early = frame < before
+    if early.sum() < 2:
+        return "–"
+    u, _, vt = np.linalg.svd(np.einsum("nij,nkj->ik", groundtruth[early, :3, :3], estimate[early, :3, :3]))
+    rotation = u @ np.diag([1, 1, np.linalg.det(u @ vt)]) @ vt
+    offset = (groundtruth[early, :3, 3] - estimate[early, :3, 3] @ rotation.T).mean(axis=0)
+    errors = np.linalg.norm(estimate[:, :3, 3] @ rotation.T + offset - groundtruth[:, :3, 3], axis=1)
+    error_at = dict(zip(frame.tolist(), errors))
+    return " / ".join(f"{100 * error_at[f]:.1f}" if f in error_at else "–" for f in frames)
+
+
 def resumptions(run: ReferenceRun) -> list[tuple[int, int]]:
     """(frame, inliers) where the original's odometry registers again after lost frames (frames.csv)."""
     frames_csv = run.folder / "frames.csv"
@@ -338,6 +371,13 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
                         if isinstance(e, TrackingRecovered)]
         print(f"\nodometry resumes after a loss at frame (inliers): ours {ours_resumed or 'never'}; "
               f"RTAB-Map 0.23.8 {resumed}")
+        before = first_loss(run)
+        if before is not None:
+            theirs = replays[f"{REFERENCE_NAME}-odometry"].trajectory
+            print(f"position error at each resumption (cm; odometry laid onto the groundtruth by its poses "
+                  f"before frame {before}): ours "
+                  f"{resumption_errors(ours.odometry, sequence, before, [f for f, _ in ours_resumed]) or '–'}; "
+                  f"RTAB-Map 0.23.8 {resumption_errors(theirs, sequence, before, [f for f, _ in resumed])}")
     print()
     print(pose_divergence(ours.odometry, replays[f"{REFERENCE_NAME}-odometry"].trajectory, sequence, "odometry"))
     print(pose_divergence(ours.trajectory, replays[REFERENCE_NAME].trajectory, sequence, "graph"))
