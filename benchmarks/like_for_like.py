@@ -301,12 +301,12 @@ def first_loss(run: ReferenceRun) -> int | None:
         return next((int(row["frame"]) for row in csv.DictReader(file) if row["odom_lost"] == "1"), None)
 
 
-def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str:
-    """Position error (cm) of an odometry trajectory at each frame of ``frames``, laid onto the
-    groundtruth by its poses before frame ``before``: the rotation that best maps their
-    orientations onto the groundtruth's, then the mean offset of the positions. A camera
-    turning in place spans centimetres, too little for a fit of positions alone (the ATE's)
-    to fix the rotation, and a resumption metres from there would be judged by that guess."""
+def errors_laid_on_first_stretch(odometry, sequence, before: int) -> dict[int, float]:
+    """Position error (m) per frame of an odometry trajectory laid onto the groundtruth by its
+    poses before frame ``before``: the rotation that best maps their orientations onto the
+    groundtruth's, then the mean offset of the positions. A camera turning in place spans
+    centimetres, too little for a fit of positions alone (the ATE's) to fix the rotation, and
+    a resumption metres from there would be judged by that guess."""
     stamps = np.asarray(sequence.timestamps)
     in_frames, at = associate(odometry.timestamps, stamps, max_difference=FRAME_STAMP_TOLERANCE)
     with_truth, truth = associate(odometry.timestamps[in_frames], sequence.groundtruth.timestamps)
@@ -314,13 +314,23 @@ def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str
     groundtruth = sequence.groundtruth.poses[truth]
     early = frame < before
     if early.sum() < 2:
-        return "–"
+        return {}
     u, _, vt = np.linalg.svd(np.einsum("nij,nkj->ik", groundtruth[early, :3, :3], estimate[early, :3, :3]))
     rotation = u @ np.diag([1, 1, np.linalg.det(u @ vt)]) @ vt
     offset = (groundtruth[early, :3, 3] - estimate[early, :3, 3] @ rotation.T).mean(axis=0)
     errors = np.linalg.norm(estimate[:, :3, 3] @ rotation.T + offset - groundtruth[:, :3, 3], axis=1)
-    error_at = dict(zip(frame.tolist(), errors))
-    return " / ".join(f"{100 * error_at[f]:.1f}" if f in error_at else "–" for f in frames)
+    return dict(zip(frame.tolist(), errors.tolist()))
+
+
+def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str:
+    """The error (cm) over the poses before frame ``before`` (min–max, median), then at each of
+    ``frames`` (see :func:`errors_laid_on_first_stretch`)."""
+    error_at = errors_laid_on_first_stretch(odometry, sequence, before)
+    first = [100 * error for frame, error in error_at.items() if frame < before]
+    if not first:
+        return "–"
+    at = " / ".join(f"{100 * error_at[f]:.1f}" if f in error_at else "–" for f in frames) or "–"
+    return f"before it {min(first):.1f}–{max(first):.1f} (median {np.median(first):.1f}), at each resumption {at}"
 
 
 def resumptions(run: ReferenceRun) -> list[tuple[int, int]]:
@@ -374,9 +384,8 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
         before = first_loss(run)
         if before is not None:
             theirs = replays[f"{REFERENCE_NAME}-odometry"].trajectory
-            print(f"position error at each resumption (cm; odometry laid onto the groundtruth by its poses "
-                  f"before frame {before}): ours "
-                  f"{resumption_errors(ours.odometry, sequence, before, [f for f, _ in ours_resumed]) or '–'}; "
+            print(f"odometry position error (cm; laid onto the groundtruth by its poses before the first loss, "
+                  f"frame {before}): ours {resumption_errors(ours.odometry, sequence, before, [f for f, _ in ours_resumed])}; "
                   f"RTAB-Map 0.23.8 {resumption_errors(theirs, sequence, before, [f for f, _ in resumed])}")
     print()
     print(pose_divergence(ours.odometry, replays[f"{REFERENCE_NAME}-odometry"].trajectory, sequence, "odometry"))
