@@ -113,10 +113,16 @@ def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tu
                   edge_information(inliers, result.rms_mahalanobis)), ""
 
 
-def _speeds(node_from_frame: np.ndarray, gap_s: float) -> tuple[float, float]:
-    """Metres and degrees per second of a motion made in ``gap_s`` seconds."""
-    return (float(np.linalg.norm(node_from_frame[:3, 3])) / gap_s,
-            float(np.degrees(rotation_angle(node_from_frame[:3, :3]))) / gap_s)
+def motion_size(node_from_frame: np.ndarray) -> tuple[float, float]:
+    """A motion's translation in metres and rotation in degrees (v2's ``trafoSize``)."""
+    return (float(np.linalg.norm(node_from_frame[:3, 3])),
+            float(np.degrees(rotation_angle(node_from_frame[:3, :3]))))
+
+
+def moved_enough(node_from_frame: np.ndarray, params: RgbdSlamParams) -> bool:
+    """v2's ``isBigTrafo``: at least min_translation_meter or min_rotation_degree."""
+    metres, degrees = motion_size(node_from_frame)
+    return metres >= params.min_translation_meter or degrees >= params.min_rotation_degree
 
 
 def smooth_enough(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamParams) -> bool:
@@ -126,11 +132,11 @@ def smooth_enough(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamPar
     camera by more than 12 degrees from one frame to the next at 30 Hz."""
     if gap_s <= 0:
         return True
-    metres, degrees = _speeds(node_from_frame, gap_s)
-    return metres < params.max_translation_meter and degrees < params.max_rotation_degree
+    metres, degrees = motion_size(node_from_frame)
+    return metres / gap_s < params.max_translation_meter and degrees / gap_s < params.max_rotation_degree
 
 
 def too_fast_reason(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamParams) -> str:
-    metres, degrees = _speeds(node_from_frame, gap_s)
-    return (f"motion too fast ({metres:.3g} m/s, {degrees:.3g} deg/s; max_translation_meter "
+    metres, degrees = motion_size(node_from_frame)
+    return (f"motion too fast ({metres / gap_s:.3g} m/s, {degrees / gap_s:.3g} deg/s; max_translation_meter "
             f"{params.max_translation_meter:g}, max_rotation_degree {params.max_rotation_degree:g})")

@@ -34,7 +34,7 @@ from ...dataset.frame import Frame
 from ...frontend.features import FeatureExtractor, Features
 from ...frontend.workers import workers
 from ...geometry.camera import Camera
-from ...geometry.se3 import rotation_angle, transform_points
+from ...geometry.se3 import transform_points
 from ..base import Pipeline
 from ..edges import EdgeKind
 from ..events import (
@@ -55,7 +55,16 @@ from ..thumbnails import thumbnail
 from .candidates import PREDECESSOR, edge_targets
 from .emm import observability
 from .graph import NodeGraph
-from .motion import MeasuredFeatures, Motion, estimate_motion, g2o_information, match, smooth_enough, too_fast_reason
+from .motion import (
+    MeasuredFeatures,
+    Motion,
+    estimate_motion,
+    g2o_information,
+    match,
+    moved_enough,
+    smooth_enough,
+    too_fast_reason,
+)
 from .node import Node
 from .params import RgbdSlamParams
 
@@ -170,15 +179,14 @@ class RgbdSlam(Pipeline):
             return self._report(frame, features, None, [], events, watch, TrackingStatus.INITIALISING)
 
         newest = self.graph.newest.node_id
+        gap_s = frame.timestamp - self.graph.newest.timestamp
         attempts: list[Attempt] = []
         if p.min_translation_meter > 0 or p.min_rotation_degree > 0:
             # v2 first compares with the newest node; a frame that stayed near it, or moved
             # faster than v2's bounds allow, is no node.
             attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch, bounded=False)
             first = attempts[0].motion
-            gap_s = frame.timestamp - self.graph.newest.timestamp
-            if first is not None and not (self._moved_enough(first.transform)
-                                          and smooth_enough(first.transform, gap_s, p)):
+            if first is not None and not (moved_enough(first.transform, p) and smooth_enough(first.transform, gap_s, p)):
                 status = self._recover(frame, attempts[0], events)
                 self._attach(frame, newest, first.transform, self.graph.odometry[newest])
                 return self._report(frame, features, attempts[0], attempts, events, watch, status)
@@ -193,7 +201,6 @@ class RgbdSlam(Pipeline):
                 self._check_environment(frame, measured, attempts)
         best = best_attempt(attempts)
         predecessor_matched = any(a.node_id == newest and a.motion is not None for a in attempts)
-        gap_s = frame.timestamp - self.graph.newest.timestamp
         no_motion = (best is None and p.keep_all_nodes) or (not predecessor_matched and gap_s < NO_MOTION_MAX_GAP_S)
         if best is None and not no_motion:
             return self._unmatched(frame, features, measured, attempts, events, watch)
@@ -242,11 +249,6 @@ class RgbdSlam(Pipeline):
         with watch("ransac"):
             motion, reason = estimate_motion(measured, reference, matches, self.params, rng, min_inlier_ratio)
         return len(matches[0]), motion, reason
-
-    def _moved_enough(self, node_from_frame: np.ndarray) -> bool:
-        """v2's ``isBigTrafo``: at least min_translation_meter or min_rotation_degree."""
-        return bool(np.linalg.norm(node_from_frame[:3, 3]) >= self.params.min_translation_meter
-                    or np.degrees(rotation_angle(node_from_frame[:3, :3])) >= self.params.min_rotation_degree)
 
     def _attach(self, frame: Frame, node_id: int, relative: np.ndarray, node_odometry: np.ndarray) -> None:
         self.tracked.append(TrackedFrame(frame.index, frame.timestamp, node_id, relative, node_odometry @ relative))
