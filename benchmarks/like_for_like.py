@@ -155,6 +155,15 @@ def number(text: str) -> float:
     return float(text) if text not in ("", None) else float("nan")
 
 
+def frame_rows(run: ReferenceRun) -> list[dict]:
+    """The original's per-frame rows (frames.csv: odometry, lost flag, node, map), or none."""
+    frames_csv = run.folder / "frames.csv"
+    if not frames_csv.is_file():
+        return []
+    with open(frames_csv, newline="") as file:
+        return list(csv.DictReader(file))
+
+
 def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndarray]:
     """Per processed frame (NaN where the original has no node): its statistics."""
     nodes = read_nodes(run)
@@ -179,14 +188,11 @@ def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndar
         newer = max(int(link["from_id"]), int(link["to_id"]))
         if kind and newer in frame_of_node:
             series[kind][frame_of_node[newer]] += 1
-    frames_csv = run.folder / "frames.csv"        # synthetic runs: odometry of every frame, nodes or not
-    if frames_csv.is_file():
-        with open(frames_csv, newline="") as file:
-            for row in csv.DictReader(file):
-                frame = frame_of_stamp.get(round(float(row["stamp"]), 4))
-                if frame is not None:
-                    series["inliers"][frame] = number(row["inliers"])
-                    series["features"][frame] = number(row["features"])
+    for row in frame_rows(run):  # synthetic runs: odometry of every frame, nodes or not
+        frame = frame_of_stamp.get(round(float(row["stamp"]), 4))
+        if frame is not None:
+            series["inliers"][frame] = number(row["inliers"])
+            series["features"][frame] = number(row["features"])
     return series
 
 
@@ -292,13 +298,9 @@ def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
     return summary
 
 
-def first_loss(run: ReferenceRun) -> int | None:
-    """The first frame where the original's odometry is lost (frames.csv), or None."""
-    frames_csv = run.folder / "frames.csv"
-    if not frames_csv.is_file():
-        return None
-    with open(frames_csv, newline="") as file:
-        return next((int(row["frame"]) for row in csv.DictReader(file) if row["odom_lost"] == "1"), None)
+def first_loss(rows: list[dict]) -> int | None:
+    """The first frame where the original's odometry is lost, or None."""
+    return next((int(row["frame"]) for row in rows if row["odom_lost"] == "1"), None)
 
 
 def errors_laid_on_first_stretch(odometry, sequence, before: int) -> dict[int, float]:
@@ -333,13 +335,8 @@ def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str
     return f"before it {min(first):.1f}–{max(first):.1f} (median {np.median(first):.1f}), at each resumption {at}"
 
 
-def resumptions(run: ReferenceRun) -> list[tuple[int, int]]:
-    """(frame, inliers) where the original's odometry registers again after lost frames (frames.csv)."""
-    frames_csv = run.folder / "frames.csv"
-    if not frames_csv.is_file():
-        return []
-    with open(frames_csv, newline="") as file:
-        rows = list(csv.DictReader(file))
+def resumptions(rows: list[dict]) -> list[tuple[int, int]]:
+    """(frame, inliers) where the original's odometry registers again after lost frames."""
     return [(int(row["frame"]), int(float(row["inliers"]))) for before, row in zip(rows, rows[1:])
             if before["odom_lost"] == "1" and row["odom_lost"] == "0"]
 
@@ -375,13 +372,14 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
     print("| statistic | sum | median | agree | first divergence | largest |\n|---|---|---|---|---|---|")
     for key in ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity"):
         print(divergence(key, our[key], ref[key]))
-    resumed = resumptions(run)
+    rows = frame_rows(run)
+    resumed = resumptions(rows)
     if resumed:
         ours_resumed = [(e.frame_index, int(our["inliers"][e.frame_index])) for e in events
                         if isinstance(e, TrackingRecovered)]
         print(f"\nodometry resumes after a loss at frame (inliers): ours {ours_resumed or 'never'}; "
               f"RTAB-Map 0.23.8 {resumed}")
-        before = first_loss(run)
+        before = first_loss(rows)
         if before is not None:
             theirs = replays[f"{REFERENCE_NAME}-odometry"].trajectory
             print(f"odometry position error (cm; laid onto the groundtruth by its poses before the first loss, "
