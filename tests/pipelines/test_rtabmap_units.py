@@ -394,6 +394,27 @@ def test_a_registration_made_without_a_guess_is_redone_with_its_result_as_the_gu
         assert back.inliers == inliers and np.allclose(back.pose, moved, atol=1e-3)
 
 
+@pytest.mark.parametrize("reprojection_error, inliers", [(2.0, 250), (1.5, 200), (1.0, 200)])
+def test_pnp_counts_a_match_as_an_inlier_within_the_square_of_vis_pnp_reproj_error(reprojection_error, inliers):
+    """RTAB-Map's PnP RANSAC (the OpenCV 3.0 copy in corelib/src/opencv/solvepnp.cpp) takes
+    each match's plain pixel distance as its error and compares it with the threshold
+    squared: at Vis/PnPReprojError 2 a match 3 px off is an inlier (3 <= 4), at 1.5 it is
+    not (3 > 2.25); at 1 a match on its pixel still is (0 <= 1); 6 px off never (6 > 4)."""
+    rng = np.random.default_rng(4)
+    world = np.c_[rng.uniform(-0.9, 0.9, 300), rng.uniform(-0.6, 0.6, 300), rng.uniform(2.0, 4.0, 300)]
+    words = descriptors(300, rng)
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(
+        RtabmapParams(), {"Vis/PnPReprojError": reprojection_error, "OdomF2M/BundleAdjustment": 0}, "test"))
+    odometry.process(view(world, np.eye(4), words), 0 / 30)
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(1), 0]).as_matrix(), [0.02, 0, 0])
+    seen = view(world, moved, words)
+    directions = rng.uniform(0, 2 * np.pi, 300)
+    off_by = np.repeat([0.0, 3.0, 6.0], [200, 50, 50])[:, None] * np.c_[np.cos(directions), np.sin(directions)]
+    shifted = Features((seen.keypoints + off_by).astype(np.float32), seen.descriptors, seen.responses, seen.points, True)
+    result = odometry.process(shifted, 1 / 30)
+    assert result.inliers == inliers and np.allclose(result.pose, moved, atol=1e-2)
+
+
 def test_a_repeated_registration_goes_on_without_the_features_that_took_one_map_word():
     """RegistrationVis without a guess keeps of the frame only the word ids that occur once:
     two features whose nearest map word is the same (2 and 3 bits from it, about 128 from

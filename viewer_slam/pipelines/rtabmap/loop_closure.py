@@ -55,7 +55,7 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
     with_depth = np.flatnonzero(~np.isnan(old.points[:, 0]))
     query, train = match_descriptors(new.descriptors, old.descriptors[with_depth], True, params.correspondence_nndr)
     solution = solve_pnp_ransac(old.points[with_depth[train]], new.keypoints[query], camera.K,
-                                reprojection_error=params.pnp_reprojection_error, distortion=camera.distortion,
+                                reprojection_error=params.pnp_inlier_distance, distortion=camera.distortion,
                                 iterations=params.ransac_iterations, min_inliers=params.min_inliers)
     if solution is None:
         return Registration(None, len(query), 0,

@@ -292,7 +292,7 @@ class FrameToMapOdometry:
         ``shown_without_pose`` when registration failed."""
         params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
-                                    reprojection_error=params.pnp_reprojection_error, distortion=self.camera.distortion,
+                                    reprojection_error=params.pnp_inlier_distance, distortion=self.camera.distortion,
                                     iterations=params.ransac_iterations, min_inliers=params.min_inliers)
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)

@@ -25,7 +25,8 @@ class RtabmapParams(PipelineParams):
                                                         "map points instead of each projected map point to the "
                                                         "corners")
     pnp_reprojection_error: float = Field(2.0, alias="Vis/PnPReprojError", gt=0,
-                                          description="PnP RANSAC inlier threshold (px)")
+                                          description="PnP RANSAC threshold: a match reprojected within its square (px) is an "
+                                                      "inlier, as RTAB-Map's RANSAC compares")
     min_inliers: int = Field(20, alias="Vis/MinInliers", ge=4, description="inliers needed to accept a registration")
     ransac_iterations: int = Field(300, alias="Vis/Iterations", ge=1, description="PnP RANSAC iterations")
     repeat_once: bool = Field(True, alias="Reg/RepeatOnce",
@@ -122,6 +123,17 @@ class RtabmapParams(PipelineParams):
     @model_validator(mode="after")
     def depths_ordered(self, info: ValidationInfo) -> "RtabmapParams":
         return check_ordered(self, info, "min_depth", "max_depth", off=0.0)
+
+    @property
+    def pnp_inlier_distance(self) -> float:
+        """The largest reprojection error (px) PnP RANSAC counts as an inlier: the square of
+        Vis/PnPReprojError. RTAB-Map always calls the copy of OpenCV 3.0's solvePnPRansac it
+        compiles in (``corelib/src/opencv/solvepnp.cpp``), whose error per point is the plain
+        pixel distance while its inlier test compares it with the threshold squared, as if
+        the error were squared too: at the default 2 px a match up to 4 px off is an inlier.
+        Its refinement (Vis/PnPRefineIterations) reports RANSAC's inliers, so this is also the
+        count the key-frame and Vis/MinInliers tests see."""
+        return self.pnp_reprojection_error ** 2
 
     @property
     def feature_kind(self) -> str:
