@@ -6,12 +6,13 @@
 Frames 0 to ``--frame`` go through our frame-to-map odometry in the original's configuration
 (its intrinsics without distortion, OdomF2M/BundleAdjustment 0; see like_for_like.py). For the
 last frame it prints our matches and inliers, the inliers a long RANSAC alone finds among
-our matches (RANSAC_ITERATIONS hypotheses, no refit), and, under the original's own pose for that frame
-(its odometry, relative to frame 0) and under ours, how many points of our local map have a
-corner of the frame within 1 and 2 pixels of their projection: an upper bound on the inliers
-our map and corners allow at that pose, whatever the matching; and the most any pose near the
-original's allows within the inlier distance (Vis/PnPReprojError squared, as RTAB-Map's RANSAC). Beside it, the inliers the original reports. Where that most is below its
-count, the two differ before matching: in the corners or in the map's 3D points.
+our matches (RANSAC_ITERATIONS hypotheses, no refit), and, under the original's own pose for
+that frame (its odometry, relative to frame 0) and under ours, how many points of our local
+map have a corner of the frame within 1 and 2 pixels of their projection: an upper bound on
+the inliers our map and corners allow at that pose, whatever the matching; and the most any
+pose near the original's allows within the inlier distance (Vis/PnPReprojError squared, as
+RTAB-Map's RANSAC counts). Beside it, the inliers the original reports. Where that most is
+below its count, the two differ before matching: in the corners or in the map's 3D points.
 """
 
 import argparse
