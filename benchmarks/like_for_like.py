@@ -236,6 +236,25 @@ def divergence(name: str, ours: np.ndarray, reference: np.ndarray) -> str:
             f"| {most} ({ours[most]:.0f} vs {reference[most]:.0f}) |")
 
 
+def frame_to_frame(trajectory, sequence) -> str:
+    """Mean / median translation error (cm) of the motion between poses of consecutive frames
+    (RPE over one frame; a pair across frames without a pose is not one): how closely one
+    registration follows the next, which the ATE of a drifting odometry hides."""
+    if trajectory is None or len(trajectory) < 2:
+        return "–"
+    frame = np.searchsorted(sequence.timestamps, trajectory.timestamps - FRAME_STAMP_TOLERANCE)
+    consecutive = np.flatnonzero(np.diff(frame) == 1)
+    truth, covered = sequence.groundtruth_at(trajectory.timestamps)
+    consecutive = consecutive[covered[consecutive] & covered[consecutive + 1]]
+    if len(consecutive) == 0:
+        return "–"
+    poses = trajectory.poses
+    estimated = np.linalg.inv(poses[consecutive]) @ poses[consecutive + 1]
+    true = np.linalg.inv(truth[consecutive]) @ truth[consecutive + 1]
+    errors = np.linalg.norm((np.linalg.inv(true) @ estimated)[:, :3, 3], axis=1) * 100
+    return f"{errors.mean():.2f} / {np.median(errors):.2f} ({len(errors)} pairs)"
+
+
 def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) -> str:
     """Per-frame ATE (each aligned to the groundtruth on its own): first frame where ours is worse
     by over 2 cm, and where most."""
@@ -359,6 +378,9 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
           f"| {cm(ref_block['ate'])} ({reference_summary.get('db', {}).get('nodes', '?')} nodes) |")
     print(f"| odometry alone (cm) | {cm(ours_block['odometry_ate'])} "
           f"| {cm(blocks[REFERENCE_NAME + '-odometry']['ate'])} (nodes' odometry) |")
+    print(f"| odometry, frame to frame: translation error mean / median (cm) | "
+          f"{frame_to_frame(ours.odometry, sequence)} "
+          f"| {frame_to_frame(replays[REFERENCE_NAME + '-odometry'].trajectory, sequence)} |")
     print(f"| global loop closures (appearance) | {detections.get('appearance', {}).get('accepted', 0)} accepted, "
           f"{detections.get('appearance', {}).get('rejected', 0)} rejected | {links.get('global_loop', 0)} |")
     print(f"| proximity links | {detections.get('proximity', {}).get('accepted', 0)} "

@@ -72,8 +72,10 @@ def test_guided_matching_each_projected_point_in_word_order_takes_a_corner_not_y
     odometry = guided_odometry(np.array([[100.0, 100.0], [104.0, 100.0], [-3.0, 300.0], [400.0, 300.0]]), words)
     frame = corners([[102.0, 100.0], [1.0, 300.0], [430.0, 300.0]],
                     np.vstack([words[1], words[2], words[3]]))
-    feature_index, map_index = odometry.guided_matches(frame, np.eye(4))
+    feature_index, map_index, projected = odometry.guided_matches(frame, np.eye(4))
     assert list(zip(feature_index.tolist(), map_index.tolist())) == [(0, 0), (2, 3)]
+    # RegistrationVis's projectedIDs: in the image with a corner within 40 px (word 2 is off it)
+    assert projected.tolist() == [0, 1, 3]
 
 
 def test_guided_matching_to_projection_drops_a_map_point_two_corners_picked():
@@ -82,7 +84,7 @@ def test_guided_matching_to_projection_drops_a_map_point_two_corners_picked():
                                **{"Vis/CorGuessMatchToProjection": True})
     # corners 0 and 1 both have only word 0 within 40 px; corner 2 only word 1
     frame = corners([[95.0, 100.0], [110.0, 105.0], [305.0, 190.0]], np.vstack([words[0], words[0], words[1]]))
-    feature_index, map_index = odometry.guided_matches(frame, np.eye(4))
+    feature_index, map_index, _ = odometry.guided_matches(frame, np.eye(4))
     assert feature_index.tolist() == [2] and map_index.tolist() == [1]
 
 
@@ -95,21 +97,37 @@ def test_guided_matching_ratio_test_drops_ambiguous_corners():
     assert len(odometry.guided_matches(frame, np.eye(4))[0]) == 0
 
 
-def test_local_map_cap_keeps_the_most_recently_seen_points_with_their_key_frame_observations():
+def five_key_frames_of_ten_points() -> LocalMap:
+    """Points 10k..10k+9 added by key frame k, each point's x its index."""
     local_map = LocalMap()
     for frame in range(5):
-        local_map.add(np.full((10, 3), frame, float), descriptors(10), frame,
+        local_map.add(np.c_[np.arange(10 * frame, 10 * frame + 10), np.zeros((10, 2))], descriptors(10), frame,
                       [(frame, float(i), 0.0, 1.0) for i in range(10)])
-    local_map.observe(np.arange(5), 9)          # five points of frame 0 seen again last
-    # key frame 7 observes point 0 (frame 0's, seen last) and point 10 (frame 1's)
+    return local_map
+
+
+def test_local_map_cap_removes_outliers_then_the_previous_key_frames_projected_points_then_the_oldest():
+    local_map = five_key_frames_of_ten_points()
+    # key frame 7 observes point 0 and point 10
     local_map.refer(np.array([0, 10]), [(7, 0.0, 0.0, 1.0), (7, 1.0, 0.0, 1.0)])
-    local_map.cap(25)
-    assert len(local_map) == 25
-    assert sorted(set(local_map.points[:, 0].tolist())) == [0.0, 3.0, 4.0]
-    assert (local_map.last_seen == 9).sum() == 5
-    assert [references[0][0] for references in local_map.references] == local_map.points[:, 0].astype(int).tolist()
-    # observations left per key frame: frames 1 and 2 and point 10's of frame 7 left with their points
-    assert dict(local_map.referenced) == {0: 5, 3: 10, 4: 10, 7: 1}
+    # OdometryF2M: the matched words 12 and 35 that are not inliers go first, then the
+    # previous key frame's (4) words 41 and 43 projected near a corner, then the oldest that
+    # are not inliers (2 and 5 are) until 38 are left: 0, 1, 3, 4, 6, 7, 8, 9.
+    local_map.cap(38, np.array([12, 35, 41, 43]), np.array([2, 5, 11, 42]), added=10)
+    removed = sorted(set(range(50)) - set(local_map.points[:, 0].astype(int).tolist()))
+    assert removed == [0, 1, 3, 4, 6, 7, 8, 9, 12, 35, 41, 43]
+    assert local_map.added_on.tolist() == [0] * 2 + [1] * 9 + [2] * 10 + [3] * 9 + [4] * 8
+    assert [references[0][0] for references in local_map.references] == local_map.added_on.tolist()
+    # the observations of the removed points are gone with them, point 0's by key frame 7 too
+    assert dict(local_map.referenced) == {0: 2, 1: 9, 2: 10, 3: 9, 4: 8, 7: 1}
+
+
+def test_local_map_cap_keeps_every_new_point_of_a_key_frame_larger_than_the_map():
+    local_map = five_key_frames_of_ten_points()
+    # 30 points may stay, but the key frame just added 40: OdometryF2M stops removing once
+    # the map is one point below that, 39 (the eleven oldest go)
+    local_map.cap(30, np.zeros(0, int), np.zeros(0, int), added=40)
+    assert local_map.points[:, 0].astype(int).tolist() == list(range(11, 50))
 
 
 def test_vocabulary_reuses_words_and_creates_new_ones():

@@ -11,7 +11,7 @@ made again guided by its own pose (Reg/RepeatOnce), so that its matches and inli
 those of the guided matching. PnP RANSAC gives each pose,
 accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
 at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
-OdomF2M/MaxSize. With OdomF2M/BundleAdjustment each registration is then refined by a
+OdomF2M/MaxSize in RTAB-Map's order of removal (:meth:`LocalMap.cap`). With OdomF2M/BundleAdjustment each registration is then refined by a
 local bundle adjustment against the key frames that saw its inliers (:mod:`.bundle`):
 the pose becomes the adjusted one, the points whose observations disagree are no longer
 inliers, and on a key frame the inlier map points move to their adjusted positions.
@@ -21,10 +21,11 @@ is what makes RTAB-Map start a new graph session there.
 """
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
@@ -47,16 +48,16 @@ BUNDLE_ROTATION_VARIANCE_FLOOR = 3e-7
 
 
 class LocalMap:
-    """3D features in the odometry frame with their descriptors, observation history and,
-    per point, the key frames' observations of it (for the bundle adjustment).
-    ``referenced`` counts the observations per key frame, so that the key frames no point
-    refers to any more are found without reading every point's observations."""
+    """3D features in the odometry frame, oldest first (RTAB-Map's word ids grow with each
+    word added), with their descriptors, the key frame that added each and, per point, the
+    key frames' observations of it (for the bundle adjustment). ``referenced`` counts the
+    observations per key frame, so that the key frames no point refers to any more are found
+    without reading every point's observations."""
 
     def __init__(self):
         self.points = np.zeros((0, 3))
         self.descriptors = np.zeros((0, 32), np.uint8)
-        self.times_seen = np.zeros(0, int)
-        self.last_seen = np.zeros(0, int)
+        self.added_on = np.zeros(0, int)
         self.references: list[list[Reference]] = []
         self.referenced: Counter[int] = Counter()
 
@@ -66,8 +67,7 @@ class LocalMap:
     def add(self, points: np.ndarray, descriptors: np.ndarray, frame: int, references: list[Reference]) -> None:
         self.points = np.concatenate([self.points, points])
         self.descriptors = np.concatenate([self.descriptors, descriptors])
-        self.times_seen = np.concatenate([self.times_seen, np.ones(len(points), int)])
-        self.last_seen = np.concatenate([self.last_seen, np.full(len(points), frame)])
+        self.added_on = np.concatenate([self.added_on, np.full(len(points), frame)])
         self.references += [[reference] for reference in references]
         self.referenced.update(reference[0] for reference in references)
 
@@ -76,21 +76,28 @@ class LocalMap:
             self.references[index].append(reference)
         self.referenced.update(reference[0] for reference in references)
 
-    def observe(self, indices: np.ndarray, frame: int) -> None:
-        self.times_seen[indices] += 1
-        self.last_seen[indices] = frame
-
-    def cap(self, max_size: int) -> None:
-        """Keep the ``max_size`` most recently seen points, the most often seen first among equals."""
-        if len(self) <= max_size:
+    def cap(self, max_size: int, first: np.ndarray, kept: np.ndarray, added: int) -> None:
+        """OdometryF2M's removal beyond OdomF2M/MaxSize on a key frame: the points ``first``
+        in their order (the registration's matched map points that are not inliers, then
+        the previous key frame's points that the guided matching projected near a corner),
+        then the oldest, never one of ``kept`` (the registration's inliers), and no further
+        than ``added`` points less one (the key frame's new points), so that a key frame that
+        adds more than ``max_size`` points keeps them all."""
+        target = max(max_size, added - 1)
+        if len(self) <= target:
             return
-        order = np.lexsort((-self.times_seen, -self.last_seen))
-        for removed in order[max_size:]:
-            self.referenced.subtract(reference[0] for reference in self.references[removed])
+        candidates = np.concatenate([first, np.arange(len(self))]).astype(int)
+        _, first_place = np.unique(candidates, return_index=True)
+        candidates = candidates[np.sort(first_place)]
+        protected = np.zeros(len(self), bool)
+        protected[kept] = True
+        removed = candidates[~protected[candidates]][:len(self) - target]
+        for index in removed:
+            self.referenced.subtract(reference[0] for reference in self.references[index])
         self.referenced = +self.referenced               # drop the key frames counted down to 0
-        keep = np.sort(order[:max_size])
+        keep = np.setdiff1d(np.arange(len(self)), removed)
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
-        self.times_seen, self.last_seen = self.times_seen[keep], self.last_seen[keep]
+        self.added_on = self.added_on[keep]
         self.references = [self.references[i] for i in keep]
 
 
@@ -106,7 +113,9 @@ class OdometryResult:
     the registration (see :func:`registration_variance`); ``feature_index``,
     ``map_index`` and ``match_inliers`` all the matches (indices in the frame's features and
     in the local map) and which are inliers; ``map_points`` the inliers' map points after
-    bundle adjustment (as they were without it).
+    bundle adjustment (as they were without it); ``projected`` the map points the guided
+    matching projected within Vis/CorGuessWinSize of a corner (RegistrationVis's
+    ``projectedIDs``; none for a registration by descriptors alone).
     """
 
     pose: np.ndarray | None
@@ -125,6 +134,7 @@ class OdometryResult:
     key_frame: bool = False
     local_map_size: int = 0
     kept: np.ndarray | None = None
+    projected: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
 
 
 def scaled_down(variance: float, floor: float) -> float:
@@ -175,6 +185,7 @@ class FrameToMapOdometry:
         self.lost_frames = 0
         self.frame_count = 0
         self.was_reset = False
+        self.last_key_frame = 0                  # the frame of the newest key frame
 
     @property
     def initialised(self) -> bool:
@@ -221,6 +232,7 @@ class FrameToMapOdometry:
         if self.pose is None:
             self.pose = np.eye(4)
         self.velocity = None
+        self.last_key_frame = self.frame_count
         self.key_frames.add(self.frame_count, self.pose.copy())
         new = np.flatnonzero(with_depth)
         self.map.add(transform_points(self.pose, features.points[new]), features.descriptors[new], self.frame_count,
@@ -240,24 +252,31 @@ class FrameToMapOdometry:
         result = None
         if guess is not None and self.params.guess_window > 0:
             predicted = self.pose @ guess
-            result = self._solve(features, *self.guided_matches(features, predicted), predicted)
+            result = self._solve_guided(features, predicted)
         if result is None or result.pose is None:
             result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
                                                               self.params.correspondence_nndr), self.pose)
             if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
                 kept = uncontested(features, self.map.descriptors, self.params.correspondence_nndr)
                 features = features.subset(kept)
-                result = self._solve(features, *self.guided_matches(features, result.pose), result.pose)
+                result = self._solve_guided(features, result.pose)
                 result.kept = kept
         result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
             result.key_frame = self._update_map(features, result)
         return result
 
-    def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _solve_guided(self, features: Features, predicted: np.ndarray) -> OdometryResult:
+        feature_index, map_index, projected = self.guided_matches(features, predicted)
+        result = self._solve(features, feature_index, map_index, predicted)
+        result.projected = projected
+        return result
+
+    def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """RegistrationVis's matching with a motion guess: the map points in front of the
         predicted camera whose projection lies in the (rectified) image are matched with the
-        corners within Vis/CorGuessWinSize pixels. By default each projected point, in word
+        corners within Vis/CorGuessWinSize pixels; returned are the matches (indices of
+        features, of map points) and the map points projected within the window of a corner. By default each projected point, in word
         order, picks among the corners around it and a corner already taken is not matched
         again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
         around it, and a map point picked by several corners is dropped (their duplicate word
@@ -270,6 +289,9 @@ class FrameToMapOdometry:
                   & (projections[:, 1] <= self.camera.height - 1))
         visible, projections = in_front[inside], projections[inside]
         corners = self._undistorted(features.keypoints)
+        near_corner = (cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
+                       if len(corners) and len(projections) else np.zeros(len(projections), bool))
+        projected = visible[near_corner]
         descriptors = self.map.descriptors[visible]
         if params.guess_match_to_projection:
             picked = nearest_within_radius(corners, features.descriptors, projections, descriptors,
@@ -277,13 +299,13 @@ class FrameToMapOdometry:
             claims = np.bincount(picked[picked >= 0], minlength=len(visible))
             feature_index = np.flatnonzero(picked >= 0)
             feature_index = feature_index[claims[picked[feature_index]] == 1]
-            return feature_index, visible[picked[feature_index]]
+            return feature_index, visible[picked[feature_index]], projected
         picked = nearest_within_radius(projections, descriptors, corners, features.descriptors,
                                        params.guess_window, params.correspondence_nndr)
         matched = np.flatnonzero(picked >= 0)
         _, first_claim = np.unique(picked[matched], return_index=True)
         map_rows = np.sort(matched[first_claim])
-        return picked[map_rows], visible[map_rows]
+        return picked[map_rows], visible[map_rows], projected
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
                shown_without_pose: np.ndarray) -> OdometryResult:
@@ -350,30 +372,36 @@ class FrameToMapOdometry:
         return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
 
     def _update_map(self, features: Features, result: OdometryResult) -> bool:
-        """Note the map points seen again and, on a key frame, move the inliers' map points to
-        their adjusted positions, record this frame's observations of every matched map point
-        and add the features that matched none; True on a key frame (OdometryF2M::computeTransform: a matched
-        feature carries its map word's id, inlier or not, so it is an observation of that word
-        and never a new one)."""
+        """On a key frame, move the inliers' map points to their adjusted positions, record
+        this frame's observations of every matched map point and add the features that
+        matched none; True on a key frame (OdometryF2M::computeTransform: a matched feature
+        carries its map word's id, inlier or not, so it is an observation of that word and
+        never a new one)."""
         params = self.params
         # A registered result (_solve's, with a pose) carries its matches.
         assert result.pose is not None and result.map_index is not None and result.feature_index is not None
         inlier_points = result.map_index[result.match_inliers]
-        self.map.observe(inlier_points, self.frame_count)
         if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0
                 or result.inliers <= params.keyframe_threshold * len(features) or result.inliers <= params.keyframe_inliers):
             if params.bundle_adjustment:
                 self.key_frames.add(self.frame_count, result.pose)
                 self.map.points[inlier_points] = result.map_points
                 self.map.refer(result.map_index, self._references(features, result.feature_index))
-            self._extend_map(features, result.pose, np.setdiff1d(np.arange(len(features)), result.feature_index))
+            self._extend_map(features, result, np.setdiff1d(np.arange(len(features)), result.feature_index))
             return True
         return False
 
-    def _extend_map(self, features: Features, pose: np.ndarray, candidates: np.ndarray) -> None:
-        """Add the frame's unregistered features with depth, then cap the map."""
+    def _extend_map(self, features: Features, result: OdometryResult, candidates: np.ndarray) -> None:
+        """Add the frame's unregistered features with depth, then cap the map: first the
+        matched map points that are not inliers, then the previous key frame's points
+        projected near a corner, then the oldest (:meth:`LocalMap.cap`)."""
+        assert result.pose is not None and result.map_index is not None and result.match_inliers is not None
         new = candidates[features.has_depth[candidates]]
-        self.map.add(transform_points(pose, features.points[new]), features.descriptors[new], self.frame_count,
+        outliers = np.sort(result.map_index[~result.match_inliers])
+        previous_key_frames = np.sort(result.projected[self.map.added_on[result.projected] >= self.last_key_frame])
+        self.map.add(transform_points(result.pose, features.points[new]), features.descriptors[new], self.frame_count,
                      self._references(features, new))
-        self.map.cap(self.params.local_map_size)
+        self.map.cap(self.params.local_map_size, np.concatenate([outliers, previous_key_frames]),
+                     result.map_index[result.match_inliers], len(new))
+        self.last_key_frame = self.frame_count
         self.key_frames.keep_referenced(self.map.referenced)
