@@ -7,7 +7,9 @@ interpreter's viewslam), then opened by the Rerun viewer under Xvfb at 1920x1080
 1280x800 (`xvfb-run -a rerun --screenshot-to shot.png --window-size WxH FILE.rrd`, on a port
 of its own, with RUST_LOG=error: its start-up warnings would otherwise show as notices over
 the top right of the window). The viewer draws at twice the window's size; the picture is scaled back to the
-window's size and stored with a 256-colour palette. Needs xvfb-run (Debian package xvfb) and,
+window's size and stored with a 256-colour palette. Needs xvfb-run (Debian package xvfb), a
+Vulkan driver for the viewer (Debian package mesa-vulkan-drivers: Mesa's software OpenGL
+cannot draw the R32Float textures the viewer needs) and,
 for `fr1_rpy_200`, the 200-frame fr1/rpy excerpt beside the repository
 (../shared/data/tum/rgbd_dataset_freiburg1_rpy_200); for `study_kidnap` (a recording of
 trajectory files alone), the study's fr2/360_kidnap runs (../shared/data/study_kasar2018).

@@ -11,10 +11,11 @@ made again guided by its own pose (Reg/RepeatOnce), so that its matches and inli
 those of the guided matching. PnP RANSAC gives each pose,
 accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
 at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
-OdomF2M/MaxSize in RTAB-Map's order of removal (:meth:`LocalMap.cap`). With OdomF2M/BundleAdjustment each registration is then refined by a
-local bundle adjustment against the key frames that saw its inliers (:mod:`.bundle`):
-the pose becomes the adjusted one, the points whose observations disagree are no longer
-inliers, and on a key frame the inlier map points move to their adjusted positions.
+OdomF2M/MaxSize in RTAB-Map's order of removal (:meth:`LocalMap.cap`). With
+OdomF2M/BundleAdjustment each registration is then refined by a local bundle adjustment
+against the key frames that saw its inliers (:mod:`.bundle`): the pose becomes the
+adjusted one, the points whose observations disagree are no longer inliers, and on a key
+frame the inlier map points move to their adjusted positions.
 After Odom/ResetCountdown lost frames odometry starts a new map from
 the last good pose; the first frame of a map carries no link to what came before, which
 is what makes RTAB-Map start a new graph session there.
@@ -267,6 +268,9 @@ class FrameToMapOdometry:
         return result
 
     def _solve_guided(self, features: Features, predicted: np.ndarray) -> OdometryResult:
+        """The registration on the guided matches around ``predicted``, with the map points
+        the matching projected near a corner (the local map's cap removes those of the
+        previous key frame early)."""
         feature_index, map_index, projected = self.guided_matches(features, predicted)
         result = self._solve(features, feature_index, map_index, predicted)
         result.projected = projected
