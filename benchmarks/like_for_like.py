@@ -42,6 +42,7 @@ sys.path.insert(0, str(ROOT))
 from viewer_slam.comparison.compare import compare_reports  # noqa: E402
 from viewer_slam.comparison.output import print_comparison  # noqa: E402
 from viewer_slam.dataset.sources import open_source  # noqa: E402
+from viewer_slam.evaluation.rpe import relative_errors  # noqa: E402
 from viewer_slam.geometry.association import associate  # noqa: E402
 from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
 from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
@@ -248,10 +249,7 @@ def frame_to_frame(trajectory, sequence) -> str:
     consecutive = consecutive[covered[consecutive] & covered[consecutive + 1]]
     if len(consecutive) == 0:
         return "–"
-    poses = trajectory.poses
-    estimated = np.linalg.inv(poses[consecutive]) @ poses[consecutive + 1]
-    true = np.linalg.inv(truth[consecutive]) @ truth[consecutive + 1]
-    errors = np.linalg.norm((np.linalg.inv(true) @ estimated)[:, :3, 3], axis=1) * 100
+    errors = relative_errors(truth, trajectory.poses, consecutive, consecutive + 1)[0] * 100
     return f"{errors.mean():.2f} / {np.median(errors):.2f} ({len(errors)} pairs)"
 
 

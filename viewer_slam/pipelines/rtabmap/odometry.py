@@ -280,9 +280,9 @@ class FrameToMapOdometry:
         """RegistrationVis's matching with a motion guess: the map points in front of the
         predicted camera whose projection lies in the (rectified) image are matched with the
         corners within Vis/CorGuessWinSize pixels; returned are the matches (indices of
-        features, of map points) and the map points projected within the window of a corner. By default each projected point, in word
-        order, picks among the corners around it and a corner already taken is not matched
-        again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
+        features, of map points) and the map points projected within the window of a corner.
+        By default each projected point, in word order, picks among the corners around it and
+        a corner already taken is not matched again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
         around it, and a map point picked by several corners is dropped (their duplicate word
         ids are removed before the motion estimation)."""
         params = self.params
