@@ -24,6 +24,7 @@ import sys
 import time
 import types
 import urllib.request
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -121,8 +122,13 @@ def pixels_of(image: np.ndarray, colour) -> int:
     return int(np.count_nonzero(np.abs(image - np.asarray(colour)).sum(axis=2) < 40))
 
 
+def in_colour(image: np.ndarray) -> bool:
+    """Panels drawn, not a blank or loading page: contrast and over 300 distinct colours."""
+    return bool(image.std() > 20 and len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 300)
+
+
 def assert_draws_every_pipeline(image: np.ndarray) -> None:
-    assert image.std() > 20 and len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 300
+    assert in_colour(image)
     scene = scene_region(image)
     for position, name in enumerate(PIPELINES):  # its trajectory and frustum, in the 3D view
         assert pixels_of(scene, palette.run_colour(name, position).rgb) > 100, name
@@ -172,10 +178,11 @@ async def screenshots(websocket: str, interval_s: float):
             yield base64.b64decode(reply["result"]["data"])
 
 
-def browser_draws(address: str, profile: Path, shot: Path, done, timeout_s: float = 180.0) -> np.ndarray:
+def browser_draws(address: str, profile: Path, shot: Path, done: Callable[[np.ndarray], bool],
+                  timeout_s: float = 180.0) -> np.ndarray:
     """The page at ``address`` as a fresh headless Chromium draws it, once ``done(image)`` holds (or
-    at the deadline): the web viewer loads its wasm, then the recording, then draws panel by panel,
-    so on a loaded machine an early screenshot shows the curves before the 3D view."""
+    at the deadline): the web viewer loads its wasm, then the recording streams in, so on a loaded
+    machine an early screenshot lacks part of it (one pipeline's panels still empty)."""
     browser = subprocess.Popen([chromium(), *BROWSER_FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
                                 address], stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
@@ -201,9 +208,9 @@ def browser_draws(address: str, profile: Path, shot: Path, done, timeout_s: floa
 def web_page_drawn(image: np.ndarray) -> bool:
     """The whole page is drawn: its panels in colour, each pipeline's path and frustum in 3D and its
     curves, and the ground truth in the 3D view."""
-    return bool(image.std() > 20 and len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 300
-                and all(pixels_of(image, palette.run_colour(name, i).rgb) > 100 for i, name in enumerate(PIPELINES))
-                and pixels_of(scene_region(image), palette.GROUNDTRUTH.rgb) > 50)
+    return (in_colour(image)
+            and all(pixels_of(image, palette.run_colour(name, i).rgb) > 100 for i, name in enumerate(PIPELINES))
+            and pixels_of(scene_region(image), palette.GROUNDTRUTH.rgb) > 50)
 
 
 @pytest.mark.skipif(chromium() is None, reason="chromium (Debian package chromium) is not installed")
