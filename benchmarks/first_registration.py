@@ -19,6 +19,8 @@ import argparse
 import sys
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import cv2
 import numpy as np
 from like_for_like import REFERENCE, THAT_BUILD, TUM, ReferenceRun, number, read_nodes, reference_camera

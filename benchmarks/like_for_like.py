@@ -34,6 +34,8 @@ import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]

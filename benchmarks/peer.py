@@ -14,6 +14,8 @@ import os
 import time
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 from viewer_slam.dataset.sources import open_source

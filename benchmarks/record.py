@@ -28,6 +28,8 @@ import tempfile
 import time
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 from viewer_slam.dataset.frame import Frame, select_frames

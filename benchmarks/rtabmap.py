@@ -13,6 +13,8 @@ import resource
 import sys
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 from viewer_slam.dataset.resting import RestingStart

@@ -30,6 +30,8 @@ from dataclasses import dataclass
 from datetime import date
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]

@@ -25,6 +25,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 from PIL import Image
 

@@ -15,6 +15,7 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any, Protocol
 
+from .. import code_paths
 from ..errors import InputError
 from .runner import BenchmarkTask, TaskResult, execute_task
 
@@ -137,7 +138,9 @@ class RayExecutor:
         if not ray.is_initialized():
             options = {"address": self.address} if self.address else {"num_cpus": self.jobs or os.cpu_count()}
             try:
-                ray.init(**options, include_dashboard=False, log_to_driver=False, configure_logging=False)
+                # Workers on other nodes do not inherit this process's environment: hand them NumPy's hold.
+                ray.init(**options, include_dashboard=False, log_to_driver=False, configure_logging=False,
+                         runtime_env={"env_vars": code_paths.environment()})
             except ConnectionError as error:
                 raise InputError(f"--ray-address {self.address}: cannot connect: {error}") from None
             self._started = True

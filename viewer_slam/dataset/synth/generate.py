@@ -42,7 +42,7 @@ from .sensor import KinectModel, motion_blur
 from .trajectories import noisy_groundtruth, sensor_timing
 
 # Bump whenever the output for the same arguments changes: cached folders carry it in their name.
-GENERATOR_VERSION = 6
+GENERATOR_VERSION = 7
 
 
 # TUM's published intrinsics at 640x480 (fx, fy, cx, cy); images are rendered undistorted.
@@ -125,8 +125,7 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     except OSError as error:
         raise InputError.at(out, f"cannot write: {error.strerror or error}") from None
     try:
-        # Embree on one thread when workers share the cores (its hits do not depend on it).
-        run = _Run(scenario, frames, cam, seed, threads=1 if workers > 1 else 0)
+        run = _Run(scenario, frames, cam, seed)
         with counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance:
             run.write(staging, camera, workers, rendered, advance)
         if out.is_dir():
@@ -204,8 +203,8 @@ def _worker_count(workers: int | None, frames: int, resolution: tuple[int, int])
 class _Run:
     """One run of a scenario: its plan, stamps, renderer, and the frames rendered on demand."""
 
-    def __init__(self, scenario, frames: int, camera: Camera, seed: int, threads: int = 0):
-        self.scenario, self.frames, self.camera, self.seed, self.threads = scenario, frames, camera, seed, threads
+    def __init__(self, scenario, frames: int, camera: Camera, seed: int):
+        self.scenario, self.frames, self.camera, self.seed = scenario, frames, camera, seed
         self.plan: Plan = scenario.build(np.random.default_rng([seed, _SCENE]), frames)
         self.timing = sensor_timing(np.random.default_rng([seed, _TIMING]), frames)
         self.sensor = KinectModel()
@@ -216,7 +215,7 @@ class _Run:
     @functools.cached_property
     def renderer(self) -> Renderer:
         """Built on first use: a parent whose workers render needs only the plan."""
-        return Renderer(self.plan.scene, self.camera, self.threads)
+        return Renderer(self.plan.scene, self.camera)
 
     def frame(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Colour (uint8 RGB) and depth (float32 metres) of frame ``i``; black and empty while covered."""
@@ -243,7 +242,7 @@ class _Run:
         if workers == 1:
             yield from self._encoded_in_process(count)
             return
-        # Spawned, not forked: a fork would inherit OpenCV's and Embree's thread pools mid-state.
+        # Spawned, not forked: a fork would inherit OpenCV's thread pool mid-state.
         with (_one_opencv_thread(),
               ProcessPoolExecutor(workers - 1, mp_context=multiprocessing.get_context("spawn"),
                                   initializer=_start_worker,
@@ -326,7 +325,7 @@ def _start_worker(name: str, frames: int, camera: Camera, seed: int) -> None:
     """Build the run once per worker; one thread each, as the workers already fill the cores."""
     global _worker_run
     cv2.setNumThreads(1)
-    _worker_run = _Run(_scenario(name), frames, camera, seed, threads=1)
+    _worker_run = _Run(_scenario(name), frames, camera, seed)
 
 
 def _worker_frame(i: int) -> tuple[bytes, bytes]:

@@ -1,7 +1,7 @@
 """Ray-cast rendering of a :class:`Scene` into ideal colour and depth images.
 
-Open3D's ``RaycastingScene`` (Embree) intersects the rays; each hit gives the triangle,
-its barycentric coordinates and face normal. Embree's time grows with the rays, so they are
+:mod:`.raycast` intersects the rays (in float64, with the same bits on every CPU); each hit
+gives the triangle and its barycentric coordinates. The time grows with the rays, so they are
 cast adaptively: first on a grid of every fourth pixel, then on every second pixel of the
 cells whose four corners do not all hit the same face (coplanar triangles with one texture
 mapping, as a quad's two), then on every pixel of the 2-pixel cells that still do not.
@@ -24,7 +24,7 @@ import cv2
 import numpy as np
 
 from ...geometry.camera import Camera
-from ...open3d_loader import import_open3d
+from .raycast import CasterFrame, TriangleCaster
 from .scenes import Scene, Surface
 
 ATLAS_WIDTH = 8192
@@ -105,10 +105,11 @@ def mip_atlas(atlas: np.ndarray) -> tuple[np.ndarray, int, int]:
 def rotate(vectors: np.ndarray, R: np.ndarray) -> np.ndarray:
     """``R @ v`` for every vector of an ``(..., 3)`` array.
 
-    einsum rather than ``@``: a threaded BLAS spends more time spinning than computing on
-    such tall, thin products.
+    Written out as products and sums in a fixed order rather than ``@`` or einsum, whose
+    BLAS kernels and SIMD loops round differently on different CPUs.
     """
-    return np.einsum("...j,ij->...i", vectors, R)
+    x, y, z = vectors[..., 0:1], vectors[..., 1:2], vectors[..., 2:3]
+    return x * R[:, 0] + y * R[:, 1] + z * R[:, 2]
 
 
 def dot3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -141,7 +142,28 @@ def pixel_rays(camera: Camera, cols: np.ndarray, rows: np.ndarray) -> np.ndarray
 
 
 @dataclass(frozen=True)
-class _Level:
+class _Samples:
+    """Pixels sampled every ``step`` pixels from the top-left one, in a grid ``shape``: their
+    column and row ``(N, 2)``, and the lengths of their camera-frame rays of unit z."""
+
+    shape: tuple[int, int]
+    pixels: np.ndarray
+    norms: np.ndarray
+
+    @staticmethod
+    def grid(camera: Camera, shape: tuple[int, int], step: int) -> tuple[np.ndarray, np.ndarray]:
+        rows, cols = np.indices(shape)
+        pixels = np.stack([cols.ravel() * step, rows.ravel() * step], axis=-1).astype(np.float64)
+        x, y = (pixels[:, 0] - camera.cx) / camera.fx, (pixels[:, 1] - camera.cy) / camera.fy
+        return pixels, np.sqrt(x * x + y * y + 1.0)
+
+    @classmethod
+    def every(cls, camera: Camera, shape: tuple[int, int], step: int) -> "_Samples":
+        return cls(shape, *cls.grid(camera, shape, step))
+
+
+@dataclass(frozen=True)
+class _Level(_Samples):
     """The samples of one refinement, each between the samples of a twice coarser level.
 
     ``cell`` and ``corner`` give each sample's coarse cell and that cell's top-left coarse
@@ -149,9 +171,6 @@ class _Level:
     coarse coordinates for ``cv2.remap`` (halves: exact in OpenCV's fixed-point weights).
     """
 
-    shape: tuple[int, int]
-    rays: np.ndarray   # (N, 3)
-    norms: np.ndarray  # (N,)
     cell: np.ndarray
     corner: np.ndarray
     maps: tuple[np.ndarray, np.ndarray]
@@ -161,8 +180,7 @@ class _Level:
         """Samples ``shape`` every ``step`` pixels from the top-left one, in a coarse grid ``coarse``."""
         rows, cols = np.indices(shape)
         cell_row, cell_col = np.minimum(rows // 2, coarse[0] - 2), np.minimum(cols // 2, coarse[1] - 2)
-        rays = pixel_rays(camera, np.arange(shape[1]) * step, np.arange(shape[0]) * step).reshape(-1, 3)
-        return cls(shape, rays, np.linalg.norm(rays, axis=-1), (cell_row * (coarse[1] - 1) + cell_col).ravel(),
+        return cls(shape, *cls.grid(camera, shape, step), (cell_row * (coarse[1] - 1) + cell_col).ravel(),
                    (cell_row * coarse[1] + cell_col).ravel(),
                    ((cols / 2).astype(np.float32), (rows / 2).astype(np.float32)))
 
@@ -217,7 +235,8 @@ def bake_light_maps(surfaces: list[Surface], origins: np.ndarray, atlas_shape: t
         bary = _barycentric_in(np.stack([u.ravel(), v.ravel()], -1), surface.uvs[surface.triangles])
         best = np.argmax(bary.min(axis=-1), axis=0)  # the containing triangle, or the nearest
         weights = bary[best, np.arange(len(best))]
-        points = np.einsum("gk,gkc->gc", weights, surface.vertices[surface.triangles[best]])
+        corners = surface.vertices[surface.triangles[best]]
+        points = weights[:, 0:1] * corners[:, 0] + weights[:, 1:2] * corners[:, 1] + weights[:, 2:3] * corners[:, 2]
         normals = face_normals(surface.vertices, surface.triangles)[best]
         for side, sign in enumerate((1.0, -1.0)):
             intensity = lambert(points.T.astype(np.float32), (sign * normals).T.astype(np.float32), lights, ambient)
@@ -256,14 +275,9 @@ def faces(surface: Surface) -> np.ndarray:
 
 
 class Renderer:
-    """Renders a scene through a camera at a pose and a time (the time places the movers).
+    """Renders a scene through a camera at a pose and a time (the time places the movers)."""
 
-    ``threads`` bounds Embree's threads (0: all cores); a hit does not depend on it.
-    """
-
-    def __init__(self, scene: Scene, camera: Camera, threads: int = 0):
-        self.o3d = import_open3d()
-        self.threads = threads
+    def __init__(self, scene: Scene, camera: Camera):
         self.scene = scene
         self.camera = camera
         surfaces: list[Surface] = scene.static + [s for m in scene.movers for s in m.surfaces]
@@ -286,67 +300,51 @@ class Renderer:
         self.face = np.append(np.concatenate(face), -1).astype(np.int32)  # indexed by triangle, -1 for a miss
         self.static_vertices = np.concatenate([s.vertices for s in scene.static]) if scene.static else np.zeros((0, 3))
         self.static_triangles = sum(len(s.triangles) for s in scene.static)
-        self._static_scene = None if scene.movers else self._raycasting_scene(self.static_vertices)
+        self._caster = TriangleCaster(self.triangles, camera)
         self._lights = np.asarray(scene.lights, np.float64)
         self.light_maps = bake_light_maps(scene.static, origins[:len(scene.static)], atlas.shape[:2],
                                           self._lights, scene.ambient)
         # The grid reaches the last row and column, so that interpolation covers every pixel.
         self._grid_shape = (-(-(camera.height - 1) // GRID_STEP) + 1, -(-(camera.width - 1) // GRID_STEP) + 1)
-        self._grid_rays = pixel_rays(camera, np.arange(self._grid_shape[1]) * GRID_STEP,
-                                     np.arange(self._grid_shape[0]) * GRID_STEP).reshape(-1, 3)
-        self._grid_norms = np.linalg.norm(self._grid_rays, axis=-1)
+        self._grid = _Samples.every(camera, self._grid_shape, GRID_STEP)
         half = (2 * self._grid_shape[0] - 1, 2 * self._grid_shape[1] - 1)
         self._levels = (_Level.between(camera, self._grid_shape, half, GRID_STEP // 2),
                         _Level.between(camera, half, (camera.height, camera.width), 1))
-        self._pixel_rays = self._levels[-1].rays
-
-    def _raycasting_scene(self, vertices: np.ndarray):
-        o3d = self.o3d
-        scene = o3d.t.geometry.RaycastingScene()
-        scene.add_triangles(o3d.core.Tensor(np.ascontiguousarray(vertices, np.float32)),
-                            o3d.core.Tensor(self.triangles))
-        return scene
+        self._pixel_rays = pixel_rays(camera, np.arange(camera.width), np.arange(camera.height)).reshape(-1, 3)
 
     def _vertices_at(self, time: float) -> np.ndarray:
         parts = [self.static_vertices]
         for mover in self.scene.movers:
             T = mover.pose(time)
-            parts += [s.vertices @ T[:3, :3].T + T[:3, 3] for s in mover.surfaces]
+            parts += [rotate(s.vertices, T[:3, :3]) + T[:3, 3] for s in mover.surfaces]
         return np.concatenate(parts)
 
-    def _scene_at(self, time: float):
-        if self._static_scene is not None:
-            return self._static_scene
-        return self._raycasting_scene(self._vertices_at(time))
+    def _frame_at(self, time: float, pose: np.ndarray) -> tuple[CasterFrame, np.ndarray]:
+        """The triangles at ``time`` seen from ``pose``, and their unit normals."""
+        vertices = self._vertices_at(time)
+        return self._caster.frame(vertices, pose), face_normals(vertices, self.triangles)
 
-    def _cast(self, scene, pose: np.ndarray, camera_rays: np.ndarray, norms: np.ndarray) -> _Rays:
-        """Intersect rays ``(N, 3)`` (camera frame, unit z; ``norms`` their lengths) from the
-        camera at ``pose`` (T_world_camera)."""
-        rays = np.empty((len(camera_rays), 6), np.float32)
-        rays[:, :3] = pose[:3, 3]
-        directions = rays[:, 3:]
-        R = pose[:3, :3].astype(np.float32)
-        # R @ (x, y, 1) written out: einsum's general loop takes several times longer.
-        np.multiply(camera_rays[:, :1], R[:, 0], out=directions)
-        directions += camera_rays[:, 1:2] * R[:, 1]
-        directions += R[:, 2]
-        result = scene.cast_rays(self.o3d.core.Tensor.from_numpy(rays), nthreads=self.threads)
-        t_hit = result["t_hit"].numpy()
-        hit = np.isfinite(t_hit)
-        triangle = result["primitive_ids"].numpy().view(np.int32)  # a miss's invalid id, 2^32 - 1, reads -1
-        normal = result["primitive_normals"].numpy()
-        cos = np.abs(dot3(normal.T, directions.T)) / norms
-        return _Rays(np.where(hit, t_hit, np.float32(0.0)), triangle, result["primitive_uvs"].numpy(), cos,
-                     directions)
+    @staticmethod
+    def _cast(scene: tuple[CasterFrame, np.ndarray], samples: "_Samples", which: np.ndarray | None = None) -> _Rays:
+        """Intersect the rays of ``samples`` (those at indices ``which``, else all) with the
+        frame's triangles."""
+        frame, normals = scene
+        pixels, norms = (samples.pixels, samples.norms) if which is None else (samples.pixels[which],
+                                                                               samples.norms[which])
+        hits = frame.cast(pixels)
+        hit = hits.triangle >= 0
+        cos = np.abs(dot3(normals[np.maximum(hits.triangle, 0)].T, hits.directions.T)) / norms
+        return _Rays(np.where(hit, hits.t, 0.0).astype(np.float32), hits.triangle,
+                     hits.barycentric.astype(np.float32), cos.astype(np.float32), hits.directions.astype(np.float32))
 
-    def _adaptive(self, scene, pose: np.ndarray, values) -> tuple[np.ndarray, np.ndarray, _Rays]:
+    def _adaptive(self, scene, values) -> tuple[np.ndarray, np.ndarray, _Rays]:
         """Per-pixel ``values`` (a function of a :class:`_Rays`, ``(N, 4)``, linear in the
         image across a face), the pixels' triangles, and the coarse grid's rays.
 
         From the grid of every fourth pixel to every second one, then to every pixel: each
         time rays are cast only in the cells whose corners see more than one face.
         """
-        grid = self._cast(scene, pose, self._grid_rays, self._grid_norms)
+        grid = self._cast(scene, self._grid)
         samples, triangle = values(grid), grid.triangle
         shape = self._grid_shape
         for level in self._levels:
@@ -357,7 +355,7 @@ class Renderer:
             triangle = triangle[level.corner]
             exact = np.flatnonzero(mixed.ravel()[level.cell])
             if len(exact):
-                fine = self._cast(scene, pose, level.rays[exact], level.norms[exact])
+                fine = self._cast(scene, level, exact)
                 samples[exact] = values(fine)
                 triangle[exact] = fine.triangle
             shape = level.shape
@@ -383,7 +381,7 @@ class Renderer:
 
     def cast(self, pose: np.ndarray, time: float) -> Hits:
         """The texture lookup of every pixel from the camera at ``pose`` (T_world_camera)."""
-        dense, triangle, grid = self._adaptive(self._scene_at(time), pose, self._lookup)
+        dense, triangle, grid = self._adaptive(self._frame_at(time, pose), self._lookup)
         shape = triangle.shape
         depth = np.divide(1.0, dense[:, 2], out=np.zeros(len(dense), np.float32), where=dense[:, 2] > 0)
         grid_shape = self._grid_shape
@@ -413,7 +411,7 @@ class Renderer:
         camera sees; computed per pixel on movers."""
         vertices = self._vertices_at(time)
         normals = face_normals(vertices, self.triangles)
-        back = np.einsum("tc,tc->t", normals, pose[:3, 3] - vertices[self.triangles[:, 0]]) < 0  # seen from behind
+        back = dot3(normals.T, (pose[:3, 3] - vertices[self.triangles[:, 0]]).T) < 0  # seen from behind
         back_rows = np.append(back * np.float32((self.light_maps.shape[0] + 2) // 2), np.float32(0.0))
         scale = np.float32(1.0 / LIGHT_STEP)
         map_x = (hits.atlas_x + 0.5) * scale - 0.5
@@ -454,6 +452,6 @@ class Renderer:
             out[:, 1] = rays.cos_incidence
             return out
 
-        dense, triangle, _ = self._adaptive(self._scene_at(time), pose, inverse_and_cos)
+        dense, triangle, _ = self._adaptive(self._frame_at(time, pose), inverse_and_cos)
         depth = np.divide(1.0, dense[:, 0], out=np.zeros(len(dense), np.float32), where=dense[:, 0] > 0)
         return depth.reshape(triangle.shape), np.ascontiguousarray(dense[:, 1].reshape(triangle.shape))

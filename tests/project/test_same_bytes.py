@@ -1,0 +1,66 @@
+"""The same bytes on every x86-64 machine with AVX2: the reference runs (the built-in demo and
+the 200-frame fr1/rpy excerpt, both pipelines) give the committed digests of
+tests/reference_runs/ here, and again under emulated machines whose libraries take other
+code paths (scripts/reference_runs.py). A machine that computes differently is named by the
+first file and frame that differ."""
+
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from fixtures_eval import SHARED_DATA
+
+REPO = Path(__file__).resolve().parents[2]
+spec = importlib.util.spec_from_file_location("reference_runs", REPO / "scripts" / "reference_runs.py")
+reference_runs = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(reference_runs)
+
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(not (SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200").is_dir(),
+                                                   reason="shared TUM excerpt not present")]
+x86_with_avx2 = pytest.mark.skipif("avx2" not in reference_runs.cpu_flags(), reason="the guarantee is for x86-64 with AVX2")
+
+
+@x86_with_avx2
+def test_the_reference_runs_give_the_committed_bytes(tmp_path):
+    assert reference_runs.differences(reference_runs.record_runs(tmp_path)) == []
+
+
+@x86_with_avx2
+def test_emulated_machines_give_the_committed_bytes(tmp_path):
+    machines = reference_runs.runnable(reference_runs.MACHINES)
+    assert len(machines) >= 2
+    found = {name: reference_runs.differences(reference_runs.record_runs(tmp_path / str(number), environment))
+             for number, (name, environment) in enumerate(machines.items())}
+    assert found == {name: [] for name in machines}
+
+
+def test_a_changed_pose_is_named_with_its_frame(tmp_path):
+    reference = reference_runs.REFERENCE
+    lines = (reference / "demo.rtabmap.txt").read_text().splitlines(keepends=True)
+    stamp = lines[40].split()[0]
+    lines[40] = lines[40].replace(lines[40].split()[1], "9.999999", 1)
+    (tmp_path / "demo.rtabmap.txt").write_text("".join(lines))
+    found = {**reference_runs.read_sums(reference / "SHA256SUMS"), "demo.rtabmap.txt": "another digest"}
+    assert reference_runs.compare(found, tmp_path) == [
+        f"demo.rtabmap.txt differs: first differs at line 41, the pose at {stamp} (this run: {stamp})"]
+    assert reference_runs.compare({**found, "demo.rtabmap.txt": reference_runs.read_sums(
+        reference / "SHA256SUMS")["demo.rtabmap.txt"], "demo figures": "another"}, tmp_path) == ["demo figures differs"]
+
+
+@x86_with_avx2
+def test_viewslam_holds_numpy_and_openblas_to_one_code_path_and_warns_when_it_cannot():
+    from viewer_slam import code_paths
+
+    assert code_paths.numpy_level() == "X86_V3"  # this suite's own process: the conftest imports viewer_slam first
+    assert os.environ["OPENBLAS_CORETYPE"] == "Haswell"
+    unheld = {name: value for name, value in os.environ.items() if name not in code_paths.environment()}
+    late = subprocess.run([sys.executable, "-c", "import numpy, warnings; warnings.simplefilter('error'); import viewer_slam"],
+                          env=unheld, capture_output=True, text=True, check=False)
+    first = subprocess.run([sys.executable, "-c", "import viewer_slam.code_paths as c; import numpy; print(c.numpy_level())"],
+                           env=unheld, capture_output=True, text=True, check=True)
+    assert first.stdout.strip() == "X86_V3"
+    beyond = {"avx512f", "avx512bw", "avx512vl", "avx512dq", "avx512cd"} <= reference_runs.cpu_flags()
+    assert (late.returncode != 0 and "NumPy was imported before viewer_slam" in late.stderr) == beyond

@@ -1,0 +1,76 @@
+"""One code path through NumPy and OpenBLAS on every x86-64 CPU with AVX2, so that a run
+gives the same bytes on every such machine.
+
+Both pick their code for the processor when they are first loaded. On a processor with
+AVX-512, NumPy's sine, cosine, exponential, logarithm and their kin run AVX-512 code
+(derived from Intel's SVML) whose last bits differ from those of the AVX2 and scalar code
+that a processor without AVX-512 runs; the synthetic scenes' textures, camera paths and
+moving people are made with them, so a scene would render differently on the two. OpenBLAS
+likewise runs other kernels there (SkylakeX, Cooperlake, Sapphire Rapids), which round the
+small products and decompositions of the evaluation (the alignment's SVD) differently from
+its Haswell kernels. viewslam holds NumPy to its AVX2 loops (dispatch level ``X86_V3``, by
+``NPY_DISABLE_CPU_FEATURES``) and OpenBLAS to its Haswell kernels (``OPENBLAS_CORETYPE``),
+which both read once, when NumPy is first imported: importing :mod:`viewer_slam` sets them
+before anything of viewslam imports NumPy, and the processes viewslam starts (render and
+benchmark pools, Ray workers) inherit them or are handed them. A program that imported
+NumPy before viewslam keeps the processor's own code paths, and is warned.
+
+OpenCV's dispatch and numba's target need no hold: measured, they do not change a run
+(``scripts/reference_runs.py --check --emulate all``), and the renderer casts its rays in
+code of its own (``dataset/synth/raycast.py``).
+"""
+
+import os
+import platform
+import sys
+import warnings
+from functools import cache
+from pathlib import Path
+
+#: NumPy's dispatch targets beyond AVX2: AVX-512 (Skylake-X), its Ice Lake and Sapphire Rapids extensions.
+NUMPY_BEYOND_AVX2 = ("X86_V4", "AVX512_ICL", "AVX512_SPR")
+OPENBLAS_KERNELS = "Haswell"  # OpenBLAS's kernels for AVX2 with FMA (Zen runs the same)
+
+
+@cache
+def _has_avx2() -> bool:
+    """Whether this is an x86-64 CPU with AVX2 and FMA (Linux tells; elsewhere, assume not)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return False
+    try:
+        flags = next((line.split(":", 1)[1].split() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                      if line.startswith("flags")), [])
+    except OSError:
+        return False
+    return {"avx2", "fma"} <= set(flags)
+
+
+def environment() -> dict[str, str]:
+    """The variables that hold a new process to the one code path (empty where the
+    guarantee does not apply: not x86-64, or no AVX2)."""
+    if not _has_avx2():
+        return {}
+    disabled = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split()
+    return {"NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
+            "OPENBLAS_CORETYPE": OPENBLAS_KERNELS}
+
+
+def hold() -> None:
+    """Hold this process (if NumPy is not imported yet) and its children to the one code
+    path; warn once if NumPy was imported before and runs beyond it."""
+    os.environ.update(environment())
+    if "numpy" in sys.modules and numpy_level() in NUMPY_BEYOND_AVX2:
+        settings = " ".join(f"{name}={value!r}" for name, value in environment().items())
+        warnings.warn("NumPy was imported before viewer_slam and runs its AVX-512 code, so results may differ in "
+                      f"the last bits from other machines'; import viewer_slam first, or set {settings}",
+                      RuntimeWarning, stacklevel=3)
+
+
+def numpy_level() -> str | None:
+    """The highest of NumPy's dispatch targets in force in this process (None off x86-64)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return None
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+    enabled = [target for target in __cpu_dispatch__ if __cpu_features__.get(target)]
+    return enabled[-1] if enabled else "X86_V2"
