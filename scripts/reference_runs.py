@@ -14,7 +14,7 @@ from the reference.
 `--emulate` records them under settings that hold one library to the code path another
 processor would take (NumPy's SIMD loops, OpenBLAS's kernels, OpenCV's dispatch, numba's
 target), each in a fresh process: `all` runs every setting this CPU can run, one at a time;
-a name runs one. The test suite checks the defaults and three emulated machines
+a name runs one. The test suite checks the defaults and two emulated machines
 (`tests/project/test_same_bytes.py`).
 """
 
@@ -27,6 +27,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from viewer_slam.code_paths import cpu_flags
 
 REPO = Path(__file__).resolve().parents[1]
 REFERENCE = REPO / "tests" / "reference_runs"
@@ -51,19 +53,10 @@ SETTINGS: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
 
 #: Whole machines, every library at once, as the test suite emulates them.
 MACHINES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
-    "AVX2 without AVX-512": (("avx2",), {"OPENCV_CPU_DISABLE": OPENCV_AVX512, "OPENBLAS_CORETYPE": "Haswell",
+    "AVX2 without AVX-512": (("avx2",), {"OPENCV_CPU_DISABLE": OPENCV_AVX512, "OPENBLAS_CORETYPE": "Zen",
                                           "NUMBA_CPU_NAME": "haswell"}),
-    "AMD Zen (OpenBLAS Zen, generic numba)": (("avx2",), {"OPENBLAS_CORETYPE": "Zen", "NUMBA_CPU_NAME": "generic"}),
     "Intel with AVX-512": (AVX512, {"OPENBLAS_CORETYPE": "SkylakeX", "NUMBA_CPU_NAME": "skylake-avx512"}),
 }
-
-
-def cpu_flags() -> set[str]:
-    """This CPU's feature flags, as Linux names them."""
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("flags"):
-            return set(line.split(":", 1)[1].split())
-    return set()
 
 
 def runnable(settings: dict[str, tuple[tuple[str, ...], dict[str, str]]]) -> dict[str, dict[str, str]]:

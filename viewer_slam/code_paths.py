@@ -20,6 +20,7 @@ OpenCV's dispatch and numba's target need no hold: measured, they do not change 
 code of its own (``dataset/synth/raycast.py``).
 """
 
+import importlib
 import os
 import platform
 import sys
@@ -33,16 +34,19 @@ OPENBLAS_KERNELS = "Haswell"  # OpenBLAS's kernels for AVX2 with FMA (Zen runs t
 
 
 @cache
-def _has_avx2() -> bool:
-    """Whether this is an x86-64 CPU with AVX2 and FMA (Linux tells; elsewhere, assume not)."""
-    if platform.machine().lower() not in ("x86_64", "amd64"):
-        return False
+def cpu_flags() -> frozenset[str]:
+    """This CPU's feature flags as Linux names them (``avx2``, ``avx512f``...); empty where
+    the system does not tell."""
     try:
-        flags = next((line.split(":", 1)[1].split() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                      if line.startswith("flags")), [])
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
     except OSError:
-        return False
-    return {"avx2", "fma"} <= set(flags)
+        return frozenset()
+    return frozenset(next((line.split(":", 1)[1].split() for line in lines if line.startswith("flags")), []))
+
+
+def _has_avx2() -> bool:
+    """Whether this is an x86-64 CPU with AVX2 and FMA (assumed not where the system does not tell)."""
+    return platform.machine().lower() in ("x86_64", "amd64") and {"avx2", "fma"} <= cpu_flags()
 
 
 def environment() -> dict[str, str]:
@@ -70,7 +74,6 @@ def numpy_level() -> str | None:
     """The highest of NumPy's dispatch targets in force in this process (None off x86-64)."""
     if platform.machine().lower() not in ("x86_64", "amd64"):
         return None
-    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
-
-    enabled = [target for target in __cpu_dispatch__ if __cpu_features__.get(target)]
+    core = importlib.import_module("numpy._core._multiarray_umath")  # NumPy's own record of its dispatch
+    enabled = [target for target in core.__cpu_dispatch__ if core.__cpu_features__.get(target)]
     return enabled[-1] if enabled else "X86_V2"

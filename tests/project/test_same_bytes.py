@@ -31,7 +31,7 @@ def test_the_reference_runs_give_the_committed_bytes(tmp_path):
 @x86_with_avx2
 def test_emulated_machines_give_the_committed_bytes(tmp_path):
     machines = reference_runs.runnable(reference_runs.MACHINES)
-    assert len(machines) >= 2
+    assert machines  # at least the machine without AVX-512: the guarantee's processors all run it
     found = {name: reference_runs.differences(reference_runs.record_runs(tmp_path / str(number), environment))
              for number, (name, environment) in enumerate(machines.items())}
     assert found == {name: [] for name in machines}
@@ -62,5 +62,5 @@ def test_viewslam_holds_numpy_and_openblas_to_one_code_path_and_warns_when_it_ca
     first = subprocess.run([sys.executable, "-c", "import viewer_slam.code_paths as c; import numpy; print(c.numpy_level())"],
                            env=unheld, capture_output=True, text=True, check=True)
     assert first.stdout.strip() == "X86_V3"
-    beyond = {"avx512f", "avx512bw", "avx512vl", "avx512dq", "avx512cd"} <= reference_runs.cpu_flags()
+    beyond = set(reference_runs.AVX512) <= reference_runs.cpu_flags()
     assert (late.returncode != 0 and "NumPy was imported before viewer_slam" in late.stderr) == beyond
