@@ -54,7 +54,7 @@ SETTINGS: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
 #: Whole machines, every library at once, as the test suite emulates them.
 MACHINES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
     "AVX2 without AVX-512": (("avx2",), {"OPENCV_CPU_DISABLE": OPENCV_AVX512, "OPENBLAS_CORETYPE": "Zen",
-                                          "NUMBA_CPU_NAME": "haswell"}),
+                                          "NUMBA_CPU_NAME": "generic"}),
     "Intel with AVX-512": (AVX512, {"OPENBLAS_CORETYPE": "SkylakeX", "NUMBA_CPU_NAME": "skylake-avx512"}),
 }
 
