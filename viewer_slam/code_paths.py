@@ -44,15 +44,20 @@ def cpu_flags() -> frozenset[str]:
     return frozenset(next((line.split(":", 1)[1].split() for line in lines if line.startswith("flags")), []))
 
 
-def _has_avx2() -> bool:
-    """Whether this is an x86-64 CPU with AVX2 and FMA (assumed not where the system does not tell)."""
-    return platform.machine().lower() in ("x86_64", "amd64") and {"avx2", "fma"} <= cpu_flags()
+def _x86_64() -> bool:
+    return platform.machine().lower() in ("x86_64", "amd64")
+
+
+def guaranteed() -> bool:
+    """Whether the same bytes are guaranteed on this CPU: x86-64 with AVX2 and FMA (assumed
+    not where the system does not tell)."""
+    return _x86_64() and {"avx2", "fma"} <= cpu_flags()
 
 
 def environment() -> dict[str, str]:
     """The variables that hold a new process to the one code path (empty where the
-    guarantee does not apply: not x86-64, or no AVX2)."""
-    if not _has_avx2():
+    guarantee does not apply)."""
+    if not guaranteed():
         return {}
     disabled = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split()
     return {"NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
@@ -62,9 +67,10 @@ def environment() -> dict[str, str]:
 def hold() -> None:
     """Hold this process (if NumPy is not imported yet) and its children to the one code
     path; warn once if NumPy was imported before and runs beyond it."""
-    os.environ.update(environment())
+    held = environment()
+    os.environ.update(held)
     if "numpy" in sys.modules and numpy_level() in NUMPY_BEYOND_AVX2:
-        settings = " ".join(f"{name}={value!r}" for name, value in environment().items())
+        settings = " ".join(f"{name}={value!r}" for name, value in held.items())
         warnings.warn("NumPy was imported before viewer_slam and runs its AVX-512 code, so results may differ in "
                       f"the last bits from other machines'; import viewer_slam first, or set {settings}",
                       RuntimeWarning, stacklevel=3)
@@ -72,7 +78,7 @@ def hold() -> None:
 
 def numpy_level() -> str | None:
     """The highest of NumPy's dispatch targets in force in this process (None off x86-64)."""
-    if platform.machine().lower() not in ("x86_64", "amd64"):
+    if not _x86_64():
         return None
     core = importlib.import_module("numpy._core._multiarray_umath")  # NumPy's own record of its dispatch
     enabled = [target for target in core.__cpu_dispatch__ if core.__cpu_features__.get(target)]

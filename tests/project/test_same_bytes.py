@@ -10,6 +10,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from viewer_slam.code_paths import guaranteed
+
 import pytest
 from fixtures_eval import SHARED_DATA
 
@@ -20,7 +22,7 @@ spec.loader.exec_module(reference_runs)
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(not (SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200").is_dir(),
                                                    reason="shared TUM excerpt not present")]
-x86_with_avx2 = pytest.mark.skipif("avx2" not in reference_runs.cpu_flags(), reason="the guarantee is for x86-64 with AVX2")
+x86_with_avx2 = pytest.mark.skipif(not guaranteed(), reason="the guarantee is for x86-64 with AVX2")
 
 
 @x86_with_avx2

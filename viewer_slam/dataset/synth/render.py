@@ -301,6 +301,8 @@ class Renderer:
         self.static_vertices = np.concatenate([s.vertices for s in scene.static]) if scene.static else np.zeros((0, 3))
         self.static_triangles = sum(len(s.triangles) for s in scene.static)
         self._caster = TriangleCaster(self.triangles, camera)
+        # Without movers the geometry is the same at every time: computed once.
+        self._static_geometry = None if scene.movers else self._geometry(self.static_vertices)
         self._lights = np.asarray(scene.lights, np.float64)
         self.light_maps = bake_light_maps(scene.static, origins[:len(scene.static)], atlas.shape[:2],
                                           self._lights, scene.ambient)
@@ -312,17 +314,23 @@ class Renderer:
                         _Level.between(camera, half, (camera.height, camera.width), 1))
         self._pixel_rays = pixel_rays(camera, np.arange(camera.width), np.arange(camera.height)).reshape(-1, 3)
 
-    def _vertices_at(self, time: float) -> np.ndarray:
+    def _geometry(self, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return vertices, face_normals(vertices, self.triangles)
+
+    def _geometry_at(self, time: float) -> tuple[np.ndarray, np.ndarray]:
+        """Every vertex at ``time`` (the movers placed) and every triangle's unit normal."""
+        if self._static_geometry is not None:
+            return self._static_geometry
         parts = [self.static_vertices]
         for mover in self.scene.movers:
             T = mover.pose(time)
             parts += [rotate(s.vertices, T[:3, :3]) + T[:3, 3] for s in mover.surfaces]
-        return np.concatenate(parts)
+        return self._geometry(np.concatenate(parts))
 
     def _frame_at(self, time: float, pose: np.ndarray) -> tuple[CasterFrame, np.ndarray]:
         """The triangles at ``time`` seen from ``pose``, and their unit normals."""
-        vertices = self._vertices_at(time)
-        return self._caster.frame(vertices, pose), face_normals(vertices, self.triangles)
+        vertices, normals = self._geometry_at(time)
+        return self._caster.frame(vertices, pose), normals
 
     @staticmethod
     def _cast(scene: tuple[CasterFrame, np.ndarray], samples: "_Samples", which: np.ndarray | None = None) -> _Rays:
@@ -409,8 +417,7 @@ class Renderer:
     def light(self, hits: Hits, pose: np.ndarray, time: float) -> np.ndarray:
         """Light intensity per pixel: from the light map on static surfaces, on the side the
         camera sees; computed per pixel on movers."""
-        vertices = self._vertices_at(time)
-        normals = face_normals(vertices, self.triangles)
+        vertices, normals = self._geometry_at(time)
         back = dot3(normals.T, (pose[:3, 3] - vertices[self.triangles[:, 0]]).T) < 0  # seen from behind
         back_rows = np.append(back * np.float32((self.light_maps.shape[0] + 2) // 2), np.float32(0.0))
         scale = np.float32(1.0 / LIGHT_STEP)
