@@ -1,23 +1,25 @@
-"""One code path through NumPy and OpenBLAS on every x86-64 CPU with AVX2, so that a run
-gives the same bytes on every such machine.
+"""One code path through NumPy, OpenBLAS and OpenCV on every x86-64 CPU with AVX2, so that a
+run gives the same bytes on every such machine.
 
-Both pick their code for the processor when they are first loaded. On a processor with
+All three pick their code for the processor when they are first loaded. On a processor with
 AVX-512, NumPy's sine, cosine, exponential, logarithm and their kin run AVX-512 code
 (derived from Intel's SVML) whose last bits differ from those of the AVX2 and scalar code
 that a processor without AVX-512 runs; the synthetic scenes' textures, camera paths and
 moving people are made with them, so a scene would render differently on the two. OpenBLAS
 likewise runs other kernels there (SkylakeX, Cooperlake, Sapphire Rapids), which round the
 small products and decompositions of the evaluation (the alignment's SVD) differently from
-its Haswell kernels. viewslam holds NumPy to its AVX2 loops (dispatch level ``X86_V3``, by
-``NPY_DISABLE_CPU_FEATURES``) and OpenBLAS to its Haswell kernels (``OPENBLAS_CORETYPE``),
-which both read once, when NumPy is first imported: importing :mod:`viewer_slam` sets them
-before anything of viewslam imports NumPy, and the processes viewslam starts (render and
-benchmark pools, Ray workers) inherit them or are handed them. A program that imported
-NumPy before viewslam keeps the processor's own code paths, and is warned.
+its Haswell kernels, and OpenCV's AVX-512 code moves rtabmap's poses in their last bits.
+viewslam holds NumPy to its AVX2 loops (dispatch level ``X86_V3``, by
+``NPY_DISABLE_CPU_FEATURES``), OpenBLAS to its Haswell kernels (``OPENBLAS_CORETYPE``) and
+OpenCV to its AVX2 code (``OPENCV_CPU_DISABLE``), which they read once, when first
+imported: importing :mod:`viewer_slam` sets them before anything of viewslam imports NumPy
+or OpenCV, and the processes viewslam starts (render and benchmark pools, Ray workers)
+inherit them or are handed them. A program that imported NumPy before viewslam keeps the
+processor's own code paths, and is warned.
 
-OpenCV's dispatch and numba's target need no hold: measured, they do not change a run
-(``scripts/reference_runs.py --check --emulate all``), and the renderer casts its rays in
-code of its own (``dataset/synth/raycast.py``).
+numba's target needs no hold: measured, it does not change a run (``scripts/reference_runs.py
+--check --emulate all``), and the renderer casts its rays in code of its own
+(``dataset/synth/raycast.py``).
 """
 
 import importlib
@@ -31,6 +33,15 @@ from pathlib import Path
 #: NumPy's dispatch targets beyond AVX2: AVX-512 (Skylake-X), its Ice Lake and Sapphire Rapids extensions.
 NUMPY_BEYOND_AVX2 = ("X86_V4", "AVX512_ICL", "AVX512_SPR")
 OPENBLAS_KERNELS = "Haswell"  # OpenBLAS's kernels for AVX2 with FMA (Zen runs the same)
+_SKX = ("avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl")
+_CNL = (*_SKX, "avx512ifma", "avx512vbmi")
+_CLX = (*_SKX, "avx512_vnni")
+#: OpenCV's AVX-512 dispatch levels, by its names, with the CPU flags each needs. Only those this
+#: CPU has are disabled: naming one it lacks makes OpenCV print a warning at every start.
+OPENCV_AVX512 = {"AVX512F": ("avx512f",), "AVX512-COMMON": ("avx512f", "avx512cd"), "AVX512-SKX": _SKX,
+                 "AVX512-CNL": _CNL, "AVX512-CLX": _CLX,
+                 "AVX512-ICL": (*_CNL, *_CLX, "avx512_vbmi2", "avx512_bitalg", "avx512_vpopcntdq", "vaes", "gfni",
+                                "vpclmulqdq")}
 
 
 @cache
@@ -60,8 +71,13 @@ def environment() -> dict[str, str]:
     if not guaranteed():
         return {}
     disabled = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split()
-    return {"NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
+    held = {"NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
             "OPENBLAS_CORETYPE": OPENBLAS_KERNELS}
+    opencv = [name for name, needs in OPENCV_AVX512.items() if cpu_flags().issuperset(needs)]
+    if opencv:
+        off = os.environ.get("OPENCV_CPU_DISABLE", "").replace(" ", ",").split(",")
+        held["OPENCV_CPU_DISABLE"] = ",".join([name for name in off if name] + [n for n in opencv if n not in off])
+    return held
 
 
 def hold() -> None:

@@ -13,15 +13,14 @@ from pathlib import Path
 from viewer_slam.code_paths import guaranteed
 
 import pytest
-from fixtures_eval import SHARED_DATA
 
 REPO = Path(__file__).resolve().parents[2]
 spec = importlib.util.spec_from_file_location("reference_runs", REPO / "scripts" / "reference_runs.py")
 reference_runs = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(reference_runs)
 
-pytestmark = [pytest.mark.slow, pytest.mark.skipif(not (SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200").is_dir(),
-                                                   reason="shared TUM excerpt not present")]
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(not reference_runs.TUM_RPY_200.is_dir(),
+                                                   reason="shared TUM excerpt not present beside the repository")]
 x86_with_avx2 = pytest.mark.skipif(not guaranteed(), reason="the guarantee is for x86-64 with AVX2")
 
 
@@ -59,6 +58,10 @@ def test_viewslam_holds_numpy_and_openblas_to_one_code_path_and_warns_when_it_ca
     assert code_paths.numpy_level() == "X86_V3"  # this suite's own process: the conftest imports viewer_slam first
     assert os.environ["OPENBLAS_CORETYPE"] == "Haswell"
     unheld = {name: value for name, value in os.environ.items() if name not in code_paths.environment()}
+    opencv = subprocess.run([sys.executable, "-c", "import viewer_slam, cv2; print(cv2.getCPUFeaturesLine())"],
+                            env=unheld, capture_output=True, text=True, check=True)
+    assert "OPENCV" not in opencv.stderr  # every name taken, none unavailable here
+    assert ("AVX512-SKX?" in opencv.stdout) == ("AVX512-SKX" in opencv.stdout)  # off wherever the CPU has it
     late = subprocess.run([sys.executable, "-c", "import numpy, warnings; warnings.simplefilter('error'); import viewer_slam"],
                           env=unheld, capture_output=True, text=True, check=False)
     first = subprocess.run([sys.executable, "-c", "import viewer_slam.code_paths as c; import numpy; print(c.numpy_level())"],
