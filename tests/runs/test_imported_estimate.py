@@ -93,3 +93,41 @@ def test_estimate_option_is_name_equals_file():
     assert parse_estimate(" orb = out/CameraTrajectory.txt") == ("orb", Path("out/CameraTrajectory.txt"))
     with pytest.raises(InputError, match=r"^--estimate 'orb': expected NAME=FILE"):
         parse_estimate("orb")
+
+
+RTABMAP_DATA = Path(__file__).resolve().parents[1] / "data" / "rtabmap"
+
+
+def test_an_rtabmap_database_replays_its_maps_links_and_statistics():
+    """The real RTAB-Map's run of 360_kidnap under its dataset tool's rule: four maps, joined."""
+    from viewer_slam.dataset.frame import Frame
+    from viewer_slam.geometry.camera import Camera
+    from viewer_slam.geometry.rtabmap_database import read_rtabmap_database
+    from viewer_slam.pipelines.events import GraphEdge, KeyframeAdded, TrackingLost, TrackingRecovered
+    from viewer_slam.runs.replay import EstimateParams, EstimateReplay
+
+    path = RTABMAP_DATA / "360_kidnap-toolrule.db"
+    stamps = np.array([float(line.split()[0]) for line in (RTABMAP_DATA / "360_kidnap.rgb.txt").read_text().splitlines()
+                       if not line.startswith("#")])
+    database = read_rtabmap_database(path)
+    replay = EstimateReplay(EstimateParams(file=str(path)), Camera(535.4, 539.2, 320.1, 247.6, 640, 480), stamps, stamps)
+    blank = np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32)
+    events = [event for index, stamp in enumerate(stamps) for event in replay.process(Frame(index, stamp, *blank))]
+    assert replay.params.format == "rtabmap"
+    keyframes = [event for event in events if isinstance(event, KeyframeAdded)]
+    assert [event.keyframe_id for event in keyframes] == [node.id for node in database.nodes]
+    edges = [event for event in events if isinstance(event, GraphEdge)]
+    for kind, detection in (("global_loop", "appearance"), ("local_space", "proximity"), ("neighbor", "odometry")):
+        expected = sorted((link.from_id, link.to_id) for link in database.links if link.kind == kind)
+        assert sorted((edge.from_keyframe, edge.to_keyframe) for edge in edges
+                      if edge.accepted and edge.detection == detection) == expected
+    starts = [node for previous, node in zip(database.nodes, database.nodes[1:]) if node.map_id != previous.map_id]
+    recovered = [event for event in events if isinstance(event, TrackingRecovered)]
+    assert [(event.timestamp, event.reason) for event in recovered] == [
+        (node.stamp, f"new map {node.map_id} in {path.name}") for node in starts]
+    lost = [event for event in events if isinstance(event, TrackingLost)]
+    assert len(lost) == len(starts) and all(a.timestamp < b.timestamp for a, b in zip(lost, recovered))
+    tracked = {event.keyframe_id: event for event in events if isinstance(event, FrameTracked) and event.keyframe_id}
+    assert [tracked[node.id].inliers for node in database.nodes] == [
+        int(node.statistics["Odometry/Inliers/"]) for node in database.nodes]
+    assert [tracked[node.id].metrics["map"] for node in database.nodes] == [node.map_id for node in database.nodes]

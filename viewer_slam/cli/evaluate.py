@@ -30,6 +30,7 @@ from .app import app
 SEQUENCE_RULE = "sequence frames"
 BAG_FORMAT = "bag"
 FORMAT_NAMES = {TrajectoryFormat.TUM: "TUM", TrajectoryFormat.KITTI: "KITTI", TrajectoryFormat.EUROC: "EuRoC",
+                TrajectoryFormat.RTABMAP: "an RTAB-Map database",
                 BAG_FORMAT: "a ROS bag's pose topic"}
 SPAN_OPTION_RULE = "--span"
 
@@ -88,7 +89,7 @@ def parse_span(text: str | None) -> Span | None:
 def evaluate_command(
     groundtruth: Path = typer.Argument(..., help="Groundtruth trajectory (TUM format), a TUM sequence folder or a "
                                                  "ROS bag (.bag file or ROS 2 folder)."),
-    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI or EuRoC, or a ROS bag's "
+    estimates: list[Path] = typer.Argument(..., help="Estimated trajectories (TUM, KITTI, EuRoC, an rtabmap.db, or a ROS bag's "
                                                      "pose topic); one table row each."),
     json_path: Path | None = typer.Option(None, "--json", help="Write the metric blocks as JSON."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a picture (.png, .pdf, .svg, ...): aligned top "

@@ -9,7 +9,8 @@ from .app import app
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
 
 ESTIMATE_HELP = ("Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
-                 "(TUM, KITTI poses on the sequence's frame stamps, or EuRoC CSV); repeatable. With estimates, "
+                 "(TUM, KITTI poses on the sequence's frame stamps, EuRoC CSV, or an RTAB-Map database, whose maps, "
+                 "loop closures and statistics come along); repeatable. With estimates, "
                  "no built-in pipeline runs unless --pipeline names some.")
 
 EXIT_INTERRUPTED = 130

@@ -139,13 +139,15 @@ class _CameraMotion:
 
 
 def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period: float | None = None,
-             groundtruth: Trajectory | None = None) -> Coverage:
+             groundtruth: Trajectory | None = None, resumptions: np.ndarray | None = None) -> Coverage:
     """Coverage of ``span`` (start, end[, rule]) by pose ``stamps`` (sorted, on the span's clock).
 
     The span's ends and the stamps inside it form a chain of instants; every gap in that
     chain longer than :func:`lost_gap_threshold` is a lost interval (for a sparse estimate
-    with ``groundtruth``, only if the camera moved enough during it: the module's rule), and
-    the ratio is one minus their total length over the span's length.
+    with ``groundtruth``, only if the camera moved enough during it: the module's rule), as
+    is the gap before each of ``resumptions`` (stamps where the estimate itself says it
+    resumed after a loss, :class:`~viewer_slam.geometry.trajectory.Trajectory`); the ratio
+    is one minus their total length over the span's length.
     """
     span = Span(*span)
     start, end = span.start, span.end
@@ -157,6 +159,8 @@ def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period:
     lost = np.flatnonzero(gaps > lost_gap_threshold(stamps, frame_period))
     if groundtruth is not None and len(groundtruth) > 1 and len(inside) > 1 and is_sparse(stamps, frame_period):
         lost = lost[_moved_enough(_CameraMotion(groundtruth), inside, instants[lost], instants[lost + 1])]
+    if resumptions is not None and len(resumptions):
+        lost = np.union1d(lost, np.flatnonzero(np.isin(instants[1:-1], resumptions)))
     intervals = [(float(instants[k]), float(instants[k + 1])) for k in lost]
     duration = end - start
     ratio = 1.0 - float(gaps[lost].sum() / duration) if duration > 0 else 1.0
@@ -172,15 +176,18 @@ def _moved_enough(motion: _CameraMotion, stamps: np.ndarray, starts: np.ndarray,
     return (path > LOST_GAP_MOTIONS * typical_path) | (turn > LOST_GAP_MOTIONS * typical_turn)
 
 
-def tracked_segments(stamps: np.ndarray, frame_period: float | None = None) -> np.ndarray:
+def tracked_segments(stamps: np.ndarray, frame_period: float | None = None,
+                     resumptions: np.ndarray | None = None) -> np.ndarray:
     """The segment number (0, 1, ...) of every pose: a new segment starts after each gap that is lost.
 
-    The same threshold as :func:`coverage`, so the segments are exactly the stretches
-    between lost intervals (gaps outside the span split them too).
+    The same threshold and ``resumptions`` as :func:`coverage`, so the segments are exactly
+    the stretches between lost intervals (gaps outside the span split them too).
     """
     if len(stamps) == 0:
         return np.zeros(0, dtype=int)
     breaks = np.diff(stamps) > lost_gap_threshold(stamps, frame_period)
+    if resumptions is not None and len(resumptions):
+        breaks |= np.isin(stamps[1:], resumptions)
     return np.concatenate([[0], np.cumsum(breaks)])
 
 

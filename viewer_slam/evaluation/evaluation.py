@@ -132,7 +132,8 @@ def evaluate(
     on_groundtruth_clock = Trajectory(estimate.timestamps + offset, estimate.poses)
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
-    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth)
+    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth,
+                       estimate.resumptions + offset)
     every_delta = all_deltas or rpe_mode == RpeMode.TUM
     reported_delta = None if every_delta else (int(delta) if delta_unit == DeltaUnit.FRAMES else float(delta))
     reported_unit = "all" if every_delta else delta_unit
@@ -146,8 +147,8 @@ def evaluate(
 
     reference, matched = groundtruth.poses[gt_index], estimate.poses[est_index]
     stamps = estimate.timestamps[est_index]
-    fitted = fit_estimate(align, estimate.poses, reference, tracked_segments(estimate.timestamps, frame_period),
-                          est_index)
+    fitted = fit_estimate(align, estimate.poses, reference,
+                          tracked_segments(estimate.timestamps, frame_period, estimate.resumptions), est_index)
     ate_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_pose[est_index])
     segment_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_segment[est_index])
 

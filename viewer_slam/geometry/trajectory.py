@@ -2,7 +2,7 @@
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -13,14 +13,21 @@ from .se3 import pose_from_tq, pose_to_tq
 
 @dataclass
 class Trajectory:
-    """``timestamps (N,)`` in seconds and poses ``(N, 4, 4)`` ``T_world_camera``."""
+    """``timestamps (N,)`` in seconds and poses ``(N, 4, 4)`` ``T_world_camera``.
+
+    ``resumptions`` are the stamps of poses at which the trajectory's source says it resumed
+    after losing track (an RTAB-Map database's first node of each new map): the gap before
+    each is lost, however short or however sparse the poses around it.
+    """
 
     timestamps: np.ndarray
     poses: np.ndarray
+    resumptions: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __post_init__(self) -> None:
         self.timestamps = np.asarray(self.timestamps, dtype=np.float64).reshape(-1)
         self.poses = np.asarray(self.poses, dtype=np.float64).reshape(-1, 4, 4)
+        self.resumptions = np.asarray(self.resumptions, dtype=np.float64).reshape(-1)
         if len(self.timestamps) != len(self.poses):
             raise ValueError("timestamps and poses differ in length")
 
@@ -32,7 +39,9 @@ class Trajectory:
         return self.poses[:, :3, 3]
 
     def subset(self, index: np.ndarray | slice) -> "Trajectory":
-        return Trajectory(self.timestamps[index], self.poses[index])
+        """The poses at ``index``, with the resumptions among them."""
+        timestamps = self.timestamps[index]
+        return Trajectory(timestamps, self.poses[index], self.resumptions[np.isin(self.resumptions, timestamps)])
 
     @classmethod
     def empty(cls) -> "Trajectory":

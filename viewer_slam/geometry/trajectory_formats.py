@@ -1,4 +1,5 @@
-"""Trajectory files as other SLAM systems write them: TUM, KITTI poses and EuRoC/ASL CSV.
+"""Trajectory files as other SLAM systems write them: TUM, KITTI poses, EuRoC/ASL CSV and
+RTAB-Map databases.
 
 - ``tum``: ``timestamp tx ty tz qx qy qz qw`` per line, seconds, quaternion scalar last
   (what viewslam itself writes).
@@ -9,8 +10,9 @@
   scalar first: the EuRoC/ASL ground truth (``#timestamp, p_RS_R_x [m], ..., q_RS_w [],
   q_RS_x [], ...``; velocity and bias columns ignored) and estimate files such as
   ``#timestamp [ns],tx,ty,tz,qw,qx,qy,qz``.
+- ``rtabmap``: an ``rtabmap.db``, its nodes' optimised poses (:mod:`.rtabmap_database`).
 
-Detection looks at the first line that is not blank: a comma-separated header of at least
+Detection: a SQLite file is ``rtabmap``; otherwise it looks at the first line that is not blank: a comma-separated header of at least
 eight names, the first a timestamp, means ``euroc``; otherwise 12 numbers on the first data
 line mean ``kitti``; anything else is read as ``tum``.
 """
@@ -24,6 +26,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
+from .rtabmap_database import is_sqlite, read_rtabmap_database
 from .se3 import make_pose, pose_from_tq
 from .trajectory import Trajectory, parse_numbers, pose_problem, read_text, read_tum
 
@@ -34,6 +37,7 @@ class TrajectoryFormat(StrEnum):
     TUM = "tum"
     KITTI = "kitti"
     EUROC = "euroc"
+    RTABMAP = "rtabmap"
 
 
 KITTI_FIELDS = 12
@@ -58,13 +62,12 @@ def read_trajectory(path: Path, format: str | None = None,
     where there is one, the line.
     """
     path = Path(path)
-    text = read_text(path)
-    if format is None:
-        kind = detect_format(path, text)
-    elif format in tuple(TrajectoryFormat):
-        kind = TrajectoryFormat(format)
-    else:
+    if format is not None and format not in tuple(TrajectoryFormat):
         raise InputError.at(path, f"unknown trajectory format {format!r}; valid: {', '.join(TrajectoryFormat)}")
+    if format == TrajectoryFormat.RTABMAP or (format is None and is_sqlite(path)):
+        return read_rtabmap_database(path).trajectory(), TrajectoryFormat.RTABMAP
+    text = read_text(path)
+    kind = detect_format(path, text) if format is None else TrajectoryFormat(format)
     if kind is TrajectoryFormat.TUM:
         return read_tum(path, in_order=True), kind
     if kind is TrajectoryFormat.KITTI:
@@ -73,7 +76,9 @@ def read_trajectory(path: Path, format: str | None = None,
 
 
 def detect_format(path: Path, text: str | None = None) -> TrajectoryFormat:
-    """``euroc``, ``kitti`` or ``tum`` by the rule in the module docstring."""
+    """``rtabmap``, ``euroc``, ``kitti`` or ``tum`` by the rule in the module docstring."""
+    if text is None and is_sqlite(path):
+        return TrajectoryFormat.RTABMAP
     lines = [line for _, line in _lines(read_text(path) if text is None else text)]
     if not lines:
         raise InputError.at(path, "no poses in trajectory file")

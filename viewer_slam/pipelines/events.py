@@ -135,13 +135,16 @@ class TrajectoryFinal:
     """Every frame that has a pose at the end of the run, after the final optimisation.
 
     ``odometry_poses`` are the same frames' poses before any loop closure corrected them
-    (raw odometry, for contrast), when the pipeline keeps them.
+    (raw odometry, for contrast), when the pipeline keeps them; ``resumptions`` the stamps
+    where the run says it resumed after a loss its poses' gaps may not show (an RTAB-Map
+    database's new maps).
     """
 
     frame_indices: np.ndarray
     timestamps: np.ndarray
     poses: np.ndarray
     odometry_poses: np.ndarray | None = None
+    resumptions: np.ndarray | None = None
 
 
 Event = (FrameTracked | KeyframeAdded | FeatureMatches | GraphEdge | GraphOptimized

@@ -72,7 +72,8 @@ class PipelineRun:
             self.tracking_lost.append({"frame": event.frame_index, "timestamp": event.timestamp, "reason": event.reason})
         elif isinstance(event, TrajectoryFinal):
             self.frame_indices = np.asarray(event.frame_indices, dtype=int)
-            self.trajectory = Trajectory(event.timestamps, event.poses)
+            self.trajectory = Trajectory(event.timestamps, event.poses,
+                                         event.resumptions if event.resumptions is not None else np.zeros(0))
             if event.odometry_poses is not None:
                 self.odometry = Trajectory(event.timestamps, event.odometry_poses)
 

@@ -10,6 +10,9 @@ show, scored as ``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajec
 - ``metrics/<run>/...``: the evaluation series of a pipeline's recording (global and
   segment-aligned ATE, RPE, coverage so far, the lost band) and the tracking state;
 - ``log/<run>``: a line at each loss (when the run stopped, for one that quit) and recovery;
+- for an RTAB-Map database, its graph: loop closures and proximity links as green segments
+  between its nodes (``world/<run>/loop_closures``), the hypotheses it rejected in red, and
+  a log line at each closure and at each new map;
 - ``summary``: the scores and lost intervals of every run as Markdown.
 
 The ``frame`` timeline counts the groundtruth's poses (each instant at the nearest one),
@@ -26,6 +29,7 @@ from .. import palette
 from ..evaluation.coverage import MIN_LOST_GAP_S, median_period
 from ..geometry.trajectory import Trajectory
 from ..runs.files_summary import summary_markdown
+from ..runs.rtabmap_graph import node_edges
 from ..runs.trajectory_files import ScoredFile, ScoredFiles
 from . import layout
 from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time
@@ -51,6 +55,8 @@ def log_files(stream: rr.RecordingStream, scored: ScoredFiles, error_top: float)
         log_evaluation(stream, run.name, run.evaluation, frames, stamps)
         log_shape(stream, run, colour, groundtruth, error_top)
         log_motion(stream, run, colour, groundtruth, axis_length)
+        if run.database is not None:
+            log_graph(stream, run, groundtruth)
 
 
 def nearest_frames(groundtruth_stamps: np.ndarray, stamps: np.ndarray) -> np.ndarray:
@@ -93,6 +99,35 @@ def log_shape(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colou
     stream.log(layout.correspondences(run.name),
                rr.LineStrips3D(np.stack([positions[est_index], reference], axis=1), colors=[palette.faded(colour, CORRESPONDENCE_FADE, towards=40)],
                                radii=rr.Radius.ui_points(CORRESPONDENCE_WIDTH)), static=True)
+
+
+def log_graph(stream: rr.RecordingStream, run: ScoredFile, groundtruth: Trajectory) -> None:
+    """An RTAB-Map database's loop closures, proximity links and rejected hypotheses between its
+    nodes (its poses, in order), and a log line at each and at each new map."""
+    assert run.database is not None
+    nodes = run.database.nodes
+    position = {node.id: run.trajectory.positions[index] for index, node in enumerate(nodes)}
+    frames = nearest_frames(groundtruth.timestamps, np.array([node.stamp for node in nodes]))
+    closures: dict[bool, list[np.ndarray]] = {True: [], False: []}
+    for node, frame in zip(nodes, frames):
+        lines = [f"{run.name}: new map {node.map_id}"] if node.stamp in run.trajectory.resumptions else []
+        for edge in node_edges(run.database, node):
+            if edge.detection in ("odometry", "user"):
+                continue
+            closures[edge.accepted].append(np.stack([position[edge.from_id], position[edge.to_id]]))
+            verdict = "loop closure" if edge.accepted else "rejected hypothesis"
+            lines.append(f"{run.name}: {verdict} {edge.from_id} -> {edge.to_id} by {edge.detection}"
+                         + (f" (hypothesis {edge.score:.2f}, {edge.inliers} inliers)" if edge.detection == "appearance"
+                            else ""))
+        if lines:
+            set_frame_time(stream, int(frame), node.stamp)
+            for line in lines:
+                stream.log(layout.text_log(run.name), rr.TextLog(line, level=rr.TextLogLevel.INFO))
+    for accepted, path, colour in ((True, layout.loop_closures(run.name), palette.ACCEPTED),
+                                   (False, layout.rejected_loop_closures(run.name), palette.REJECTED)):
+        if closures[accepted]:
+            stream.log(path, rr.LineStrips3D(closures[accepted], colors=[colour.rgb],
+                                             radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)), static=True)
 
 
 def log_motion(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory,

@@ -9,6 +9,14 @@ period), so the tracking-state timeline, the report's losses and the coverage ag
 exactly as the file gives them (not resampled at the frames). A frame without a pose in a
 gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 ``initialising``.
+
+An RTAB-Map database (``rtabmap.db``) replays as more than a trajectory: each node is a
+keyframe at its frame with its map id and its update's statistics (odometry inliers and
+features, local map size, the highest loop hypothesis), its links are graph edges (neighbour
+links as odometry, global loop closures by appearance, local space links by proximity, a
+rejected hypothesis as a rejected edge: :mod:`.rtabmap_graph`), and where tracking resumes
+on a node that starts a new map, the recovery says so (RTAB-Map starts a map after its
+odometry was reset or, in its dataset tool, lost).
 """
 
 import re
@@ -22,10 +30,21 @@ from ..errors import InputError
 from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.trajectory_formats import read_trajectory
+from ..geometry.rtabmap_database import RtabmapDatabase, is_sqlite, read_rtabmap_database
+from ..geometry.trajectory import Trajectory
+from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory
 from ..pipelines.base import Pipeline
-from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
+from ..pipelines.edges import EdgeClassifier
+from ..pipelines.events import (
+    Event,
+    FrameTracked,
+    TrackingLost,
+    TrackingRecovered,
+    TrackingStatus,
+    TrajectoryFinal,
+)
 from ..pipelines.params import PipelineParams
+from .rtabmap_graph import graph_events, node_metrics
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 # An estimate's name becomes entity paths and a file name.
@@ -37,6 +56,17 @@ class EstimateParams(PipelineParams):
 
     file: str = Field("", description="the trajectory file")
     format: str = Field("", description="its format ('': detected)")
+
+
+def read_estimate(path: Path, format: str | None = None, timestamps: np.ndarray | None = None,
+                  ) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
+    """An estimate file (``format``, else detected), the format it was read as and, for an RTAB-Map
+    database, the database itself: its nodes, links and statistics say more than its poses."""
+    if format == TrajectoryFormat.RTABMAP or (format is None and is_sqlite(path)):
+        database = read_rtabmap_database(path)
+        return database.trajectory(), TrajectoryFormat.RTABMAP, database
+    trajectory, detected = read_trajectory(path, format, timestamps)
+    return trajectory, detected, None
 
 
 def no_pose_reason(file: Path, gap_s: float) -> str:
@@ -81,15 +111,18 @@ class EstimateReplay(Pipeline):
 
     def __init__(self, params: EstimateParams, camera: Camera, sequence_stamps: np.ndarray, frame_stamps: np.ndarray):
         super().__init__(camera=camera, params=params)
-        estimate, detected = read_trajectory(Path(params.file), params.format or None, sequence_stamps)
+        estimate, detected, self.database = read_estimate(Path(params.file), params.format or None, sequence_stamps)
         self.params = EstimateParams(file=params.file, format=detected)
         inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & \
                  (estimate.timestamps <= frame_stamps[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
         self.trajectory = estimate.subset(inside)
+        self._nodes = [node for node, kept in zip(self.database.nodes, inside) if kept] if self.database else []
         frame_rows, pose_rows = associate(frame_stamps, self.trajectory.timestamps, 0.0, ASSOCIATION_MAX_DIFFERENCE_S)
         self._pose_at = dict(zip(np.asarray(frame_stamps)[frame_rows].tolist(), pose_rows.tolist()))
         span = (float(frame_stamps[0]), float(frame_stamps[-1]))
-        self._lost_intervals = coverage(span, self.trajectory.timestamps, median_period(frame_stamps)).lost_intervals
+        self._lost_intervals = coverage(span, self.trajectory.timestamps, median_period(frame_stamps),
+                                        resumptions=self.trajectory.resumptions).lost_intervals
+        self._edges = EdgeClassifier()
         self._frame_stamps = np.asarray(frame_stamps)
         self._frame_indices: list[int] = []
         self._state: TrackingStatus | None = None
@@ -111,8 +144,26 @@ class EstimateReplay(Pipeline):
         elif state is TrackingStatus.OK and self._state is TrackingStatus.LOST:
             events.append(TrackingRecovered(frame.index, frame.timestamp, "the estimate has poses again"))
         self._state = state
+        if row is not None and self._nodes:
+            return self._node_events(frame, row, events)
         pose = None if row is None else self.trajectory.poses[row]
         return [FrameTracked(frame.index, frame.timestamp, pose, state), *events]
+
+    def _node_events(self, frame: Frame, row: int, events: list[Event]) -> list[Event]:
+        """A database node's frame: its statistics, the node as a keyframe and its edges; a new
+        map says so where tracking resumes."""
+        assert self.database is not None
+        node, pose = self._nodes[row], self.trajectory.poses[row]
+        if row > 0 and self._nodes[row - 1].map_id != node.map_id:
+            reason = f"new map {node.map_id} in {Path(self.params.file).name}"
+            events = [TrackingRecovered(event.frame_index, event.timestamp, reason)
+                      if isinstance(event, TrackingRecovered) else event for event in events]
+        stats = node.statistics
+        tracked = FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK,
+                               features=int(stats.get("Odometry/Features/", 0)),
+                               inliers=int(stats.get("Odometry/Inliers/", 0)), keyframe_id=node.id,
+                               metrics=node_metrics(node))
+        return [tracked, *events, *graph_events(self.database, node, frame.index, frame.timestamp, pose, self._edges)]
 
     def finish(self) -> list[Event]:
         """The estimate's poses in the span of the frames seen, each placed at its nearest frame."""
@@ -123,7 +174,8 @@ class EstimateReplay(Pipeline):
         after = np.clip(np.searchsorted(seen, kept.timestamps), 0, len(seen) - 1)
         before = np.maximum(after - 1, 0)
         nearest = np.where(kept.timestamps - seen[before] <= seen[after] - kept.timestamps, before, after)
-        return [TrajectoryFinal(np.asarray(self._frame_indices, dtype=int)[nearest], kept.timestamps, kept.poses)]
+        return [TrajectoryFinal(np.asarray(self._frame_indices, dtype=int)[nearest], kept.timestamps, kept.poses,
+                                resumptions=kept.resumptions)]
 
     def _gap_at(self, stamp: float) -> float:
         return next(end - start for start, end in self._lost_intervals if start <= stamp <= end)

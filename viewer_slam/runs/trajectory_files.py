@@ -9,7 +9,7 @@ groundtruth pose after the estimate's last one, and the report's sequence is the
 groundtruth file.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -18,22 +18,27 @@ import numpy as np
 from ..errors import InputError
 from ..evaluation.evaluation import Evaluation, evaluate, why_no_pairs
 from ..evaluation.statistics import ErrorSeries
+from ..geometry.rtabmap_database import RtabmapDatabase
 from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import TrajectoryFormat, detect_format, read_trajectory
+from ..pipelines.edges import EdgeClassifier
 from ..pipelines.run import PipelineRun
-from .replay import no_pose_reason
+from .replay import no_pose_reason, read_estimate
 from .report import pipeline_report, versions
+from .rtabmap_graph import graph_events
 
 
 @dataclass
 class ScoredFile:
-    """One estimate file, the format it was read as, and its scores."""
+    """One estimate file, the format it was read as, and its scores; ``database`` the RTAB-Map
+    database the file is, whose every pose is a graph node."""
 
     name: str
     path: Path
     format: TrajectoryFormat
     trajectory: Trajectory
     evaluation: Evaluation
+    database: RtabmapDatabase | None = None
 
     @property
     def ate(self) -> ErrorSeries:
@@ -73,7 +78,13 @@ class ScoredFile:
         run = PipelineRun(pipeline=self.name, parameters={"file": str(self.path), "format": self.format}, seed=0,
                           source="estimate", frames=len(self.trajectory), trajectory=self.trajectory,
                           tracking_lost=self.losses(groundtruth))
-        return pipeline_report(run, self.evaluation, None)
+        if self.database is None:
+            return pipeline_report(run, self.evaluation, None)
+        classifier = EdgeClassifier()
+        for index, node in enumerate(self.database.nodes):  # the database's poses are its nodes, in order
+            for event in graph_events(self.database, node, index, node.stamp, self.trajectory.poses[index], classifier):
+                run.observe(event)
+        return pipeline_report(run, replace(self.evaluation, node_ate=self.evaluation.ate), None)
 
 
 @dataclass
@@ -116,9 +127,9 @@ def score_files(groundtruth_path: Path, estimates: list[tuple[str, Path]], forma
     groundtruth = read_groundtruth(groundtruth_path)
     runs = []
     for run_name, path in estimates:
-        trajectory, detected = read_trajectory(Path(path), format)
+        trajectory, detected, database = read_estimate(Path(path), format)
         evaluation = evaluate(groundtruth, trajectory)
         if evaluation.ate is None:
             raise InputError.at(path, why_no_pairs(groundtruth, trajectory))
-        runs.append(ScoredFile(run_name, Path(path), detected, trajectory, evaluation))
+        runs.append(ScoredFile(run_name, Path(path), detected, trajectory, evaluation, database))
     return ScoredFiles(name or Path(groundtruth_path).stem, Path(groundtruth_path), groundtruth, runs)
