@@ -1,0 +1,307 @@
+"""viewslam's rtabmap beside the real RTAB-Map 0.23.8, run here on the very same frames.
+
+    .venv/bin/python benchmarks/oracle.py --oracle ../shared/oracles/rtabmap-0.23.8 \\
+        --scene 360_kidnap --seeds 0 1 2 --runs 3 --rules ros tool --out recordings/oracle
+
+For each scene and seed the scene is rendered (``viewslam synth SCENE --frames N --resolution
+640x480 --seed S``, into a folder whose name carries ``freiburg3``: the original reads its
+intrinsics from the name) and the SHA-256 of every frame is listed; the original runs ``--runs``
+times under each loss rule (``tool``: its dataset tool, a new map on every lost frame; ``ros``:
+``RTABMAP_NO_NEW_MAP=1``, a loss its odometry recovers from continues the map, as rtabmap_ros
+does), ours once under the same rule (``ros``: the defaults; ``tool``: viewslam/NewMapOnLoss),
+both at the defaults (``--mode default``) or with a node on every frame (``--mode perframe``).
+Before every run the frames are checked against the list: the comparison is refused if any
+differ. The original is not deterministic; each table gives its min–max over the runs.
+
+Per run: where odometry resumes after each loss (frame and inliers), the maps and how many
+loop closures or proximity links join them (and whether every map is joined to the first),
+loop closures and proximity links, ATE over the graph nodes, over every pose written and of
+the nodes' odometry. The original's per-frame odometry comes from its console (one
+``Iteration`` line per frame, lost when it warns that odometry was reset), everything else
+from its database through viewslam's own reader (``--estimate NAME=rtabmap.db``).
+
+Writes ``OUT/<scene>-s<seed>-<mode>.json`` and ``OUT/tables.md``; with ``--docs``, the tables
+replace the block ``<!-- oracle: <scene> -->`` of docs/pipelines/rtabmap.md.
+"""
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
+import numpy as np
+
+from viewer_slam.dataset.sources import open_source
+from viewer_slam.dataset.synth import generate_scenario
+from viewer_slam.evaluation import evaluate
+from viewer_slam.geometry.rtabmap_database import read_rtabmap_database
+from viewer_slam.pipelines.base import make_pipeline
+from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
+from viewer_slam.pipelines.params import apply_overrides
+from viewer_slam.pipelines.rtabmap import RtabmapParams
+from viewer_slam.pipelines.run import drive
+from viewer_slam.runs.scoring import evaluate_run
+
+ROOT = Path(__file__).resolve().parents[1]
+ORACLE = ROOT.parent / "shared" / "oracles" / "rtabmap-0.23.8"
+DOCS = ROOT / "docs" / "pipelines" / "rtabmap.md"
+TOOL = "rtabmap-rgbd_dataset"
+ORIGINAL = "RTAB-Map 0.23.8"
+PER_FRAME = {"Rtabmap/DetectionRate": "0", "RGBD/LinearUpdate": "0", "RGBD/AngularUpdate": "0"}
+RULE_PARAMS = {"ros": {}, "tool": {"viewslam/NewMapOnLoss": "true"}}
+RULE_ENV = {"ros": {"RTABMAP_NO_NEW_MAP": "1"}, "tool": {}}
+RULE_TEXT = {"ros": "ROS rule (a loss odometry recovers from continues the map)",
+             "tool": "dataset tool's rule (a new map on every lost frame)"}
+ITERATION = re.compile(r"Iteration (\d+)/\d+: .*odom\(quality=(-?\d+)/(\d+)")
+LOST_LINE = "Odometry is reset"
+JOINING = ("global_loop", "local_space")
+
+
+# -- the frames ---------------------------------------------------------------------------------
+
+def render(scene: str, seed: int, frames: int, into: Path) -> Path:
+    """The scene's TUM folder (rendered once), named so that the original reads fr3's intrinsics."""
+    folder = into / f"s{seed}" / f"rgbd_dataset_freiburg3_synth_{scene}"
+    if not (folder / "rgb.txt").is_file():
+        generate_scenario(scene, folder, frames=frames, resolution=(640, 480), seed=seed, camera="fr3", progress=True)
+    return folder
+
+
+def frame_digests(folder: Path) -> dict[str, str]:
+    """SHA-256 of every colour and depth image, by path under the folder."""
+    return {str(path.relative_to(folder)): hashlib.sha256(path.read_bytes()).hexdigest()
+            for kind in ("rgb", "depth") for path in sorted((folder / kind).glob("*.png"))}
+
+
+def check_frames(folder: Path, listed: dict[str, str]) -> None:
+    now = frame_digests(folder)
+    differing = sorted(name for name in listed.keys() | now.keys() if listed.get(name) != now.get(name))
+    if differing:
+        raise SystemExit(f"{folder}: {len(differing)} frames differ from the listed SHA-256 (first: {differing[0]}); "
+                         f"no comparison on different frames")
+
+
+def synced(oracle: Path, folder: Path) -> None:
+    """``rgb_sync/`` and ``depth_sync/``, which the dataset tool reads, made by the oracle's own
+    ``sync.py`` (each colour frame with the nearest depth frame within 20 ms)."""
+    if not (folder / "rgb_sync").is_dir():
+        subprocess.run([sys.executable, str(oracle / "sync.py"), str(folder)], check=True, stdout=subprocess.DEVNULL)
+
+
+# -- the original -------------------------------------------------------------------------------
+
+def library_path(oracle: Path, scratch: Path) -> str:
+    """The oracle's libraries, with its versioned names restored as links where the copy at hand
+    holds them as small text files naming their target (a checkout without symbolic links)."""
+    links = scratch / "lib"
+    links.mkdir(exist_ok=True)
+    for path in (oracle / "lib").glob("*.so*"):
+        if path.stat().st_size < 256 and not path.read_bytes().startswith(b"\x7fELF"):
+            target = oracle / "lib" / path.read_text().strip()
+            if target.is_file() and not (links / path.name).exists():
+                (links / path.name).symlink_to(target)
+    return f"{links}:{oracle / 'lib'}"
+
+
+def run_original(oracle: Path, folder: Path, out: Path, rule: str, mode: str, scratch: Path) -> Path:
+    """One run of the dataset tool; its database and console in ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    if not (out / "rtabmap.db").is_file():
+        arguments = [arg for key, value in PER_FRAME.items() for arg in (f"--{key}", value)] if mode == "perframe" else []
+        environment = {**os.environ, **RULE_ENV[rule], "LD_LIBRARY_PATH": library_path(oracle, scratch)}
+        with open(out / "console.log", "w") as console:
+            subprocess.run([str(oracle / "bin" / TOOL), "--output", str(out), *arguments, folder.name],
+                           cwd=folder.parent, env=environment, stdout=console, stderr=subprocess.STDOUT, check=True)
+    return out
+
+
+def original_frames(console: Path) -> list[tuple[bool, int]]:
+    """Per frame read: (lost, inliers) from the tool's console."""
+    frames, lost = [], False
+    for line in console.read_text(errors="replace").splitlines():
+        if LOST_LINE in line:
+            lost = True
+        match = ITERATION.search(line)
+        if match:
+            frames.append((lost, max(int(match.group(2)), 0)))
+            lost = False
+    return frames
+
+
+def summarise_original(run: Path, sequence) -> dict:
+    database = read_rtabmap_database(run / "rtabmap.db")
+    map_of = {node.id: node.map_id for node in database.nodes}
+    joining = [(map_of[link.from_id], map_of[link.to_id]) for link in database.links
+               if link.kind in JOINING and map_of[link.from_id] != map_of[link.to_id]]
+    per_frame = original_frames(run / "console.log")
+    return {
+        "resumptions": resumptions([lost for lost, _ in per_frame], [inliers for _, inliers in per_frame]),
+        "maps": len(set(map_of.values())),
+        "joining_links": len(joining),
+        "all_joined": all_joined(sorted(set(map_of.values())), joining),
+        "loop_closures": sum(link.kind == "global_loop" for link in database.links),
+        "proximity": sum(link.kind == "local_space" for link in database.links),
+        "nodes": len(database.nodes),
+        "node_ate": ate_cm(sequence, database.trajectory()),
+        "odometry_ate": ate_cm(sequence, database.trajectory(optimised=False)),
+    }
+
+
+# -- ours ---------------------------------------------------------------------------------------
+
+def summarise_ours(folder: Path, rule: str, mode: str, extra: dict[str, str]) -> dict:
+    sequence = open_source(folder)
+    overrides = {**RULE_PARAMS[rule], **(PER_FRAME if mode == "perframe" else {}), **extra}
+    params = apply_overrides(RtabmapParams(), overrides, "--param", text=True)
+    events: list = []
+    run = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence, sinks=[events.append])
+    evaluation, odometry = evaluate_run(sequence.groundtruth, run, sequence.timestamps)
+    tracked = sorted((event for event in events if isinstance(event, FrameTracked)), key=lambda e: e.frame_index)
+    session, session_of = 0, {}
+    for event in sorted((e for e in events if isinstance(e, (KeyframeAdded, TrackingRecovered))),
+                        key=lambda e: (e.frame_index, isinstance(e, KeyframeAdded))):
+        if isinstance(event, TrackingRecovered) and "new map" in event.reason:
+            session += 1
+        elif isinstance(event, KeyframeAdded):
+            session_of[event.keyframe_id] = session
+    closures = [event for event in events if isinstance(event, GraphEdge) and event.accepted
+                and event.detection in ("appearance", "proximity")]
+    joining = [(session_of[e.from_keyframe], session_of[e.to_keyframe]) for e in closures
+               if session_of.get(e.from_keyframe) != session_of.get(e.to_keyframe)]
+    nodes = np.isin(run.frame_indices, run.node_frames)
+    return {
+        "resumptions": resumptions([event.pose is None for event in tracked], [event.inliers for event in tracked]),
+        "maps": len(set(session_of.values())),
+        "joining_links": len(joining),
+        "all_joined": all_joined(sorted(set(session_of.values())), joining),
+        "loop_closures": sum(e.detection == "appearance" for e in closures),
+        "proximity": sum(e.detection == "proximity" for e in closures),
+        "nodes": int(nodes.sum()),
+        "node_ate": 100 * evaluation.node_ate.stats()["rmse"] if evaluation.node_ate is not None else None,
+        "frame_ate": 100 * evaluation.ate.stats()["rmse"] if evaluation.ate is not None else None,
+        "odometry_ate": ate_cm(sequence, run.odometry.subset(nodes)) if run.odometry is not None else None,
+    }
+
+
+# -- shared -------------------------------------------------------------------------------------
+
+def resumptions(lost: list[bool], inliers: list[int]) -> list[tuple[int, int]]:
+    """(frame, inliers) of each frame that registers after lost ones."""
+    return [(frame, inliers[frame]) for frame in range(1, len(lost)) if lost[frame - 1] and not lost[frame]]
+
+
+def all_joined(maps: list[int], links: list[tuple[int, int]]) -> bool:
+    """Whether the links join every map to the first (through others)."""
+    joined, grown = {maps[0]} if maps else set(), True
+    while grown:
+        grown = False
+        for a, b in links:
+            if (a in joined) != (b in joined):
+                joined |= {a, b}
+                grown = True
+    return joined == set(maps)
+
+
+def ate_cm(sequence, trajectory) -> float | None:
+    scores = evaluate(sequence.groundtruth, trajectory).ate if len(trajectory) >= 3 else None
+    return 100 * scores.stats()["rmse"] if scores is not None else None
+
+
+def spread(values: list) -> str:
+    values = [value for value in values if value is not None]
+    if not values:
+        return "–"
+    low, high = min(values), max(values)
+    text = (lambda v: f"{v:.2f}") if isinstance(low, float) else str
+    return text(low) if low == high else f"{text(low)}–{text(high)}"
+
+
+def resumption_text(resumed: list[tuple[int, int]]) -> str:
+    return " / ".join(f"{frame} ({inliers})" for frame, inliers in resumed) or "never"
+
+
+def table(title: str, ours: dict, originals: list[dict]) -> str:
+    count = max(len(run["resumptions"]) for run in [ours, *originals])
+    rows = [("resumes at frame (inliers)", resumption_text(ours["resumptions"]),
+             " / ".join(spread([run["resumptions"][k][0] if k < len(run["resumptions"]) else None
+                                for run in originals]) + " (" +
+                        spread([run["resumptions"][k][1] if k < len(run["resumptions"]) else None
+                                for run in originals]) + ")" for k in range(count)) or "never")]
+    for key, label in (("maps", "maps"), ("joining_links", "loop closures and proximity links between maps"),
+                       ("all_joined", "every map joined to the first"), ("loop_closures", "loop closures"),
+                       ("proximity", "proximity links"), ("nodes", "nodes"), ("node_ate", "ATE over the nodes (cm)"),
+                       ("odometry_ate", "the nodes' odometry, ATE (cm)")):
+        rows.append((label, spread([ours[key]]), spread([run[key] for run in originals])))
+    if ours.get("frame_ate") is not None:
+        rows.append(("ATE over every pose written (cm)", spread([ours["frame_ate"]]), "–"))
+    lines = [f"**{title}**", "", f"| | ours | {ORIGINAL}, {len(originals)} runs (min–max) |", "|---|---|---|"]
+    lines += [f"| {label} | {mine} | {theirs} |" for label, mine, theirs in rows]
+    return "\n".join(lines)
+
+
+def write_docs(scene: str, text: str) -> None:
+    begin, end = f"<!-- oracle: {scene} -->", f"<!-- /oracle: {scene} -->"
+    docs = DOCS.read_text()
+    if begin not in docs:
+        raise SystemExit(f"{DOCS}: no block {begin}")
+    head, rest = docs.split(begin, 1)
+    DOCS.write_text(f"{head}{begin}\n{text}\n{end}{rest.split(end, 1)[1]}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--oracle", type=Path, default=ORACLE, help="the RTAB-Map 0.23.8 build (bin/, lib/)")
+    parser.add_argument("--scene", default="360_kidnap")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser.add_argument("--frames", type=int, default=600)
+    parser.add_argument("--runs", type=int, default=3, help="runs of the original per seed, rule and mode")
+    parser.add_argument("--rules", nargs="+", choices=sorted(RULE_PARAMS), default=["ros", "tool"])
+    parser.add_argument("--mode", choices=["default", "perframe"], default="default")
+    parser.add_argument("--param", action="append", default=[], help="KEY=VALUE for ours, on top of the rule's")
+    parser.add_argument("--out", type=Path, default=Path("recordings/oracle"))
+    parser.add_argument("--docs", action="store_true", help="write the tables into docs/pipelines/rtabmap.md")
+    args = parser.parse_args()
+    if not (args.oracle / "bin" / TOOL).is_file():
+        raise SystemExit(f"{args.oracle}: no bin/{TOOL}; give --oracle the RTAB-Map 0.23.8 folder")
+    extra = dict(item.split("=", 1) for item in args.param)
+    sections = []
+    with tempfile.TemporaryDirectory() as scratch:
+        for seed in args.seeds:
+            folder = render(args.scene, seed, args.frames, args.out / "frames")
+            listed_path = folder.parent / f"{folder.name}.sha256"
+            if not listed_path.is_file():
+                listed_path.write_text("".join(f"{digest}  {name}\n" for name, digest in frame_digests(folder).items()))
+            listed = dict(reversed(line.split("  ", 1)) for line in listed_path.read_text().splitlines())
+            synced(args.oracle, folder)
+            sequence = open_source(folder)
+            for rule in args.rules:
+                originals = []
+                for k in range(1, args.runs + 1):
+                    check_frames(folder, listed)
+                    run = run_original(args.oracle, folder, args.out / "original" / f"s{seed}-{args.mode}-{rule}-{k}",
+                                       rule, args.mode, Path(scratch))
+                    originals.append(summarise_original(run, sequence))
+                check_frames(folder, listed)
+                ours = summarise_ours(folder, rule, args.mode, extra)
+                result = {"scene": args.scene, "seed": seed, "mode": args.mode, "rule": rule, "ours": ours,
+                          "original": originals, "frames_sha256": str(listed_path), "overrides": extra}
+                (args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}.json").write_text(
+                    json.dumps(result, indent=1) + "\n")
+                sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}", ours, originals))
+                print(sections[-1] + "\n", flush=True)
+    command = "python benchmarks/oracle.py " + " ".join(sys.argv[1:])
+    text = "\n\n".join(sections) + f"\n\nMade by `{command}`."
+    (args.out / "tables.md").write_text(text + "\n")
+    if args.docs:
+        write_docs(args.scene, text)
+
+
+if __name__ == "__main__":
+    main()
