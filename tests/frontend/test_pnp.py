@@ -1,10 +1,11 @@
-"""PnP RANSAC: exact poses from clean correspondences, outliers flagged, repeatable whatever the global generator."""
+"""PnP RANSAC as RTAB-Map's copy of OpenCV 3.0's: exact poses from clean correspondences, outliers
+flagged, OpenCV's generator and iteration rule, repeatable whatever the global generator."""
 
 import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.frontend.pnp import solve_pnp_ransac
+from viewer_slam.frontend.pnp import OpenCvRng, iterations_needed, solve_pnp_ransac
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
 
 K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
@@ -34,15 +35,32 @@ def test_too_few_agreeing_points_give_no_pose():
     assert solve_pnp_ransac(points[:10], pixels[:10], K, reprojection_error=2.0, iterations=300, min_inliers=20) is None
 
 
+def test_the_samples_are_drawn_as_opencvs_generator_draws_them():
+    """cv::RNG((uint64)-1), RTAB-Map's copy's generator: OpenCV's own draws the same numbers."""
+    cv2.setRNGSeed(-1)
+    drawn = np.zeros((1, 50), np.int32)
+    cv2.randu(drawn, 0, 200)
+    rng = OpenCvRng()
+    assert [rng.uniform(0, 200) for _ in range(50)] == drawn.ravel().tolist()
+
+
+def test_iterations_shrink_as_ransac_update_num_iters_says():
+    # log(1 - 0.99) / log(1 - 0.5^6) = -4.6052 / -0.015748 = 292.4
+    assert iterations_needed(0.99, 0.5, 6, 300) == 292
+    assert iterations_needed(0.99, 0.5, 6, 100) == 100      # capped by the iterations still allowed
+    assert iterations_needed(0.99, 0.0, 6, 300) == 0        # every correspondence agrees: done
+    assert iterations_needed(0.99, 0.2, 6, 300) == 15       # -4.6052 / log(1 - 0.8^6) = -4.6052 / -0.3040 = 15.1
+
+
 def test_the_global_generator_does_not_change_the_result():
-    """OpenCV's RANSAC samples from a fixed-seed generator of its own: with 15 hypotheses
-    among 150 outliers the winner is a chance one, and still the same for every global seed."""
-    points, pixels, _ = scene(outliers=150, seed=3)
+    """A generator of the call's own, seeded as RTAB-Map's copy seeds it: the same input gives
+    the same pose and inliers whatever the global seed."""
+    points, pixels, _ = scene(outliers=100, seed=3)
     noisy = pixels + np.random.default_rng(1).normal(0, 0.7, pixels.shape)
     results = []
     for global_seed in (0, 7, 12345):
         cv2.setRNGSeed(global_seed)
-        results.append(solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=15, min_inliers=4))
+        results.append(solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=300, min_inliers=4))
     assert all(np.array_equal(r.pose, results[0].pose) and np.array_equal(r.inliers, results[0].inliers)
                for r in results)
 
@@ -59,11 +77,11 @@ def test_distorted_pixels_give_the_true_pose():
     assert ignored is None or np.abs(ignored.pose - pose).max() > 1e-3
 
 
-def test_points_on_one_plane_give_the_true_pose():
-    """A texture-less floor at 320x240: every point on one plane, seen obliquely. OpenCV's
-    own final fit on RANSAC's inliers (EPnP) lands so far off on about 4 of 10 of these
-    scenes that refining it still leaves fewer than 20 points agreeing; the pose must come
-    out right on every one."""
+def test_points_on_one_plane_give_the_best_samples_pose():
+    """A texture-less floor at 320x240: every point on one plane, seen obliquely, 0.3 px noise.
+    The pose is the best six-point sample's, as RTAB-Map's copy returns it (no fit on all the
+    inliers): over these 20 scenes at least 108 of 120 points agree and the position is off by
+    2.8 cm at most (1.1 cm median) at 0.95 m."""
     rng = np.random.default_rng(0)
     small = np.array([[267.7, 0, 160], [0, 267.7, 120], [0, 0, 1]])
     normal = np.array([0.0, 0.3, 0.785]) / np.linalg.norm([0.0, 0.3, 0.785])
@@ -75,5 +93,5 @@ def test_points_on_one_plane_give_the_true_pose():
         in_camera = transform_points(invert(pose), points)
         seen = in_camera[:, :2] / in_camera[:, 2:] * 267.7 + [160, 120] + rng.normal(0, 0.3, (len(points), 2))
         result = solve_pnp_ransac(points, seen, small, reprojection_error=2.0, iterations=300, min_inliers=20)
-        assert result is not None and result.inlier_count >= 115
-        assert np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) < 0.005
+        assert result is not None and result.inlier_count >= 100
+        assert np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) < 0.04

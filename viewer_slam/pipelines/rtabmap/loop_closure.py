@@ -6,11 +6,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ...frontend.features import match_descriptors
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
 from .bayes import PREDICTION_MARGINS, BayesFilter, Hypothesis, adjusted_likelihood, highest_hypothesis
+from .correspondences import word_matches
 from .graph import Variance, registration_variance
 from .memory import Link, Location, Memory
 from .params import RtabmapParams
@@ -53,7 +53,9 @@ def too_large_rotation(relative: np.ndarray) -> bool:
 def register(old: Location, new: Location, camera: Camera, params: RtabmapParams) -> Registration:
     """The new location's pose in the old one's frame from its keypoints and the old 3D words."""
     with_depth = np.flatnonzero(~np.isnan(old.points[:, 0]))
-    query, train = match_descriptors(new.descriptors, old.descriptors[with_depth], True, params.correspondence_nndr)
+    matches = word_matches(new.descriptors, old.descriptors[with_depth], params.correspondence_nndr,
+                           params.correspondence_nn_type)
+    query, train = matches.query, matches.train
     solution = solve_pnp_ransac(old.points[with_depth[train]], new.keypoints[query], camera.K,
                                 reprojection_error=params.pnp_inlier_distance, distortion=camera.distortion,
                                 iterations=params.ransac_iterations, min_inliers=params.min_inliers)

@@ -6,9 +6,10 @@ per second, times the time since the last frame), map points are projected with 
 feature may only match a map point predicted within Vis/CorGuessWinSize pixels, the ratio
 test applied among those candidates; if that registration fails, or when there is no
 guess (the frame after a loss: odometry clears its velocity when lost), the frame is
-matched against the whole local map by descriptor alone, and a registration found so is
-made again guided by its own pose (Reg/RepeatOnce), so that its matches and inliers are
-those of the guided matching. PnP RANSAC gives each pose,
+matched against the whole local map by descriptor alone (through a word dictionary, as
+RegistrationVis matches: :mod:`.correspondences`), and a registration found so is made
+again guided by its own pose (Reg/RepeatOnce), so that its matches and inliers are those of
+the guided matching. PnP RANSAC gives each pose,
 accepted with at least Vis/MinInliers inliers. The local map grows on key frames (inliers
 at most Odom/KeyFrameThr of the features or Odom/VisKeyFrameThr) and is capped at
 OdomF2M/MaxSize in RTAB-Map's order of removal (:meth:`LocalMap.cap`). With
@@ -30,12 +31,13 @@ from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
-from ...frontend.features import Features, match_descriptors, nearest_passing_ratio
+from ...frontend.features import Features
 from ...frontend.hamming import nearest_within_radius
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
 from .bundle import KeyFrames, Reference, bundle_observations
+from .correspondences import word_matches
 from .graph import Variance, registration_variance
 from .params import RtabmapParams
 
@@ -143,18 +145,6 @@ def scaled_down(variance: float, floor: float) -> float:
     return variance * BUNDLE_VARIANCE_SCALE if variance > floor else variance
 
 
-def uncontested(features: Features, map_descriptors: np.ndarray, ratio: float) -> np.ndarray:
-    """Indices of the frame's features that remain after matching the whole local map as
-    RegistrationVis does without a guess: each feature takes its nearest map word when the
-    ratio test passes, and every word id that then occurs twice is removed from the frame,
-    so features that took the same map word all leave it. Reg/RepeatOnce's second
-    registration (Registration::computeTransformationMod) runs on the frame as the first left
-    it, so those features take no part in it, nor in the local map or the location after it."""
-    query, train, _, _ = nearest_passing_ratio(features.descriptors, map_descriptors, True, ratio)
-    shared = np.bincount(train, minlength=len(map_descriptors))[train] > 1
-    return np.setdiff1d(np.arange(len(features)), query[shared])
-
-
 def velocity_of(motion: np.ndarray, elapsed: float) -> np.ndarray:
     """Odometry::process's velocity: the motion's translation and Euler angles (yaw, pitch,
     roll of R = Rz Ry Rx) over the time it took, per second."""
@@ -248,20 +238,20 @@ class FrameToMapOdometry:
         redone with its own pose as the guess (Registration::computeTransformationMod with
         Reg/RepeatOnce: the whole-map ratio test leaves out every map point whose descriptor
         looks like another's, the window around its projection does not) on the features the
-        first registration left (:func:`uncontested`)."""
+        first registration left (:func:`~.correspondences.word_matches`' ``kept``)."""
         assert self.pose is not None  # registration follows _start_map, which sets the pose
         result = None
         if guess is not None and self.params.guess_window > 0:
             predicted = self.pose @ guess
             result = self._solve_guided(features, predicted)
         if result is None or result.pose is None:
-            result = self._solve(features, *match_descriptors(features.descriptors, self.map.descriptors, True,
-                                                              self.params.correspondence_nndr), self.pose)
+            matches = word_matches(features.descriptors, self.map.descriptors, self.params.correspondence_nndr,
+                                   self.params.correspondence_nn_type)
+            result = self._solve(features, matches.query, matches.train, self.pose)
             if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
-                kept = uncontested(features, self.map.descriptors, self.params.correspondence_nndr)
-                features = features.subset(kept)
+                features = features.subset(matches.kept)
                 result = self._solve_guided(features, result.pose)
-                result.kept = kept
+                result.kept = matches.kept
         result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
             result.key_frame = self._update_map(features, result)

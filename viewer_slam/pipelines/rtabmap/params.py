@@ -17,6 +17,10 @@ class RtabmapParams(PipelineParams):
                                        description="features extracted per frame for odometry")
     correspondence_nndr: float = Field(0.8, alias="Vis/CorNNDR", gt=0, le=1,
                                        description="nearest-neighbour distance ratio of a match")
+    correspondence_nn_type: Annotated[Literal[1, 3], EXACT_INT] = Field(
+        1, alias="Vis/CorNNType",
+        description="nearest words without a motion guess: 1 FLANN's randomised k-d trees (approximate), 3 brute "
+                    "force (exact)")
     guess_window: int = Field(40, alias="Vis/CorGuessWinSize", ge=0,
                               description="radius (px) around a map point's predicted projection searched for its "
                                           "match (0: no guided matching)")
