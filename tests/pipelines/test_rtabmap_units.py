@@ -18,10 +18,10 @@ from viewer_slam.pipelines.rtabmap.bayes import (
     highest_hypothesis,
     prediction_matrix,
 )
+from viewer_slam.pipelines.rtabmap.correspondences import BRUTE_FORCE, KD_TREE, word_matches
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
 from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
-from viewer_slam.pipelines.rtabmap.correspondences import BRUTE_FORCE, KD_TREE, word_matches
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
 
