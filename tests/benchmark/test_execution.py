@@ -9,7 +9,7 @@ from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, FakeParams, write_tum
 from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
 from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
-from viewer_slam.benchmark.suite import run_benchmark
+from viewer_slam.benchmark.suite import deliver_files, run_benchmark
 from viewer_slam.pipelines import base
 from viewer_slam.record.options import RecordOptions
 from viewer_slam.record.session import record
@@ -115,13 +115,22 @@ def test_results_do_not_depend_on_the_number_of_workers(folder):
     assert np.all(np.diff([result.report["ate"]["rmse"] for result in serial]) > 0)
 
 
-def test_recorded_task_writes_a_recording_and_scores_the_same(folder, tmp_path):
+def test_recorded_task_returns_its_recording_and_scores_the_same(folder, tmp_path):
+    """The worker sends the recording, its report and trajectory back as bytes (it writes nothing
+    where the driver keeps them); the driver writes them there."""
     recording = tmp_path / "rec" / "tiny.fake.rrd"
-    recorded = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake",
-                                          params=FakeParams(lost_from=8), recording=recording))
+    recording_task = BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", params=FakeParams(lost_from=8),
+                                   recording=recording)
+    recorded = execute_task(recording_task)
     plain = execute_task(task(folder, lost_from=8))
     assert recorded.ok, recorded.error
-    assert recording.stat().st_size > 0 and recording.with_suffix(".json").is_file()
+    assert sorted(recorded.files) == ["tiny.fake.fake.txt", "tiny.fake.json", "tiny.fake.rrd"]
+    assert not recording.parent.exists()
+    assert "files" not in recorded.to_json()  # never cached
+    assert recorded.files["tiny.fake.fake.txt"].decode() == recorded.trajectory
+    delivered = deliver_files(recording_task, recorded)
+    assert delivered.ok and not delivered.files
+    assert recording.stat().st_size > 0 and json.loads(recording.with_suffix(".json").read_text())["pipelines"]["fake"]
     assert {k: v for k, v in recorded.report.items() if k != "timing"} == \
            {k: v for k, v in plain.report.items() if k != "timing"}
     assert (recorded.frames, recorded.time_span) == (plain.frames, plain.time_span)
