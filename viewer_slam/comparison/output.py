@@ -103,7 +103,7 @@ def _trials_line(run: RunComparison) -> str:
         trials = recorded.block.get("trials") or []
         ran = [trial for trial in trials if trial.get("status") == "ok"]
         parts.append(f"{side} one run" if not trials else
-                     f"{side} the median of {len(ran)} trials (frames: trial {ran[0]['trial']}, seed {ran[0]['seed']})"
+                     f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, seed {ran[0]['seed']})"
                      if ran else f"{side} no trial that ran")
     return ("scores: " + "; ".join(parts) + "; beyond spread: the two sides' min–max ranges do not overlap")
 
