@@ -8,6 +8,7 @@ user's would. The scripted pipeline keeps the tasks small; each node leaves a ma
 run it starts, so the test sees where tasks ran (and that a re-run runs nothing).
 """
 
+import contextlib
 import importlib.util
 import json
 import os
@@ -90,20 +91,16 @@ def start_node(folder: Path, arguments: list[str], env: dict[str, str]) -> Node:
 
 def stop(process: subprocess.Popen) -> None:
     """Kill the node: `ray start` and every process of its session (GCS, raylet, agents)."""
-    try:
+    with contextlib.suppress(ProcessLookupError):
         os.killpg(process.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
     process.wait()
 
 
 def kill_workers(node: Node) -> None:
     """The worker processes that started runs on ``node`` (Ray gives each a session of its own)."""
     for marker in node.markers:
-        try:
+        with contextlib.suppress(ProcessLookupError):
             os.kill(int(marker.name.split("-")[0]), signal.SIGKILL)
-        except ProcessLookupError:
-            pass
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ import json
 import statistics
 
 import pytest
-from matplotlib.container import BarContainer
 from benchmark_fake_pipeline import MODULE, write_tum_folder
+from matplotlib.container import BarContainer
 
 from viewer_slam.benchmark.cache import ResultCache
 from viewer_slam.benchmark.executors import LocalExecutor

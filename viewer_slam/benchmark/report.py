@@ -9,8 +9,10 @@ for the pair.
 """
 
 from collections import defaultdict
+from functools import partial
 from itertools import combinations
 from pathlib import Path
+from typing import Any
 
 from .. import __version__
 from ..atomic import StagedFiles
@@ -112,9 +114,7 @@ def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) ->
     written = []
     for sequence, group in by_sequence.items():
         path = runs_report_path(out_dir, sequence)
-        blocks = {result.pipeline: result.report if result.trial is None else
-                  {**result.report, "trials": [trial_entry(trial) for trial in trials[sequence, result.pipeline]]}
-                  for result in group}
+        blocks = {result.pipeline: _run_block(result, trials[sequence, result.pipeline]) for result in group}
         report = {"sequence": group[0].sequence_block, "interrupted": False, "versions": versions(),
                   "pipelines": blocks}
         write_report(staged.path(path), report)
@@ -141,6 +141,14 @@ def representatives(results: list[TaskResult]) -> list[TaskResult]:
             if any(result.ok for result in group)]
 
 
+def _run_block(result: TaskResult, trials: list[TaskResult]) -> dict:
+    """The report block of a pair's ``result``, with every trial's scores when the pair ran as trials."""
+    assert result.report is not None  # an ok result carries its report
+    if result.trial is None:
+        return result.report
+    return {**result.report, "trials": [trial_entry(trial) for trial in trials]}
+
+
 def trial_entry(result: TaskResult) -> dict:
     """One trial's scores in a run block's ``trials`` list: its trial, seed and status, and the
     scores a comparison reads, at the places they have in the block itself."""
@@ -148,10 +156,10 @@ def trial_entry(result: TaskResult) -> dict:
     if result.report is None:
         return entry
     for _, keys in SUMMARY:
-        value = result.report
+        value: Any = result.report
         for key in keys:
             value = value.get(key) if isinstance(value, dict) else None
-        place = entry
+        place: dict = entry
         for key in keys[:-1]:
             place = place.setdefault(key, {})
         place[keys[-1]] = value
@@ -215,18 +223,21 @@ def trials_table(results: list[TaskResult]) -> list[str]:
     lines = [f"Each cell is the median over the pair's trials and, in brackets, their min–max; the trials ran "
              f"with seeds {seeds[0]} to {seeds[-1]}. A pair with one trial (an imported estimate) shows its "
              f"one value.", "", header, "|" + "---|" * header.count(" | ") + "---|"]
-    digits = {"ate_rmse": 3, "rpe_trans_rmse": 3, "rpe_rot_rmse": 2, "time_s": 1, "penalized_ate_rmse": 3,
-              "frames_with_pose": 0, "loop_closures": 0}
     for summary in summarise_pairs(result_rows(results)):
         cells = [summary["sequence"], summary["pipeline"], str(summary["trials"])]
-        for score in ("ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s", "coverage", "penalized_ate_rmse",
-                      "frames_with_pose", "loop_closures"):
-            text = (lambda value: f"{100 * value:.1f} %") if score == "coverage" else \
-                (lambda value, places=digits[score]: _number(value, places))
-            cells.append(with_spread(summary, score, text))
+        cells += [with_spread(summary, score, partial(_score_text, score)) for score in _TRIAL_DIGITS]
         cells.append(summary["status"])
         lines.append("| " + " | ".join(cells) + " |")
     return lines
+
+
+_TRIAL_DIGITS = {"ate_rmse": 3, "rpe_trans_rmse": 3, "rpe_rot_rmse": 2, "time_s": 1, "coverage": 1,
+                 "penalized_ate_rmse": 3, "frames_with_pose": 0, "loop_closures": 0}
+"""The trials table's scores, in its order, with the decimals each is written with."""
+
+
+def _score_text(score: str, value: float) -> str:
+    return f"{100 * value:.1f} %" if score == "coverage" else _number(value, _TRIAL_DIGITS[score])
 
 
 def findings(results: list[TaskResult]) -> list[str]:

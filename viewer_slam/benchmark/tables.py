@@ -2,6 +2,7 @@
 
 import csv
 import json
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -120,7 +121,7 @@ def _trials_table(results: list[TaskResult]):
                          no_wrap=True)
     for summary in summarise_pairs(result_rows(results)):
         table.add_row(*(str(summary[key]) if key in ("sequence", "pipeline", "trials", "status")
-                        else with_spread(summary, key, lambda value, key=key: _cell(key, value)) for key in headers))
+                        else with_spread(summary, key, partial(_cell, key)) for key in headers))
     return table
 
 
