@@ -19,6 +19,7 @@ from viewer_slam.benchmark.trials import summarise_pairs
 from viewer_slam.cli import main
 from viewer_slam.comparison.results import compare_results, load_results
 from viewer_slam.pipelines import base
+from viewer_slam.schemas import validator
 
 TRIALS = 3
 SPREAD = ["--param", "wobble_per_seed_m=0.01"]  # seed s: a wobble of 0.01 * (1 + s) m, so the trials differ
@@ -73,7 +74,10 @@ def test_every_trial_is_a_row_and_the_table_gives_median_and_min_max(folder, tmp
     assert "seeds 2 to 4" in report
 
     # The run report stands for the pair by its first trial and lists every trial's scores.
-    block = json.loads((out / "runs" / "tiny.json").read_text())["pipelines"]["fake"]
+    run_report = json.loads((out / "runs" / "tiny.json").read_text())
+    assert not list(validator("benchmark_results").iter_errors(rows))
+    assert not list(validator("report").iter_errors(run_report))
+    block = run_report["pipelines"]["fake"]
     assert block["ate"]["rmse"] == ates[0]
     assert [(trial["trial"], trial["seed"], trial["ate"]["rmse"]) for trial in block["trials"]] == \
            [(k, 2 + k, ates[k]) for k in range(TRIALS)]
