@@ -80,7 +80,7 @@ class RunComparison:
         None when no side has a spread of the score, or a side has no value."""
         a, b = self.summary[label]
         spread_a, spread_b = self.spread.get(label, (None, None))
-        if a is None or b is None or (spread_a is None and spread_b is None) or not _numbers(a, b):
+        if (spread_a is None and spread_b is None) or not numeric(a, b):
             return None
         low_a, high_a = spread_a or (a, a)
         low_b, high_b = spread_b or (b, b)
@@ -176,13 +176,14 @@ def _trial_score(block: dict[str, Any], label: str, keys: tuple[str, ...]) -> tu
     if not trials:
         return _score(block, label, keys), None
     values = [value for trial in trials if trial.get("status") == "ok"
-              if _numbers(value := _lookup(trial, keys))]
+              if numeric(value := _lookup(trial, keys))]
     if not values:
         return None, None
     return statistics.median(values), (min(values), max(values)) if len(values) > 1 else None
 
 
-def _numbers(*values: Any) -> bool:
+def numeric(*values: Any) -> bool:
+    """Whether every value is a number (a bool is not, though Python counts it as an int)."""
     return all(isinstance(value, (int, float)) and not isinstance(value, bool) for value in values)
 
 

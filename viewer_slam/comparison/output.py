@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..terminal import StdoutConsole, print_table
-from .compare import Comparison, RunComparison
+from .compare import Comparison, RunComparison, numeric
 from .results import ResultsComparison
 
 
@@ -23,8 +23,7 @@ def frame_ranges(frames: np.ndarray) -> str:
 
 
 def difference(a: Any, b: Any) -> float | None:
-    numbers = all(isinstance(value, (int, float)) and not isinstance(value, bool) for value in (a, b))
-    return b - a if numbers else None
+    return b - a if numeric(a, b) else None
 
 
 def _finite_or_none(values: np.ndarray) -> list[float | None]:
@@ -97,15 +96,20 @@ def _range(spread: tuple[float, float] | None) -> str:
 
 
 def _trials_line(run: RunComparison) -> str:
-    """How many trials each side's scores are the median of, and which trial the frames are compared on."""
+    """What each side's scores are (one run, or the median of how many trials) and which trial the
+    frame-by-frame details compare."""
     parts = []
     for side, recorded in (("A", run.a), ("B", run.b)):
         trials = recorded.block.get("trials") or []
         ran = [trial for trial in trials if trial.get("status") == "ok"]
-        parts.append(f"{side} one run" if not trials else
-                     f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, seed {ran[0]['seed']})"
-                     if ran else f"{side} no trial that ran")
-    return ("scores: " + "; ".join(parts) + "; beyond spread: the two sides' min–max ranges do not overlap")
+        if not trials:
+            parts.append(f"{side} one run")
+        elif ran:
+            parts.append(f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, "
+                         f"seed {ran[0]['seed']})")
+        else:
+            parts.append(f"{side} no trial that ran")
+    return "scores: " + "; ".join(parts) + "; beyond spread: the two sides' min–max ranges do not overlap"
 
 
 def detail_lines(run: RunComparison) -> list[str]:
