@@ -175,10 +175,12 @@ def test_results_reports_and_recordings_come_back_to_the_driver(cluster, tmp_pat
     assert not [*cluster.head.scratch.glob("viewslam-task-*"), *cluster.node.scratch.glob("viewslam-task-*")]
 
     local_out = tmp_path / "local"
-    code, output = finish(driver(cluster, [*common, "--jobs", "2", "--no-cache", "--out", str(local_out)],
+    code, output = finish(driver(cluster, [*common, "--jobs", "2", "--no-cache", "--record", "--out", str(local_out)],
                                  tmp_path / "cache"))
     assert code == 0, output
     assert [scores(row) for row in rows(local_out)] == [scores(row) for row in remote]
+    assert sorted(path.name for path in (local_out / "recordings").iterdir()) == \
+           sorted(path.name for path in (out / "recordings").iterdir())  # the same files in the same places
     blocks = [json.loads((where / "runs" / "tiny.json").read_text())["pipelines"]["fake"] for where in (out, local_out)]
     assert untimed(blocks[0]) == untimed(blocks[1]) and len(blocks[0]["trials"]) == TRIALS
 
