@@ -3,14 +3,14 @@
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..dataset.catalog import resolve_sequence, study_scenarios
+from ..dataset.catalog import study_scenarios
 from ..dataset.frame import frames_read
 from ..dataset.sources import open_source
 from ..errors import InputError
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
 from ..runs.replay import estimate_replay
-from .runner import BenchmarkTask, recording_path
+from .runner import BenchmarkTask, SequenceSource, recording_path
 
 # Synthetic scenarios are always generated with this seed, so every benchmark scores the
 # same data; `--seed` varies the pipelines' random choices only.
@@ -45,22 +45,25 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
                          f"(got {len(specs or study_scenarios())})")
     tasks = []
     for spec in specs or study_scenarios():
-        folder = resolve_sequence(spec, frames=scenario_frames, resolution=resolution, seed=SCENARIO_SEED,
-                                  first=frames_read(max_frames), progress=progress)
+        source: SequenceSource | None = SequenceSource(spec, scenario_frames, resolution, SCENARIO_SEED,
+                                                       frames_read(max_frames))
+        folder = source.resolve(progress=progress)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
+        if Path(spec).expanduser().exists():
+            source = None  # given by path: no other way to find it
         for pipeline in pipelines:
             for trial, seed_of_trial in seeds.items():
                 index = trial if trials > 1 else None
                 tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
                                            params=params[pipeline], seed=seed_of_trial, max_frames=max_frames,
                                            timeout_s=timeout_s, recording=_recording(recordings, name, pipeline, index),
-                                           trial=index))
+                                           trial=index, source=source))
         for estimate, file in estimates:
             # Read now: a file that is no trajectory fails before any task runs, and its format is settled.
             replay = estimate_replay(open_source(folder), file, estimate_format, max_frames=max_frames)
             tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=estimate, max_frames=max_frames,
                                        timeout_s=timeout_s, recording=_recording(recordings, name, estimate), estimate=file,
-                                       estimate_format=replay.params.format))
+                                       estimate_format=replay.params.format, source=source))
     return tasks
 
 

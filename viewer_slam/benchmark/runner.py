@@ -5,7 +5,9 @@ raises: any error, including running past the task's time limit, becomes a faile
 :class:`TaskResult` carrying the error's one-line description, so one bad task cannot
 take the others down. A task that records writes its files into a scratch folder of the
 worker and returns their bytes with its result: a worker on another machine cannot reach
-the driver's ``--out``, so the files travel back the way the result does.
+the driver's ``--out``, so the files travel back the way the result does. A worker on a
+machine without the folder the driver planned reads the sequence from its own cache
+instead, when the task says how (:class:`SequenceSource`).
 """
 
 import signal
@@ -19,11 +21,31 @@ from typing import Any
 
 import numpy as np
 
+from ..dataset.catalog import resolve_sequence
 from ..dataset.sources import RgbdSequence, open_source
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..runs.report import sequence_block
 from ..runs.service import EstimateSpec, PipelineSpec, RunSpec, ScoredRun, build_run, score_run
+
+
+@dataclass(frozen=True)
+class SequenceSource:
+    """A catalogue sequence as the benchmark resolved it: its ``name`` (a synthetic scenario or a
+    TUM sequence) and, for a scenario, the options it was rendered with. A node that lacks the
+    driver's folder resolves it the same way in its own cache: a scenario renders to the same
+    bytes on every machine, a TUM sequence must have been downloaded there."""
+
+    name: str
+    frames: int | None = None
+    resolution: tuple[int, int] = (640, 480)
+    seed: int = 0
+    first: int | None = None
+
+    def resolve(self, progress: bool = False) -> Path:
+        """The sequence's folder here, rendering the scenario into this machine's cache if it is not there."""
+        return resolve_sequence(self.name, frames=self.frames, resolution=self.resolution, seed=self.seed,
+                                first=self.first, progress=progress)
 
 
 @dataclass(frozen=True)
@@ -37,7 +59,8 @@ class BenchmarkTask:
     With ``estimate`` (a trajectory file, read in ``estimate_format`` or a detected one)
     the task replays that estimate as the run ``pipeline`` instead of running a pipeline.
     ``trial`` is the task's index among the runs of one pair that differ only in ``seed``
-    (None: the pair runs once).
+    (None: the pair runs once). ``source`` says how to find a catalogue sequence where
+    ``sequence`` does not exist (another machine); None for a folder given by path.
     """
 
     name: str
@@ -51,6 +74,7 @@ class BenchmarkTask:
     estimate: Path | None = None
     estimate_format: str | None = None
     trial: int | None = None
+    source: SequenceSource | None = None
     pipeline_modules: dict[str, str] = field(default_factory=lambda: dict(base.PIPELINE_MODULES))
 
     @property
@@ -162,15 +186,19 @@ def execute_task(task: BenchmarkTask) -> TaskResult:
 
 def _run(task: BenchmarkTask) -> TaskResult:
     base.PIPELINE_MODULES.update(task.pipeline_modules)
-    sequence = open_source(task.sequence)
-    scored, files = _record(task) if task.recording is not None else (_score(task, sequence), {})
+    folder = task.sequence if task.source is None or Path(task.sequence).exists() else task.source.resolve()
+    sequence = open_source(folder)
+    scored, files = _record(task, folder) if task.recording is not None else (_score(task, sequence), {})
     frames = scored.run.frames
     if frames == 0:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
+    # The driver reads the sequence at its own path (a comparison opens its groundtruth there).
+    block = {**sequence_block(sequence), "path": str(task.sequence)} if folder != task.sequence \
+        else sequence_block(sequence)
     return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(scored.report),
                       frames=frames, time_span=time_span, trajectory=format_tum(scored.run.trajectory),
-                      sequence_block=sequence_block(sequence), trial=task.trial, seed=task_seed(task), files=files)
+                      sequence_block=block, trial=task.trial, seed=task_seed(task), files=files)
 
 
 def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
@@ -179,15 +207,15 @@ def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
     return score_run(sequence, run, task.pipeline, max_frames=task.max_frames)
 
 
-def _record(task: BenchmarkTask) -> tuple[ScoredRun, dict[str, bytes]]:
-    """The task's run recorded as `viewslam record` records it, into a scratch folder of this worker;
-    with the bytes of the recording and of the report and trajectory beside it, by file name."""
+def _record(task: BenchmarkTask, folder: Path) -> tuple[ScoredRun, dict[str, bytes]]:
+    """The task's run over ``folder`` recorded as `viewslam record` records it, into a scratch folder of
+    this worker; with the bytes of the recording and of the report and trajectory beside it, by file name."""
     from ..record.options import RecordOptions  # Rerun is loaded only by tasks that record
     from ..record.session import record_runs
 
     assert task.recording is not None  # only a task that records is recorded
     with tempfile.TemporaryDirectory(prefix="viewslam-task-") as scratch:
-        options = RecordOptions(sequence=str(task.sequence), out=Path(scratch) / task.recording.name,
+        options = RecordOptions(sequence=str(folder), out=Path(scratch) / task.recording.name,
                                 max_frames=task.max_frames, seed=task.seed, quiet=True)
         recorded = record_runs(options, {task.pipeline: task.run})
         files = {path.name: path.read_bytes() for path in recorded.written}
