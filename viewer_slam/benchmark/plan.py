@@ -45,12 +45,10 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
                          f"(got {len(specs or study_scenarios())})")
     tasks = []
     for spec in specs or study_scenarios():
-        source: SequenceSource | None = SequenceSource(spec, scenario_frames, resolution, SCENARIO_SEED,
-                                                       frames_read(max_frames))
-        folder = source.resolve(progress=progress)
+        catalogued = SequenceSource(spec, scenario_frames, resolution, SCENARIO_SEED, frames_read(max_frames))
+        folder = catalogued.resolve(progress=progress)
         name = folder.name if Path(spec).expanduser().is_dir() else spec
-        if Path(spec).expanduser().exists():
-            source = None  # given by path: no other way to find it
+        source = None if Path(spec).expanduser().exists() else catalogued  # a path: no other way to find it
         for pipeline in pipelines:
             for trial, seed_of_trial in seeds.items():
                 index = trial if trials > 1 else None
