@@ -8,8 +8,9 @@ from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, FakeParams, write_tum
 
 from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
 from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
+from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
-from viewer_slam.benchmark.suite import run_benchmark
+from viewer_slam.benchmark.suite import deliver_files, run_benchmark
 from viewer_slam.pipelines import base
 from viewer_slam.record.options import RecordOptions
 from viewer_slam.record.session import record
@@ -115,13 +116,22 @@ def test_results_do_not_depend_on_the_number_of_workers(folder):
     assert np.all(np.diff([result.report["ate"]["rmse"] for result in serial]) > 0)
 
 
-def test_recorded_task_writes_a_recording_and_scores_the_same(folder, tmp_path):
+def test_recorded_task_returns_its_recording_and_scores_the_same(folder, tmp_path):
+    """The worker sends the recording, its report and trajectory back as bytes (it writes nothing
+    where the driver keeps them); the driver writes them there."""
     recording = tmp_path / "rec" / "tiny.fake.rrd"
-    recorded = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake",
-                                          params=FakeParams(lost_from=8), recording=recording))
+    recording_task = BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", params=FakeParams(lost_from=8),
+                                   recording=recording)
+    recorded = execute_task(recording_task)
     plain = execute_task(task(folder, lost_from=8))
     assert recorded.ok, recorded.error
-    assert recording.stat().st_size > 0 and recording.with_suffix(".json").is_file()
+    assert sorted(recorded.files) == ["tiny.fake.fake.txt", "tiny.fake.json", "tiny.fake.rrd"]
+    assert not recording.parent.exists()
+    assert "files" not in recorded.to_json()  # never cached
+    assert recorded.files["tiny.fake.fake.txt"].decode() == recorded.trajectory
+    delivered = deliver_files(recording_task, recorded)
+    assert delivered.ok and not delivered.files
+    assert recording.stat().st_size > 0 and json.loads(recording.with_suffix(".json").read_text())["pipelines"]["fake"]
     assert {k: v for k, v in recorded.report.items() if k != "timing"} == \
            {k: v for k, v in plain.report.items() if k != "timing"}
     assert (recorded.frames, recorded.time_span) == (plain.frames, plain.time_span)
@@ -155,3 +165,25 @@ def test_record_and_a_benchmark_task_score_the_same_run_alike(folder, tmp_path):
            [{k: v for k, v in blocks[0].items() if k != "timing"}] * 2
     assert blocks[0]["tracking_lost"] and blocks[0]["ate"]["n"] == 14
     assert recorded.trajectories["fake"].read_text() == task_result.trajectory
+
+
+def test_a_machine_without_the_planned_folder_renders_the_scenario_in_its_own_cache(tmp_path, monkeypatch):
+    """A scenario renders to the same bytes on every machine, so a node whose cache lacks the
+    driver's folder renders it into its own and runs the same run; the result names the
+    driver's folder. A folder given by path has no other way to be found."""
+    [planned] = plan_tasks(["sitting_static"], ["rtabmap"], scenario_frames=10, resolution=(160, 120))
+    here = execute_task(planned)
+    planned.sequence.rename(tmp_path / "not-on-this-machine")
+    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "node-cache"))
+    there = execute_task(planned)
+    assert here.ok and there.ok, there.error
+    assert (tmp_path / "node-cache" / "synth" / planned.sequence.name).is_dir()
+    assert {k: v for k, v in there.report.items() if k != "timing"} == \
+           {k: v for k, v in here.report.items() if k != "timing"}
+    assert there.trajectory == here.trajectory and there.sequence_block == here.sequence_block
+
+    folder = write_tum_folder(tmp_path / "given", frames=5)
+    [by_path] = plan_tasks([str(folder)], ["fake"])
+    folder.rename(tmp_path / "gone")
+    failed = execute_task(by_path)
+    assert by_path.source is None and not failed.ok and str(folder) in failed.error

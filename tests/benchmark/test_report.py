@@ -149,6 +149,8 @@ def test_cli_runs_writes_outputs_and_reuses_the_cache(tmp_path, capsys):
     (["--param", "nonsense=1"], "--param: unknown parameter 'nonsense'"),
     (["--executor", "slurm"], "--executor 'slurm': expected local or ray"),
     (["--ray-address", "auto"], "--ray-address needs --executor ray"),
+    (["--seed", str(2**32 - 1), "--trials", "2"],
+     "--trials 2 with --seed 4294967295: the last trial's seed 4294967296 is beyond 4294967295"),
 ])
 def test_cli_bad_options_exit_2_with_one_line(tmp_path, capsys, arguments, message):
     folder = write_tum_folder(tmp_path / "tiny", frames=3)

@@ -3,8 +3,14 @@
 The pipeline reports the groundtruth pose of each frame (the same function of time that
 writes the folders' groundtruth.txt) plus a fixed offset per frame, loses tracking over a
 chosen stretch of frames, and can be told to fail in the ways a real task can: raise,
-kill its worker process, or hang. It lives in an importable module because worker
-processes (the pool's and Ray's) import pipelines by module name.
+kill its worker process, or hang. Its error can grow with the run's seed, so trials differ.
+It lives in an importable module because worker processes (the pool's and Ray's) import
+pipelines by module name.
+
+On a test's Ray cluster, a node started with ``FAKE_PIPELINE_MARKERS`` (a folder) leaves a
+file there for every run it starts, named by the worker's process id; with
+``FAKE_PIPELINE_DOOMED`` set too, ``fail="hang_where_doomed"`` hangs there (and only there),
+so that the test can take the node down in the middle of a task.
 """
 
 import os
@@ -62,9 +68,11 @@ def write_tum_folder(folder: Path, frames: int = 30, size: tuple[int, int] = (32
 class FakeParams(PipelineParams):
     offset_m: float = Field(0.01, description="Constant position error added to every pose.")
     wobble_m: float = Field(0.0, description="Amplitude of a position error alternating frame by frame.")
+    wobble_per_seed_m: float = Field(0.0, description="Added to the wobble per unit of the run's seed.")
     lost_from: int = Field(-1, description="First frame without a pose (-1: never lost).")
     lost_until: int = Field(-1, description="First frame with a pose again (-1: never recovers).")
-    fail: Literal["", "raise", "exit", "sys.exit", "hang"] = Field("", description="How to fail on the first frame.")
+    fail: Literal["", "raise", "exit", "sys.exit", "hang", "hang_where_doomed"] = Field(
+        "", description="How to fail on the first frame.")
 
 
 class FakePipeline(Pipeline):
@@ -77,6 +85,10 @@ class FakePipeline(Pipeline):
         self.lost = False
 
     def process(self, frame):
+        if frame.index == 0 and os.environ.get("FAKE_PIPELINE_MARKERS"):
+            (Path(os.environ["FAKE_PIPELINE_MARKERS"]) / f"{os.getpid()}-{time.monotonic_ns()}").touch()
+        if self.params.fail == "hang_where_doomed" and os.environ.get("FAKE_PIPELINE_DOOMED"):
+            time.sleep(3600)
         if self.params.fail == "raise":
             raise RuntimeError("scripted failure")
         if self.params.fail == "exit":
@@ -96,7 +108,7 @@ class FakePipeline(Pipeline):
         pose = None
         if not lost:
             pose = groundtruth_pose(frame.timestamp)
-            pose[:3, 3] += p.offset_m + p.wobble_m * (-1) ** frame.index
+            pose[:3, 3] += p.offset_m + (p.wobble_m + p.wobble_per_seed_m * self.seed) * (-1) ** frame.index
             self.indices.append(frame.index)
             self.stamps.append(frame.timestamp)
             self.poses.append(pose)

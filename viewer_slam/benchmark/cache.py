@@ -15,7 +15,7 @@ from pathlib import Path
 from .. import __version__
 from ..cache import cache_dir
 from ..pipelines.base import pipeline_class
-from .runner import BenchmarkTask, TaskResult
+from .runner import BenchmarkTask, TaskResult, task_seed
 
 # Files whose bytes define a TUM sequence; images are represented by their names and sizes.
 _DEFINING_FILES = ("rgb.txt", "depth.txt", "groundtruth.txt", "camera.json", "scenario.json")
@@ -101,6 +101,7 @@ class ResultCache:
         except (OSError, ValueError, TypeError):
             return None
         stored.sequence, stored.pipeline, stored.cached = task.name, task.pipeline, True
+        stored.trial, stored.seed = task.trial, task_seed(task)  # one seed may be another benchmark's other trial
         return stored
 
     def store(self, task: BenchmarkTask, result: TaskResult) -> None:

@@ -1,5 +1,5 @@
 """The benchmark's and the study's charts: one grouped bar chart per metric, sequences along x,
-a bar per pipeline.
+a bar per pipeline; with trials, each bar is the median and a whisker spans the trials' min–max.
 
 The first four are the study's (ATE, RPE translation, RPE rotation, processing time); the
 last two are the coverage-aware scores. A chart must read at any scale: where the values
@@ -57,14 +57,15 @@ def draw_metric(rows: list[dict[str, Any]], metric: str) -> Figure:
     """The chart of ``metric`` for every row (the caller closes it).
 
     A failed task is marked "failed" and a run without the score (no pose) "n/a" where its
-    bar would be.
+    bar would be. A row with a ``spread`` of the metric (a pair's trials: ``(min, max)`` around
+    the median the row holds) gets a whisker from its min to its max.
     """
     sequences = list(dict.fromkeys(row["sequence"] for row in rows))
     pipelines = list(dict.fromkeys(row["pipeline"] for row in rows))
     by_pair = {(row["sequence"], row["pipeline"]): row for row in rows}
     width = 0.8 / len(pipelines)
     centres = np.arange(len(sequences))
-    values = [row.get(metric) for row in rows]
+    values = [row.get(metric) for row in rows] + [end for row in rows for end in row.get("spread", {}).get(metric, ())]
     log = metric not in SHARES and uses_log_axis(values)
     figure, axes = plt.subplots(figsize=(max(6.0, 1.2 * len(sequences) + 2), 4.2), layout="constrained")
     if log:
@@ -77,7 +78,8 @@ def draw_metric(rows: list[dict[str, Any]], metric: str) -> Figure:
         offsets = centres + (k - (len(pipelines) - 1) / 2) * width
         scores = [by_pair.get((sequence, pipeline), {}).get(metric) for sequence in sequences]
         heights = [np.nan if value is None else value for value in scores]
-        bars = axes.bar(offsets, heights, width, label=pipeline, color=palette.run_colour(pipeline, k).hex)
+        bars = axes.bar(offsets, heights, width, label=pipeline, color=palette.run_colour(pipeline, k).hex,
+                        **_whiskers(metric, [by_pair.get((sequence, pipeline), {}) for sequence in sequences]))
         axes.bar_label(bars, [value_text(metric, value) if value is not None else "" for value in scores],
                        fontsize=7, padding=1)
         for x, sequence, value in zip(offsets, sequences, scores):
@@ -89,11 +91,23 @@ def draw_metric(rows: list[dict[str, Any]], metric: str) -> Figure:
     axes.set_xticks(centres, sequences, rotation=25, ha="right")
     axes.set_xlim(-0.6, len(sequences) - 0.4)  # missing bars must not shrink the axis
     axes.set_ylabel(CHARTS[metric] + (", log scale" if log else ""))
-    axes.set_title(CHARTS[metric], fontsize=10, loc="left")  # the legend sits on the right
+    spread = any(metric in row.get("spread", {}) for row in rows)
+    axes.set_title(CHARTS[metric] + ("\nmedian, whiskers min–max over the trials" if spread else ""), fontsize=10,
+                   loc="left")  # the legend sits on the right
     axes.grid(axis="y", which="major", alpha=0.3)
     axes.legend(ncols=len(pipelines), loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False,
                 borderaxespad=0.2)
     return figure
+
+
+def _whiskers(metric: str, rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The bars' error-bar options spanning each row's min–max of ``metric``; none when no row has a spread."""
+    spreads = [row.get("spread", {}).get(metric) for row in rows]
+    if not any(spreads):
+        return {}
+    below = [row[metric] - spread[0] if spread else 0.0 for row, spread in zip(rows, spreads)]
+    above = [spread[1] - row[metric] if spread else 0.0 for row, spread in zip(rows, spreads)]
+    return {"yerr": [below, above], "capsize": 2.5, "error_kw": {"elinewidth": 0.9, "ecolor": "0.2"}}
 
 
 def _fit_values(axes, values: list[float | None], log: bool) -> None:

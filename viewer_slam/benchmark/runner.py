@@ -3,10 +3,15 @@
 ``execute_task`` is what the executors ship to worker processes (local or Ray). It never
 raises: any error, including running past the task's time limit, becomes a failed
 :class:`TaskResult` carrying the error's one-line description, so one bad task cannot
-take the others down.
+take the others down. A task that records writes its files into a scratch folder of the
+worker and returns their bytes with its result: a worker on another machine cannot reach
+the driver's ``--out``, so the files travel back the way the result does. A worker on a
+machine without the folder the driver planned reads the sequence from its own cache
+instead, when the task says how (:class:`SequenceSource`).
 """
 
 import signal
+import tempfile
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -16,11 +21,31 @@ from typing import Any
 
 import numpy as np
 
+from ..dataset.catalog import resolve_sequence
 from ..dataset.sources import RgbdSequence, open_source
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
 from ..runs.report import sequence_block
 from ..runs.service import EstimateSpec, PipelineSpec, RunSpec, ScoredRun, build_run, score_run
+
+
+@dataclass(frozen=True)
+class SequenceSource:
+    """A catalogue sequence as the benchmark resolved it: its ``name`` (a synthetic scenario or a
+    TUM sequence) and, for a scenario, the options it was rendered with. A node that lacks the
+    driver's folder resolves it the same way in its own cache: a scenario renders to the same
+    bytes on every machine, a TUM sequence must have been downloaded there."""
+
+    name: str
+    frames: int | None = None
+    resolution: tuple[int, int] = (640, 480)
+    seed: int = 0
+    first: int | None = None
+
+    def resolve(self, progress: bool = False) -> Path:
+        """The sequence's folder here, rendering the scenario into this machine's cache if it is not there."""
+        return resolve_sequence(self.name, frames=self.frames, resolution=self.resolution, seed=self.seed,
+                                first=self.first, progress=progress)
 
 
 @dataclass(frozen=True)
@@ -33,6 +58,9 @@ class BenchmarkTask:
     processes (which may not share the planner's interpreter) build the same pipelines.
     With ``estimate`` (a trajectory file, read in ``estimate_format`` or a detected one)
     the task replays that estimate as the run ``pipeline`` instead of running a pipeline.
+    ``trial`` is the task's index among the runs of one pair that differ only in ``seed``
+    (None: the pair runs once). ``source`` says how to find a catalogue sequence where
+    ``sequence`` does not exist (another machine); None for a folder given by path.
     """
 
     name: str
@@ -45,11 +73,13 @@ class BenchmarkTask:
     recording: Path | None = None
     estimate: Path | None = None
     estimate_format: str | None = None
+    trial: int | None = None
+    source: SequenceSource | None = None
     pipeline_modules: dict[str, str] = field(default_factory=lambda: dict(base.PIPELINE_MODULES))
 
     @property
     def label(self) -> str:
-        return f"{self.name}/{self.pipeline}"
+        return f"{self.name}/{self.pipeline}" + (f" trial {self.trial}" if self.trial is not None else "")
 
     @property
     def run(self) -> RunSpec:
@@ -59,9 +89,10 @@ class BenchmarkTask:
         return PipelineSpec(self.pipeline, self.params, self.seed)
 
 
-def recording_path(recordings: Path, sequence: str, run: str) -> Path:
-    """Where a benchmark that records keeps the recording of ``run`` over ``sequence`` (a row's labels)."""
-    return recordings / f"{sequence.replace('/', '_')}.{run}.rrd"
+def recording_path(recordings: Path, sequence: str, run: str, trial: int | None = None) -> Path:
+    """Where a benchmark that records keeps the recording of ``run`` over ``sequence`` (a row's labels),
+    of its ``trial`` when the pair runs more than once."""
+    return recordings / f"{sequence.replace('/', '_')}.{run}{'' if trial is None else f'.trial{trial}'}.rrd"
 
 
 @dataclass
@@ -71,7 +102,10 @@ class TaskResult:
     ``report`` is the per-pipeline block of DESIGN's report (metrics, timing, parameters);
     ``time_span`` the first and last processed frame's timestamps, against which lost
     intervals are read; ``trajectory`` the run's poses as a TUM file holds them;
-    ``sequence_block`` the report's description of the sequence (name, path, frames).
+    ``sequence_block`` the report's description of the sequence (name, path, frames);
+    ``trial`` and ``seed`` the task's (``seed`` None for an estimate, which has none);
+    ``files`` the recording and the files beside it, by name, on their way from the worker
+    to the driver (never cached).
     """
 
     sequence: str
@@ -84,6 +118,9 @@ class TaskResult:
     trajectory: str | None = None
     sequence_block: dict[str, Any] | None = None
     cached: bool = False
+    trial: int | None = None
+    seed: int | None = None
+    files: dict[str, bytes] = field(default_factory=dict, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -91,15 +128,22 @@ class TaskResult:
 
     @classmethod
     def failure(cls, task: BenchmarkTask, error: str) -> "TaskResult":
-        return cls(sequence=task.name, pipeline=task.pipeline, status="failed", error=error)
+        return cls(sequence=task.name, pipeline=task.pipeline, status="failed", error=error, trial=task.trial,
+                   seed=task_seed(task))
 
     def to_json(self) -> dict[str, Any]:
-        return asdict(self)
+        """Everything but the files (which the driver writes out on arrival)."""
+        return {key: value for key, value in asdict(self).items() if key != "files"}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> "TaskResult":
         span = data.get("time_span")
         return cls(**{**data, "time_span": tuple(span) if span is not None else None})
+
+
+def task_seed(task: BenchmarkTask) -> int | None:
+    """The seed the task's run uses; None for an estimate, which replays a file."""
+    return None if task.estimate is not None else task.seed
 
 
 class TaskTimeout(BaseException):
@@ -142,15 +186,19 @@ def execute_task(task: BenchmarkTask) -> TaskResult:
 
 def _run(task: BenchmarkTask) -> TaskResult:
     base.PIPELINE_MODULES.update(task.pipeline_modules)
-    sequence = open_source(task.sequence)
-    scored = _record(task) if task.recording is not None else _score(task, sequence)
+    folder = task.sequence if task.source is None or Path(task.sequence).exists() else task.source.resolve()
+    sequence = open_source(folder)
+    scored, files = _record(task, folder) if task.recording is not None else (_score(task, sequence), {})
     frames = scored.run.frames
     if frames == 0:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
+    # The driver reads the sequence at its own path (a comparison opens its groundtruth there).
+    block = {**sequence_block(sequence), "path": str(task.sequence)} if folder != task.sequence \
+        else sequence_block(sequence)
     return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(scored.report),
                       frames=frames, time_span=time_span, trajectory=format_tum(scored.run.trajectory),
-                      sequence_block=sequence_block(sequence))
+                      sequence_block=block, trial=task.trial, seed=task_seed(task), files=files)
 
 
 def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
@@ -159,14 +207,19 @@ def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
     return score_run(sequence, run, task.pipeline, max_frames=task.max_frames)
 
 
-def _record(task: BenchmarkTask) -> ScoredRun:
-    """The task's run recorded as `viewslam record` records it (recording, report and trajectory beside it)."""
+def _record(task: BenchmarkTask, folder: Path) -> tuple[ScoredRun, dict[str, bytes]]:
+    """The task's run over ``folder`` recorded as `viewslam record` records it, into a scratch folder of
+    this worker; with the bytes of the recording and of the report and trajectory beside it, by file name."""
     from ..record.options import RecordOptions  # Rerun is loaded only by tasks that record
     from ..record.session import record_runs
 
-    options = RecordOptions(sequence=str(task.sequence), out=task.recording, max_frames=task.max_frames,
-                            seed=task.seed, quiet=True)
-    return record_runs(options, {task.pipeline: task.run}).scored[task.pipeline]
+    assert task.recording is not None  # only a task that records is recorded
+    with tempfile.TemporaryDirectory(prefix="viewslam-task-") as scratch:
+        options = RecordOptions(sequence=str(folder), out=Path(scratch) / task.recording.name,
+                                max_frames=task.max_frames, seed=task.seed, quiet=True)
+        recorded = record_runs(options, {task.pipeline: task.run})
+        files = {path.name: path.read_bytes() for path in recorded.written}
+    return recorded.scored[task.pipeline], files
 
 
 def _plain(value: Any) -> Any:

@@ -1,15 +1,18 @@
 """A benchmark run: cached results first, the rest on an executor, with one progress bar on stderr.
 
 Ctrl-C (or SIGTERM) stops the run: the tasks that finished are returned, in order, so that
-their rows are written.
+their rows are written. A task that records sends its files back with its result; they are
+written beside the task's recording path here, on the driver, as each result arrives.
 """
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from ..atomic import StagedFiles
 from ..errors import Interrupted
 from .cache import ResultCache
 from .executors import Executor, run_tasks
@@ -44,6 +47,7 @@ def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: Res
 
         def finished(task: BenchmarkTask, result: TaskResult) -> None:
             running.remove(task.label)
+            result = deliver_files(task, result)
             bar.update(overall, advance=1, running=", ".join(running))
             results[position[id(task)]] = result
             if not result.ok:
@@ -57,3 +61,22 @@ def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: Res
         except (KeyboardInterrupt, Interrupted):
             interrupted = True
     return BenchmarkOutcome([results[index] for index in sorted(results)], interrupted)
+
+
+def deliver_files(task: BenchmarkTask, result: TaskResult) -> TaskResult:
+    """Write the files ``result`` brought from its worker beside ``task.recording``, all renamed into
+    place together; the result without them, or a failed result when they cannot be written."""
+    if not result.files:
+        return result
+    assert task.recording is not None  # only a task that records brings files
+    folder = Path(task.recording).parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with StagedFiles() as staged:
+            for name, data in result.files.items():
+                staged.path(folder / name).write_bytes(data)
+            staged.commit()
+    except OSError as error:
+        return TaskResult.failure(task, f"cannot write the recording into {folder}: {error.strerror or error}")
+    result.files = {}
+    return result

@@ -31,6 +31,8 @@ def benchmark(
     param: list[str] = typer.Option([], help="Pipeline parameter KEY=VALUE (repeatable)."),
     config: Path = typer.Option(None, help="TOML file of pipeline parameters."),
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the pipelines' random choices."),
+    trials: int = typer.Option(1, min=1, help="Runs of every pipeline per sequence, trial k with seed SEED + k; "
+                                              "tables and charts give the median and min–max."),
     timeout: float = typer.Option(None, min=1, max=MAX_TIMEOUT_S,
                                   help="Seconds after which a task is stopped and reported failed."),
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
@@ -47,7 +49,9 @@ def benchmark(
 ) -> int:
     """Run every sequence x pipeline pair, evaluate, print the results table and write it with charts and findings.
 
-    With --compare, report.md also compares every (sequence, run) row both folders have.
+    With --trials N, every pair runs N times (seeds SEED to SEED + N - 1) and the table gives each
+    score's median and min–max. With --compare, report.md also compares every (sequence, run) row
+    both folders have, and says which differences exceed the trials' spread.
     Exits with 1 when a task failed (the others still complete and are reported), 130 when
     interrupted (the finished tasks are written).
     """
@@ -64,6 +68,9 @@ def benchmark(
     from ..runs.selection import select_runs
 
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
+    if seed + trials - 1 > SEED_MAX:
+        raise InputError(f"--trials {trials} with --seed {seed}: the last trial's seed {seed + trials - 1} is beyond "
+                         f"{SEED_MAX}")
     chosen = pipelines + pipeline
     names, estimates = select_runs(",".join(chosen) if chosen else None, estimate)
     other = load_results(compare) if compare is not None else None
@@ -75,7 +82,7 @@ def benchmark(
         tasks = plan_tasks(sequences or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
                            resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
                            timeout_s=timeout, recordings=out / RECORDINGS_FOLDER if record else None,
-                           estimates=estimates, estimate_format=format, progress=not quiet)
+                           estimates=estimates, estimate_format=format, trials=trials, progress=not quiet)
         refuse_inputs_as_outputs(planned_outputs(out, tasks),
                                  {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
                                      if task.estimate is not None},

@@ -3,9 +3,15 @@
 Run B is compared against run A: every difference is B minus A. Both trajectories are
 evaluated again against the sequence's groundtruth (the same evaluation as the reports'),
 so the per-frame errors can be set side by side at each frame.
+
+A run block of a benchmark that ran trials lists every trial's scores (``trials``); its
+summary scores are then the medians over the trials, and a difference is said to exceed
+the trials' spread when the two sides' min–max ranges do not overlap (a side with one run
+being its one value).
 """
 
-from dataclasses import dataclass
+import statistics
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +48,10 @@ class RunComparison:
 
     ``ate_a``/``ate_b`` hold one error per sequence frame (NaN where the run had no pose
     or there is no groundtruth) under the run's ``alignment_a``/``alignment_b`` onto the
-    groundtruth; ``summary`` maps a score's label to ``(a, b)``; ``parameters`` the values
-    that differ, None for runs with no parameter in common (two different methods).
+    groundtruth; ``summary`` maps a score's label to ``(a, b)`` (medians over trials where a
+    run has them); ``spread`` the scores' ``(min, max)`` over each side's trials, for the
+    labels where a side has more than one; ``parameters`` the values that differ, None for
+    runs with no parameter in common (two different methods).
     """
 
     a: RecordedRun
@@ -60,6 +68,23 @@ class RunComparison:
     parameters: dict[str, tuple[Any, Any]] | None
     losses_vanished: list[dict[str, Any]]
     losses_appeared: list[dict[str, Any]]
+    spread: dict[str, tuple[tuple[float, float] | None, tuple[float, float] | None]] = field(default_factory=dict)
+
+    @property
+    def has_trials(self) -> bool:
+        """Whether either run is a benchmark pair's trials (so the spread can be weighed)."""
+        return bool(self.a.block.get("trials") or self.b.block.get("trials"))
+
+    def beyond_spread(self, label: str) -> bool | None:
+        """Whether B's and A's values of ``label`` lie apart: their ranges over the trials do not overlap.
+        None when no side has a spread of the score, or a side has no value."""
+        a, b = self.summary[label]
+        spread_a, spread_b = self.spread.get(label, (None, None))
+        if (spread_a is None and spread_b is None) or not numeric(a, b):
+            return None
+        low_a, high_a = spread_a or (a, a)
+        low_b, high_b = spread_b or (b, b)
+        return low_b > high_a or high_b < low_a
 
     @property
     def ate_difference(self) -> np.ndarray:
@@ -130,15 +155,36 @@ def compare_runs(a: RecordedRun, b: RecordedRun, sequence: RgbdSequence) -> RunC
     tracked_a, tracked_b = _tracked(a.trajectory, stamps), _tracked(b.trajectory, stamps)
     (ate_a, alignment_a), (ate_b, alignment_b) = _frame_errors(a.trajectory, sequence), \
         _frame_errors(b.trajectory, sequence)
+    scores = {label: (_trial_score(a.block, label, keys), _trial_score(b.block, label, keys)) for label, keys in SUMMARY}
     return RunComparison(
         a=a, b=b, frame_indices=np.arange(len(stamps)), timestamps=stamps,
         ate_a=ate_a, ate_b=ate_b, alignment_a=alignment_a, alignment_b=alignment_b,
         tracked_a=tracked_a, tracked_b=tracked_b,
-        summary={label: (_score(a.block, label, keys), _score(b.block, label, keys)) for label, keys in SUMMARY},
+        summary={label: (a_score[0], b_score[0]) for label, (a_score, b_score) in scores.items()},
         parameters=_parameter_differences(a.block["parameters"], b.block["parameters"]),
         losses_vanished=_unmatched_losses(a.block["tracking_lost"], b.block["tracking_lost"], tracked_b),
         losses_appeared=_unmatched_losses(b.block["tracking_lost"], a.block["tracking_lost"], tracked_a),
+        spread={label: (a_score[1], b_score[1]) for label, (a_score, b_score) in scores.items()
+                if a_score[1] is not None or b_score[1] is not None},
     )
+
+
+def _trial_score(block: dict[str, Any], label: str, keys: tuple[str, ...]) -> tuple[Any, tuple[float, float] | None]:
+    """A score of a run block and its ``(min, max)``: without trials, the block's own value and no
+    spread; with them, the median over the trials that ran and, when more than one has it, their range."""
+    trials = block.get("trials")
+    if not trials:
+        return _score(block, label, keys), None
+    values = [value for trial in trials if trial.get("status") == "ok"
+              if numeric(value := _lookup(trial, keys))]
+    if not values:
+        return None, None
+    return statistics.median(values), (min(values), max(values)) if len(values) > 1 else None
+
+
+def numeric(*values: Any) -> bool:
+    """Whether every value is a number (a bool is not, though Python counts it as an int)."""
+    return all(isinstance(value, (int, float)) and not isinstance(value, bool) for value in values)
 
 
 def open_compared_sequence(a: RecordReport, b: RecordReport) -> RgbdSequence:

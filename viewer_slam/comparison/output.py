@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ..terminal import StdoutConsole, print_table
-from .compare import Comparison, RunComparison
+from .compare import Comparison, RunComparison, numeric
 from .results import ResultsComparison
 
 
@@ -23,8 +23,7 @@ def frame_ranges(frames: np.ndarray) -> str:
 
 
 def difference(a: Any, b: Any) -> float | None:
-    numbers = all(isinstance(value, (int, float)) and not isinstance(value, bool) for value in (a, b))
-    return b - a if numbers else None
+    return b - a if numeric(a, b) else None
 
 
 def _finite_or_none(values: np.ndarray) -> list[float | None]:
@@ -32,10 +31,17 @@ def _finite_or_none(values: np.ndarray) -> list[float | None]:
 
 
 def run_comparison_to_dict(run: RunComparison) -> dict[str, Any]:
+    """The comparison as data; with trials, each score also has each side's ``range`` over its trials and
+    whether the difference is ``beyond_spread``."""
     both = np.isfinite(run.ate_difference)
+    summary = {label: {"a": a, "b": b, "difference": difference(a, b)} for label, (a, b) in run.summary.items()}
+    if run.has_trials:
+        for label, entry in summary.items():
+            range_a, range_b = run.spread.get(label, (None, None))
+            entry.update(a_range=range_a, b_range=range_b, beyond_spread=run.beyond_spread(label))
     return {
         "a": run.a.name, "b": run.b.name,
-        "summary": {label: {"a": a, "b": b, "difference": difference(a, b)} for label, (a, b) in run.summary.items()},
+        "summary": summary,
         "parameters": None if run.parameters is None else {key: {"a": a, "b": b}
                                                             for key, (a, b) in run.parameters.items()},
         "frames_only_a": run.frames_only_a.tolist(),
@@ -67,14 +73,49 @@ def _cell(value: Any, sign: str = "") -> str:
     return f"{value:{sign}d}" if isinstance(value, int) and not isinstance(value, bool) else str(value)
 
 
-def summary_rows(run: RunComparison) -> list[tuple[str, str, str, str]]:
-    """The scores side by side: (score, A, B, B - A) as text."""
-    return [(label, _cell(a), _cell(b), _cell(difference(a, b), sign="+")) for label, (a, b) in run.summary.items()]
+def summary_columns(run: RunComparison) -> tuple[str, ...]:
+    """The columns of :func:`summary_rows`: with trials, each side's min–max and whether B - A exceeds them."""
+    return ("score", "A", "B", "B - A") + (("A min–max", "B min–max", "beyond spread") if run.has_trials else ())
+
+
+def summary_rows(run: RunComparison) -> list[tuple[str, ...]]:
+    """The scores side by side: (score, A, B, B - A) as text; with trials, then the spread columns."""
+    rows = []
+    for label, (a, b) in run.summary.items():
+        row: tuple[str, ...] = (label, _cell(a), _cell(b), _cell(difference(a, b), sign="+"))
+        if run.has_trials:
+            verdict = run.beyond_spread(label)
+            row += (*(_range(side) for side in run.spread.get(label, (None, None))),
+                    "—" if verdict is None else "yes" if verdict else "no")
+        rows.append(row)
+    return rows
+
+
+def _range(spread: tuple[float, float] | None) -> str:
+    return "—" if spread is None else f"{_cell(spread[0])}–{_cell(spread[1])}"
+
+
+def _trials_line(run: RunComparison) -> str:
+    """What each side's scores are (one run, or the median of how many trials) and which trial the
+    frame-by-frame details compare."""
+    parts = []
+    for side, recorded in (("A", run.a), ("B", run.b)):
+        trials = recorded.block.get("trials") or []
+        ran = [trial for trial in trials if trial.get("status") == "ok"]
+        if not trials:
+            parts.append(f"{side} one run")
+        elif ran:
+            parts.append(f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, "
+                         f"seed {ran[0]['seed']})")
+        else:
+            parts.append(f"{side} no trial that ran")
+    return "scores: " + "; ".join(parts) + "; beyond spread: the two sides' min–max ranges do not overlap"
 
 
 def detail_lines(run: RunComparison) -> list[str]:
-    """The ATE difference, the frames only one run tracked, the losses only one had, the parameters that differ."""
-    lines = []
+    """The ATE difference, the frames only one run tracked, the losses only one had, the parameters that differ;
+    with trials first what the scores are."""
+    lines = [_trials_line(run)] if run.has_trials else []
     both = np.isfinite(run.ate_difference)
     if both.any():
         lines.append(f"ATE difference B - A over {both.sum()} frames both tracked: mean "
@@ -101,7 +142,7 @@ def print_comparison(comparison: Comparison, console: Console | None = None) -> 
     console.print(f"A = {comparison.a.path}\nB = {comparison.b.path}\nsequence {comparison.a.sequence['name']}")
     for run in comparison.runs:
         table = Table(title=f"{run.a.name} (A) against {run.b.name} (B)", box=box.SIMPLE_HEAD, pad_edge=False)
-        for column in ("score", "A", "B", "B - A"):
+        for column in summary_columns(run):
             table.add_column(column, justify="left" if column == "score" else "right", no_wrap=True)
         for row in summary_rows(run):
             table.add_row(*row)
@@ -114,7 +155,9 @@ def markdown_comparison(comparison: ResultsComparison) -> list[str]:
     """The lines of a benchmark report's comparison section: per row both ran, the scores and the details."""
     lines = [f"A = `{comparison.a.folder}`, B = these results; differences are B - A.", ""]
     for sequence, run in comparison.runs:
-        lines += [f"### {sequence} / {run.b.name}", "", "| score | A | B | B - A |", "|---|---:|---:|---:|"]
+        columns = summary_columns(run)
+        lines += [f"### {sequence} / {run.b.name}", "", "| " + " | ".join(columns) + " |",
+                  "|---|" + "---:|" * (len(columns) - 1)]
         lines += ["| " + " | ".join(row) + " |" for row in summary_rows(run)]
         lines += ["", *(f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
                         for line in detail_lines(run)), ""]

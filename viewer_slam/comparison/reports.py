@@ -1,7 +1,8 @@
 """Read a `viewslam record` report with the trajectories written beside it, refusing what is not one.
 
 ``NAME.json`` holds one block per run; ``NAME.<run>.txt`` beside it holds that run's
-trajectory (TUM format). A report without the blocks a comparison reads (an older
+trajectory (TUM format). A benchmark's block of a pair run as trials also lists every
+trial's scores (``trials``). A report without the blocks a comparison reads (an older
 version's, or `evaluate --json` output) is refused in one line.
 """
 
@@ -69,6 +70,9 @@ def _shape_problem(block: dict[str, Any]) -> str | None:
     if not isinstance(losses, list) or not all(isinstance(loss, dict) and isinstance(loss.get("frame"), int)
                                                and not isinstance(loss["frame"], bool) for loss in losses):
         return "tracking_lost is not a list of losses, each with its frame number"
+    trials = block.get("trials", [])
+    if not isinstance(trials, list) or not all(isinstance(trial, dict) and "status" in trial for trial in trials):
+        return "trials is not a list of trials, each with its status"
     return None
 
 

@@ -1,6 +1,6 @@
 """Two benchmark results folders compared row by row (`viewslam benchmark --compare`).
 
-A results folder holds ``results.json`` (one row per sequence and run) and ``runs/``: per
+A results folder holds ``results.json`` (one row per sequence, run and trial) and ``runs/``: per
 sequence, a report in `viewslam record`'s form (``runs/<sequence>.json``) with each run's
 trajectory beside it (``runs/<sequence>.<run>.txt``), so every row compares exactly as
 `viewslam diff` compares two reports. Folder B is compared against folder A.
@@ -55,7 +55,7 @@ def load_results(folder: Path) -> BenchmarkResults:
     if not isinstance(data, list) or not all(isinstance(row, dict) and {"sequence", "pipeline", "status"} <= row.keys()
                                              for row in data):
         raise InputError.at(folder, "not a benchmark results folder (results.json holds no result rows)")
-    rows = [(row["sequence"], row["pipeline"], row["status"]) for row in data]
+    rows = _pair_rows(data)
     reports = {}
     for sequence in dict.fromkeys(sequence for sequence, _, status in rows if status == "ok"):
         path = runs_report_path(folder, sequence)
@@ -64,6 +64,16 @@ def load_results(folder: Path) -> BenchmarkResults:
                                         f"reports and trajectories); run the benchmark again with this version")
         reports[sequence] = load_report(path)
     return BenchmarkResults(folder, rows, reports)
+
+
+def _pair_rows(data: list[dict]) -> list[tuple[str, str, str]]:
+    """One (sequence, run, status) per pair: a pair run as several trials has a row per trial, and is
+    ``ok`` when one of them ran (its report block holds them all)."""
+    pairs: dict[tuple[str, str], str] = {}
+    for row in data:
+        key = (row["sequence"], row["pipeline"])
+        pairs[key] = "ok" if pairs.get(key) == "ok" else row["status"]
+    return [(sequence, run, status) for (sequence, run), status in pairs.items()]
 
 
 def check_comparable(a: BenchmarkResults, b: BenchmarkResults) -> None:
