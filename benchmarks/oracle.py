@@ -3,8 +3,8 @@
     .venv/bin/python benchmarks/oracle.py --oracle ../shared/oracles/rtabmap-0.23.8 \\
         --scene 360_kidnap --seeds 0 1 2 --runs 3 --rules ros tool --out recordings/oracle
 
-For each scene and seed the scene is rendered (``viewslam synth SCENE --frames N --resolution
-640x480 --seed S``, into a folder whose name carries ``freiburg3``: the original reads its
+For each scene and seed the scene is rendered (``viewslam synth SCENE --resolution 640x480
+--seed S``, its own length unless ``--frames``, into a folder whose name carries ``freiburg3``: the original reads its
 intrinsics from the name) and the SHA-256 of every frame is listed; the original runs ``--runs``
 times under each loss rule (``tool``: its dataset tool, a new map on every lost frame; ``ros``:
 ``RTABMAP_NO_NEW_MAP=1``, a loss its odometry recovers from continues the map, as rtabmap_ros
@@ -66,7 +66,7 @@ JOINING = ("global_loop", "local_space")
 
 # -- the frames ---------------------------------------------------------------------------------
 
-def render(scene: str, seed: int, frames: int, into: Path) -> Path:
+def render(scene: str, seed: int, frames: int | None, into: Path) -> Path:
     """The scene's TUM folder (rendered once), named so that the original reads fr3's intrinsics."""
     folder = into / f"s{seed}" / f"rgbd_dataset_freiburg3_synth_{scene}"
     if not (folder / "rgb.txt").is_file():
@@ -260,7 +260,7 @@ def main() -> None:
     parser.add_argument("--oracle", type=Path, default=ORACLE, help="the RTAB-Map 0.23.8 build (bin/, lib/)")
     parser.add_argument("--scene", default="360_kidnap")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
-    parser.add_argument("--frames", type=int, default=600)
+    parser.add_argument("--frames", type=int, help="frames to render (default: the scenario's own length)")
     parser.add_argument("--runs", type=int, default=3, help="runs of the original per seed, rule and mode")
     parser.add_argument("--rules", nargs="+", choices=sorted(RULE_PARAMS), default=["ros", "tool"])
     parser.add_argument("--mode", choices=["default", "perframe"], default="default")
