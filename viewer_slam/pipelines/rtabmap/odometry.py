@@ -160,6 +160,50 @@ def motion_over(velocity: np.ndarray, elapsed: float) -> np.ndarray:
     return motion
 
 
+def guided_matches(points: np.ndarray, descriptors: np.ndarray, corners: np.ndarray, corner_descriptors: np.ndarray,
+                   predicted: np.ndarray, camera: Camera, params: RtabmapParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RegistrationVis's matching with a motion guess: the 3D ``points`` (with their
+    ``descriptors``) in front of the ``predicted`` camera whose projection lies in the
+    (rectified) image are matched with the ``corners`` (pinhole pixels) within
+    Vis/CorGuessWinSize pixels; returned are the matches (indices of corners, of points) and
+    the points projected within the window of a corner. By default each projected point, in
+    word order, picks among the corners around it and a corner already taken is not matched
+    again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
+    around it, and a point picked by several corners is dropped (their duplicate word ids are
+    removed before the motion estimation)."""
+    in_camera = transform_points(invert(predicted), points)
+    in_front = np.flatnonzero(in_camera[:, 2] > 0)
+    projections = camera.project(in_camera[in_front])
+    inside = ((projections >= 0).all(axis=1) & (projections[:, 0] <= camera.width - 1)
+              & (projections[:, 1] <= camera.height - 1))
+    visible, projections = in_front[inside], projections[inside]
+    near_corner = (cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
+                   if len(corners) and len(projections) else np.zeros(len(projections), bool))
+    projected = visible[near_corner]
+    visible_descriptors = descriptors[visible]
+    if params.guess_match_to_projection:
+        picked = nearest_within_radius(corners, corner_descriptors, projections, visible_descriptors,
+                                       params.guess_window, params.correspondence_nndr)
+        claims = np.bincount(picked[picked >= 0], minlength=len(visible))
+        corner_index = np.flatnonzero(picked >= 0)
+        corner_index = corner_index[claims[picked[corner_index]] == 1]
+        return corner_index, visible[picked[corner_index]], projected
+    picked = nearest_within_radius(projections, visible_descriptors, corners, corner_descriptors,
+                                   params.guess_window, params.correspondence_nndr)
+    matched = np.flatnonzero(picked >= 0)
+    _, first_claim = np.unique(picked[matched], return_index=True)
+    point_rows = np.sort(matched[first_claim])
+    return picked[point_rows], visible[point_rows], projected
+
+
+def pinhole_pixels(camera: Camera, keypoints: np.ndarray) -> np.ndarray:
+    """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""
+    if not any(camera.distortion) or len(keypoints) == 0:  # OpenCV 4 returns None for no points
+        return keypoints.astype(np.float64).reshape(-1, 2)
+    return cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), camera.K,
+                               np.asarray(camera.distortion), P=camera.K).reshape(-1, 2)
+
+
 class FrameToMapOdometry:
     """Registers each frame to the local map; see the module docstring."""
 
@@ -267,39 +311,10 @@ class FrameToMapOdometry:
         return result
 
     def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """RegistrationVis's matching with a motion guess: the map points in front of the
-        predicted camera whose projection lies in the (rectified) image are matched with the
-        corners within Vis/CorGuessWinSize pixels; returned are the matches (indices of
-        features, of map points) and the map points projected within the window of a corner.
-        By default each projected point, in word order, picks among the corners around it and
-        a corner already taken is not matched again; with Vis/CorGuessMatchToProjection each corner picks among the projected points
-        around it, and a map point picked by several corners is dropped (their duplicate word
-        ids are removed before the motion estimation)."""
-        params = self.params
-        in_camera = transform_points(invert(predicted), self.map.points)
-        in_front = np.flatnonzero(in_camera[:, 2] > 0)
-        projections = self.camera.project(in_camera[in_front])
-        inside = ((projections >= 0).all(axis=1) & (projections[:, 0] <= self.camera.width - 1)
-                  & (projections[:, 1] <= self.camera.height - 1))
-        visible, projections = in_front[inside], projections[inside]
-        corners = self._undistorted(features.keypoints)
-        near_corner = (cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
-                       if len(corners) and len(projections) else np.zeros(len(projections), bool))
-        projected = visible[near_corner]
-        descriptors = self.map.descriptors[visible]
-        if params.guess_match_to_projection:
-            picked = nearest_within_radius(corners, features.descriptors, projections, descriptors,
-                                           params.guess_window, params.correspondence_nndr)
-            claims = np.bincount(picked[picked >= 0], minlength=len(visible))
-            feature_index = np.flatnonzero(picked >= 0)
-            feature_index = feature_index[claims[picked[feature_index]] == 1]
-            return feature_index, visible[picked[feature_index]], projected
-        picked = nearest_within_radius(projections, descriptors, corners, features.descriptors,
-                                       params.guess_window, params.correspondence_nndr)
-        matched = np.flatnonzero(picked >= 0)
-        _, first_claim = np.unique(picked[matched], return_index=True)
-        map_rows = np.sort(matched[first_claim])
-        return picked[map_rows], visible[map_rows], projected
+        """The local map's points matched to the frame's corners around their projections from
+        ``predicted`` (:func:`guided_matches`)."""
+        return guided_matches(self.map.points, self.map.descriptors, pinhole_pixels(self.camera, features.keypoints),
+                              features.descriptors, predicted, self.camera, self.params)
 
     def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
                shown_without_pose: np.ndarray) -> OdometryResult:
@@ -336,7 +351,7 @@ class FrameToMapOdometry:
         inlier_rows = np.flatnonzero(inliers)
         points, features_used = map_index[inlier_rows], feature_index[inlier_rows]
         observations = bundle_observations([self.map.references[i] for i in points],
-                                           self._undistorted(features.keypoints[features_used]),
+                                           pinhole_pixels(self.camera, features.keypoints[features_used]),
                                            features.points[features_used, 2], self.params.bundle_max_frames)
         last = self.key_frames.last
         assert last is not None  # _start_map added the map's first key frame
@@ -353,16 +368,9 @@ class FrameToMapOdometry:
                           scaled_down(variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR))
         return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], scaled
 
-    def _undistorted(self, keypoints: np.ndarray) -> np.ndarray:
-        """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""
-        if not any(self.camera.distortion) or len(keypoints) == 0:  # OpenCV 4 returns None for no points
-            return keypoints.astype(np.float64).reshape(-1, 2)
-        return cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), self.camera.K,
-                                   np.asarray(self.camera.distortion), P=self.camera.K).reshape(-1, 2)
-
     def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
         """This frame's observations of its features ``index``, for the bundle adjustment."""
-        pixels = self._undistorted(features.keypoints[index])
+        pixels = pinhole_pixels(self.camera, features.keypoints[index])
         return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
 
     def _update_map(self, features: Features, result: OdometryResult) -> bool:
