@@ -32,6 +32,7 @@ import re
 import subprocess
 import sys
 import tempfile
+from datetime import date
 from pathlib import Path
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
@@ -246,6 +247,15 @@ def table(title: str, ours: dict, originals: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def stamp(command: str) -> str:
+    """The command, the machine, the date and the commit a table came from."""
+    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")), "unknown CPU")
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True, check=False).stdout.strip() or "unknown commit"
+    return f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, viewslam at {commit}."
+
+
 def write_docs(scene: str, text: str) -> None:
     begin, end = f"<!-- oracle: {scene} -->", f"<!-- /oracle: {scene} -->"
     docs = DOCS.read_text()
@@ -296,8 +306,8 @@ def main() -> None:
                     json.dumps(result, indent=1) + "\n")
                 sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}", ours, originals))
                 print(sections[-1] + "\n", flush=True)
-    command = "python benchmarks/oracle.py " + " ".join(sys.argv[1:])
-    text = "\n\n".join(sections) + f"\n\nMade by `{command}`."
+    command = "python benchmarks/oracle.py " + " ".join(arg for arg in sys.argv[1:] if arg != "--docs")
+    text = "\n\n".join(sections) + f"\n\n{stamp(command)}"
     (args.out / "tables.md").write_text(text + "\n")
     if args.docs:
         write_docs(args.scene, text)
