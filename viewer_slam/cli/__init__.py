@@ -9,7 +9,6 @@ only those it uses, so ``viewslam --help`` and the light commands start at once.
 import errno
 import logging
 import os
-import signal
 import sys
 import tempfile
 import time
@@ -17,6 +16,7 @@ import traceback
 from pathlib import Path
 from typing import Protocol, cast
 
+from .. import stopping
 from ..errors import InputError, Interrupted
 
 EXIT_BAD_INPUT = 2
@@ -26,24 +26,16 @@ EXIT_INTERRUPTED = 130
 RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off,re_grpc_client=off"
 
 
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 STDOUT_FD = 1
 # An error writing with no file name is the output stream's: full, closed pipe, closed descriptor.
 STDOUT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EPIPE, errno.EBADF)
 
 
-def _interrupt(signum, frame) -> None:
-    raise Interrupted(signal.Signals(signum).name)
-
-
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line)."""
-    previous = {number: signal.signal(number, _interrupt) for number in STOP_SIGNALS}
-    try:
+    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line; a
+    second stop signal while the first is honoured is absorbed, a third aborts: ``stopping.py``)."""
+    with stopping.installed():
         return _run(argv)
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
 
 
 def _run(argv: list[str] | None) -> int:

@@ -2,10 +2,9 @@
 checked before any work starts and written under temporary names."""
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 
-from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
+from ..atomic import check_writable, refuse_inputs_as_outputs
 from ..errors import InputError
 
 DEMO_OUT = Path("recordings/demo.rrd")
@@ -49,11 +48,3 @@ def earlier_trajectories(out: Path) -> list[Path]:
         return list(report_paths(out, [str(name) for name in pipelines])[1].values())
     except (OSError, ValueError, KeyError, TypeError):
         return []
-
-
-def write_staged(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
-    """``write`` to ``target``'s temporary file; a failure (a full disk) is one line naming ``target``."""
-    try:
-        write(staged.path(target))
-    except OSError as error:
-        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
