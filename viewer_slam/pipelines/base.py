@@ -8,6 +8,7 @@ an :class:`InputError` naming it when it is selected, never an obstacle to the o
 """
 
 import importlib
+import re
 from abc import ABC, abstractmethod
 from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
     from .params import PipelineParams
 
 ENTRY_POINT_GROUP = "viewslam.pipelines"
+RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+"""The names a run may have (a pipeline, a plugin, an estimate): each names entity paths and a file."""
 # Pipelines are imported on first use so that `viewslam evaluate` never pays for them.
 PIPELINE_MODULES = {
     "rgbdslam": "viewer_slam.pipelines.rgbdslam",

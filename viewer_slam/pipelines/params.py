@@ -11,7 +11,6 @@ calling :func:`check_ordered`.
 """
 
 import difflib
-import tomllib
 import typing
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,10 +20,13 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, Va
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
 
+from ..documents import read_toml
 from ..errors import InputError
 
 # Integers go to OpenCV and GTSAM as C ints.
 INT_MAX = 2**31 - 1
+CONFIG_BYTES = 2**20
+"""A parameter file holds a few dozen values: a larger one is no config."""
 
 
 def _exact_int(value: Any) -> Any:
@@ -209,17 +211,7 @@ def parse_assignments(assignments: list[str]) -> dict[str, str]:
 
 def load_config(path: Path) -> dict[str, Any]:
     """Read a TOML parameter file: flat ``KEY = value`` lines and/or one table per pipeline."""
-    try:
-        with open(path, "rb") as handle:
-            return tomllib.load(handle)
-    except FileNotFoundError:
-        raise InputError.at(path, "no such file") from None
-    except IsADirectoryError:
-        raise InputError.at(path, "is a folder, not a TOML file") from None
-    except UnicodeDecodeError as error:
-        raise InputError.at(path, f"cannot read config: not UTF-8 text (byte {error.start})") from None
-    except (OSError, tomllib.TOMLDecodeError) as error:
-        raise InputError.at(path, f"cannot read config: {error}") from None
+    return read_toml(path, "config", max_bytes=CONFIG_BYTES)
 
 
 def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequence[str] = (),

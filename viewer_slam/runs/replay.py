@@ -11,7 +11,6 @@ gap too short to be lost stays ``ok`` (a dropped pose), before the first pose
 ``initialising``.
 """
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -23,13 +22,11 @@ from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
 from ..geometry.camera import Camera
 from ..geometry.trajectory_formats import read_trajectory
-from ..pipelines.base import Pipeline
+from ..pipelines.base import RUN_NAME, Pipeline
 from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from ..pipelines.params import PipelineParams
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
-# An estimate's name becomes entity paths and a file name.
-RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 
 
 class EstimateParams(PipelineParams):
