@@ -13,11 +13,13 @@ import sys
 import tempfile
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Protocol, cast
 
 from .. import stopping
 from ..errors import InputError, Interrupted
+from ..terminal import degrade_to_ascii
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -26,6 +28,10 @@ EXIT_INTERRUPTED = 130
 RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off,re_grpc_client=off"
 
 
+# NumPy's floating-point warnings (a NaN compared, a division by zero, a mean of nothing): the code
+# handles such values where it uses them, and on stderr the warnings would only be noise.
+NUMPY_FLOAT_WARNINGS = (r"(invalid value|divide by zero|overflow|underflow) encountered|Mean of empty slice|"
+                        r"Degrees of freedom <= 0")
 STDOUT_FD = 1
 # An error writing with no file name is the output stream's: full, closed pipe, closed descriptor.
 STDOUT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EPIPE, errno.EBADF)
@@ -41,7 +47,10 @@ def main(argv: list[str] | None = None) -> int:
 def _run(argv: list[str] | None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
     _guard_closed_stdout()
+    for stream in (sys.stdout, sys.stderr):
+        degrade_to_ascii(stream)
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
+    warnings.filterwarnings("ignore", category=RuntimeWarning, message=NUMPY_FLOAT_WARNINGS)
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer  # noqa: F401  (loaded first: the except clauses below look its exceptions up)
 
