@@ -150,12 +150,14 @@ _EXPECTED = {int: "expects an integer", float: "expects a number", bool: "expect
 _TYPE_ERRORS = {"int": int, "float": float, "bool": bool, "string": str}
 
 
-def _problem(error: ValidationError, params_type: type[BaseModel]) -> str:
+def problem_of(error: ValidationError, params_type: type[BaseModel]) -> str:
     """``KEY problem, got VALUE`` for the first problem of a validation error, in our one-line style."""
     detail = error.errors()[0]
     kind = detail["type"]
     if kind == "parameter_problem":
         return str(detail["ctx"]["problem"])
+    if not detail["loc"]:  # a rule of the model's own, whose message says it all
+        return str(detail["msg"]).removeprefix("Value error, ")
     key = str(detail["loc"][0])
     value = detail["input"]
     if kind == "literal_error":
@@ -195,7 +197,7 @@ def _validated(params_type: type[P], values: dict[str, Any], source: str, relati
     try:
         return params_type.model_validate(values, context={"relations": relations})
     except ValidationError as error:
-        raise InputError(f"{source}: parameter {_problem(error, params_type)}") from None
+        raise InputError(f"{source}: parameter {problem_of(error, params_type)}") from None
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, str]:
@@ -251,3 +253,22 @@ def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequen
     # Relations on the final values: one layer may set what another relies on.
     return {name: _validated(type(params), params.model_dump(by_alias=True), " and ".join(sources) or "the defaults")
             for name, params in resolved.items()}
+
+
+_REPLACED = {
+    "param": "a field of a PipelineParams subclass: `name: int = Field(5, alias=\"Original/Name\", ge=0, "
+             "description=...)`",
+    "Ordered": "a model_validator(mode=\"after\") that calls check_ordered",
+    "check_relations": "a model_validator(mode=\"after\") that calls check_ordered",
+    "param_fields": "keyed_fields",
+    "params_to_dict": "params.model_dump(by_alias=True)",
+}
+"""The parameter API before parameters were pydantic models, and what replaced each name."""
+
+
+def __getattr__(name: str) -> Any:
+    """A plugin written against the earlier API fails to import in one line saying what replaced it."""
+    if name in _REPLACED:
+        raise ImportError(f"{__name__}.{name} is gone: pipeline parameters are a pydantic model now; use "
+                          f"{_REPLACED[name]} (docs/plugins.md)")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
