@@ -687,3 +687,113 @@ def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, 
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert result.stderr.startswith(f"viewslam: error: {seq}") and result.stderr.endswith(": Permission denied\n")
     assert snapshot(out) == EARLIER
+
+
+# Nothing but our own lines on stderr: what native libraries print is held at its source.
+
+def run_viewslam(*arguments, environment: dict[str, str] | None = None,
+                 timeout: float = 300) -> subprocess.CompletedProcess:
+    """``viewslam ARGUMENTS`` from this tree, in a process of its own, its output captured as bytes."""
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2]), **(environment or {})}
+    return subprocess.run([sys.executable, "-m", "viewer_slam", *map(str, arguments)], capture_output=True,
+                          env=environment, timeout=timeout)
+
+
+def test_a_bag_whose_depth_is_all_infinite_records_with_nothing_on_stderr(tmp_path):
+    tiny_bag("inf.bag", depth=float("inf"), frames=6)(tmp_path, tmp_path)
+    result = run_viewslam("record", tmp_path / "inf.bag", "--out", tmp_path / "run.rrd", "--quiet")
+    assert result.returncode == 0 and result.stderr == b""  # NumPy warned of invalid values in matmul
+
+
+def test_numpy_floating_point_warnings_never_reach_stderr(tmp_path, capfd):
+    """Whatever computes on NaN or infinity during a command prints nothing of NumPy's."""
+    import numpy as np
+
+    import viewer_slam.cli.evaluate as evaluate
+
+    real = evaluate.evaluate
+
+    def noisy(*arguments, **options):
+        np.array([np.inf]) - np.array([np.inf])  # "invalid value encountered in subtract"
+        np.mean(np.array([]))  # "Mean of empty slice"
+        return real(*arguments, **options)
+
+    trajectory = tmp_path / "t.txt"
+    trajectory.write_text("".join(f"{k / 10:.1f} {k / 100} 0 0 0 0 0 1\n" for k in range(30)))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "evaluate", noisy)
+        assert main(["evaluate", str(trajectory), str(trajectory)]) == 0
+    assert capfd.readouterr().err == ""
+
+
+def test_open3d_prints_errors_only():
+    from viewer_slam.open3d_loader import import_open3d
+
+    o3d = import_open3d()
+    assert o3d.utility.get_verbosity_level() == o3d.utility.VerbosityLevel.Error
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="an X display is Linux's here")
+def test_view_with_a_display_no_server_answers_is_one_line_naming_web(tmp_path):
+    import rerun as rr
+
+    display = next(f":{number}" for number in range(90, 200) if not Path(f"/tmp/.X11-unix/X{number}").exists())
+    recording = tmp_path / "one.rrd"
+    stream = rr.RecordingStream("viewslam-test")
+    stream.save(recording)
+    stream.log("point", rr.Points3D([[0.0, 0.0, 0.0]]))
+    stream.disconnect()
+    result = run_viewslam("view", recording, environment={"DISPLAY": display, "WAYLAND_DISPLAY": ""})
+    error = result.stderr.decode()
+    assert result.returncode == 2 and error.count("\n") == 1, error
+    assert error.startswith(f"viewslam: error: {recording}: the viewer cannot open a window (") and "--web" in error
+
+
+# Any locale: an output stream that cannot encode our text gets the nearest ASCII, never an error.
+
+ENCODINGS = ["ascii", "latin-1"]
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_record_prints_its_progress_and_summary_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
+    result = run_viewslam("record", excerpt, "--out", tmp_path / "run.rrd", "--pipeline", "rgbdslam",
+                          environment={"PYTHONIOENCODING": encoding})
+    assert result.returncode == 0, result.stderr
+    printed = result.stdout.decode("ascii")  # nothing but ASCII: the table's rules, the dashes of no figure
+    assert "rgbdslam" in printed and f"wrote {tmp_path / 'run.rrd'}" in printed and "+-" in printed
+    assert "Traceback" not in result.stderr.decode(encoding) and "3/3" in result.stderr.decode("ascii")
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_evaluate_and_the_lists_print_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
+    for arguments in (["evaluate", excerpt / "groundtruth.txt", excerpt / "groundtruth.txt"], ["sequences"],
+                      ["pipelines"]):
+        result = run_viewslam(*arguments, environment={"PYTHONIOENCODING": encoding})
+        assert result.returncode == 0 and result.stderr == b"", (arguments, result.stderr)
+        # Their lines are echoed by click, which writes UTF-8 to a stream it takes for a misconfigured ASCII one.
+        result.stdout.decode("utf-8" if encoding == "ascii" else encoding)
+
+
+def test_diff_prints_its_table_in_a_locale_without_utf8(tmp_path, monkeypatch):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    sequence = write_tum_folder(tmp_path / "tiny", frames=4)
+    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(tmp_path / "a.rrd"), "--quiet"]) == 0
+    result = run_viewslam("diff", tmp_path / "a.json", tmp_path / "a.json", environment={"PYTHONIOENCODING": "ascii"})
+    assert result.returncode == 0 and result.stderr == b"", result.stderr
+    assert "frames/s" in result.stdout.decode("ascii") and " - " in result.stdout.decode("ascii")  # "—": no figure
+
+
+def test_the_nearest_ascii_keeps_what_a_text_says():
+    import io
+
+    from viewer_slam.terminal import degrade_to_ascii
+
+    stream = io.TextIOWrapper(io.BytesIO(), encoding="ascii")
+    degrade_to_ascii(stream)
+    stream.write("ATE — 3.1 mm … 5° ± 0.2, 3×, naïve ━━ 東")
+    stream.flush()
+    assert stream.buffer.getvalue() == b"ATE - 3.1 mm ... 5 deg +/- 0.2, 3x, naive -- ?"
