@@ -71,6 +71,14 @@ def installed() -> Iterator[None]:
         _count = outer
 
 
+def ignore() -> None:
+    """From now on, stop signals do nothing: the process is leaving with its exit code (its
+    interpreter's own exit, which joins threads and child processes, is not cut short)."""
+    if threading.current_thread() is threading.main_thread():
+        for number in STOP_SIGNALS:
+            signal.signal(number, signal.SIG_IGN)
+
+
 class SafePoints:
     """What a loop inside :func:`at_safe_points` asks between two steps."""
 
