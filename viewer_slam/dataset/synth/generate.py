@@ -15,7 +15,6 @@ benchmark cut with ``--max-frames`` renders no frame it does not read.
 
 import contextlib
 import functools
-import json
 import multiprocessing
 import os
 import shutil
@@ -30,6 +29,7 @@ import numpy as np
 
 from ...atomic import check_name, writing
 from ...cache import cache_dir
+from ...documents import read_json
 from ...errors import InputError
 from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
@@ -362,4 +362,4 @@ def preview_frames(name: str, fractions, *, frames: int | None = None, resolutio
 
 def read_info(folder) -> dict:
     """The ``scenario.json`` of a generated folder."""
-    return json.loads((Path(folder) / "scenario.json").read_text())
+    return read_json(Path(folder) / "scenario.json", "the scenario's description")
