@@ -41,7 +41,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line; a
     second stop signal while the first is honoured is absorbed, a third aborts: ``stopping.py``)."""
     with stopping.installed():
-        return _run(argv)
+        try:
+            return _run(argv)
+        except Interrupted:  # a third stop signal while the line about the first was being written
+            return EXIT_INTERRUPTED
 
 
 def _run(argv: list[str] | None) -> int:
