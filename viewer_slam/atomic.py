@@ -3,14 +3,17 @@
 Every file is written under a temporary name beside its target (same folder, hence same
 file system) and renamed onto it once complete, so a run that fails never leaves a
 half-written file where the last good one was. A lock file beside the target keeps a
-second run from writing the same outputs at the same time.
+second run from writing the same outputs at the same time. Every write goes through
+:func:`writing`, so a full disk (or a file-size limit, a folder removed underneath) is the
+command's one line naming the output, never an error without a name that would be taken
+for stdout's.
 """
 
 import errno
 import fcntl
 import os
 import tempfile
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -18,6 +21,16 @@ from .errors import InputError
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
+
+
+@contextmanager
+def writing(target: Path) -> Iterator[None]:
+    """The guard around every write of ``target`` (a file, or a folder being filled): an
+    :class:`OSError` inside is :class:`InputError` naming ``target``."""
+    try:
+        yield
+    except OSError as error:
+        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
 
 
 def check_writable(target: Path) -> None:
@@ -94,11 +107,17 @@ class StagedFiles:
         """The temporary path that stands for ``target`` until the commit."""
         target = Path(target)
         if target not in self._staged:
-            handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+            with writing(target):
+                handle, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
             os.fchmod(handle, 0o666 & ~_UMASK)  # as an ordinary new file, not mkstemp's owner-only mode
             os.close(handle)
             self._staged[target] = Path(name)
         return self._staged[target]
+
+    def write(self, target: Path, write: Callable[[Path], object]) -> None:
+        """``write`` to ``target``'s temporary file, guarded by :func:`writing`."""
+        with writing(target):
+            write(self.path(target))
 
     def discard(self, target: Path) -> None:
         """Forget ``target``: its temporary file is removed and it is not committed."""
@@ -109,7 +128,8 @@ class StagedFiles:
     def commit(self) -> None:
         """Rename every temporary file onto its target, in the order they were staged."""
         for target, staged in list(self._staged.items()):
-            os.replace(staged, target)
+            with writing(target):
+                os.replace(staged, target)
             del self._staged[target]
 
     def __enter__(self) -> "StagedFiles":
@@ -123,7 +143,7 @@ class StagedFiles:
 def write_text(target: Path, text: str) -> None:
     """Write ``text`` to ``target`` through a temporary file renamed into place."""
     with StagedFiles() as staged:
-        staged.path(target).write_text(text)
+        staged.write(target, lambda path: path.write_text(text))
         staged.commit()
 
 

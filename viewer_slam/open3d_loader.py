@@ -1,8 +1,11 @@
-"""Import Open3D even where the system lacks libusb-1.0.
+"""Import Open3D even where the system lacks libusb-1.0, and quiet.
 
 Open3D's extension links against ``libusb-1.0.so.0``. Debian ships it as ``libusb-1.0-0``;
 without root, PyPI's ``libusb-package`` carries the same library, and loading it globally
 before Open3D lets the dynamic linker resolve the dependency by its soname.
+
+Open3D prints its warnings on stderr itself; its errors it raises as exceptions, which the
+callers turn into their own line. So it is held to errors only, at its source.
 """
 
 import ctypes
@@ -10,6 +13,12 @@ import importlib
 
 
 def import_open3d():
+    o3d = _import()
+    o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
+    return o3d
+
+
+def _import():
     try:
         return importlib.import_module("open3d")
     except ImportError as error:

@@ -1,9 +1,11 @@
-"""A progress line on stderr for a counted step (frames rendered): done, rate and time left.
+"""Progress lines on stderr: the display every command's progress goes through, and a counted
+step (frames rendered) with done, rate and time left.
 
 Steps that take more than a second must not leave the terminal blank. Like the other
 displays (``viewslam record``, ``benchmark``, ``download``) it is a rich progress bar on
 stderr, so stdout stays for results; rich redraws it only on a terminal and prints the
-final line once when stderr is a file or a pipe.
+final line once when stderr is a file or a pipe. A display left by an error or a stop signal
+is cleared instead, so that the command's one line about it stands alone.
 """
 
 import contextlib
@@ -12,6 +14,25 @@ from collections.abc import Callable, Iterator
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, ProgressColumn, Task, TextColumn, TimeRemainingColumn
 from rich.text import Text
+
+
+class StderrProgress(Progress):
+    """A rich progress display on stderr that leaves no line behind when an exception ends it."""
+
+    def __init__(self, *columns: str | ProgressColumn, enabled: bool = True, transient: bool = False):
+        super().__init__(*columns, console=Console(stderr=True), disable=not enabled, transient=transient)
+
+    def __exit__(self, exc_type, exc_value, traceback) -> None:
+        if exc_type is not None:
+            self.live.transient = True  # rich then neither prints the last state nor leaves it on screen
+        super().__exit__(exc_type, exc_value, traceback)
+
+    def stop(self) -> None:
+        """As rich's, without the empty line it ends a file or pipe with when nothing stays shown."""
+        if self.live.transient:
+            self.live.stop()
+        else:
+            super().stop()
 
 
 class RateColumn(ProgressColumn):
@@ -33,6 +54,6 @@ def counted(description: str, total: int, unit: str, enabled: bool = True) -> It
     """
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), RateColumn(unit),
                TimeRemainingColumn())
-    with Progress(*columns, console=Console(stderr=True), disable=not enabled) as bar:
+    with StderrProgress(*columns, enabled=enabled) as bar:
         task = bar.add_task(description, total=total)
         yield lambda: bar.advance(task)

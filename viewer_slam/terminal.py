@@ -1,14 +1,48 @@
-"""Stdout for tables: a console whose closed pipe is the command's one line, and tables that are
-never cut, as wide as their content, whatever the terminal or pipe."""
+"""Stdout for tables: a console whose closed pipe is the command's one line, tables that are never
+cut, as wide as their content, whatever the terminal or pipe, and text that any locale can show."""
 
+import codecs
 import errno
 import os
+import unicodedata
+from typing import TextIO
 
 from rich.console import Console
 from rich.measure import Measurement
 from rich.table import Table
 
 UNLIMITED = 10_000
+ASCII_ERRORS = "viewslam-ascii"
+"""The error handler that writes what a stream cannot encode as its nearest ASCII."""
+_ASCII = {"—": "-", "–": "-", "−": "-", "…": "...", "·": "-", "°": " deg", "±": "+/-", "×": "x", "→": "->",
+          "≤": "<=", "≥": ">=", "━": "-", "─": "-", "│": "|", "█": "#", "•": "*", "’": "'", "“": '"', "”": '"'}
+"""What our tables, progress lines and messages print beyond ASCII, as the ASCII that says the same."""
+
+
+def _nearest_ascii(error: UnicodeError) -> tuple[str, int]:
+    if not isinstance(error, UnicodeEncodeError):
+        raise error
+    text = error.object[error.start:error.end]
+    return "".join(_ASCII.get(character) or unicodedata.normalize("NFKD", character).encode("ascii", "ignore").decode()
+                   or "?" for character in text), error.end
+
+
+codecs.register_error(ASCII_ERRORS, _nearest_ascii)
+
+
+def degrade_to_ascii(stream: TextIO | None) -> None:
+    """Let ``stream`` write what its encoding cannot (an ASCII or Latin-1 locale, ``LANG=C``,
+    ``PYTHONIOENCODING=ascii``) as the nearest ASCII instead of failing; rich, seeing the
+    encoding, draws its tables and bars in ASCII already."""
+    encoding = getattr(stream, "encoding", None)
+    if stream is None or not encoding or not hasattr(stream, "reconfigure"):
+        return
+    try:
+        "".join(_ASCII).encode(encoding)
+    except UnicodeEncodeError:
+        stream.reconfigure(errors=ASCII_ERRORS)
+    except LookupError:
+        return
 
 
 class StdoutConsole(Console):

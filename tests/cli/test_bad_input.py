@@ -155,6 +155,80 @@ def estimate(lines: str) -> Callable[[Path, Path], None]:
     return prepare
 
 
+def nested(depth: int, leaf: str = "1") -> str:
+    """A JSON array (TOML too) nested ``depth`` levels deep."""
+    return "[" * depth + leaf + "]" * depth
+
+
+def jpeg(mutate: Callable[[bytearray], None]) -> Callable[[Path, Path], None]:
+    """The first colour image as a JPEG, damaged by ``mutate`` (its bytes, changed in place)."""
+    def prepare(seq: Path, tmp: Path) -> None:
+        import cv2
+
+        data = bytearray(cv2.imencode(".jpg", cv2.imread(str(first_image(seq, "rgb"))))[1].tobytes())
+        mutate(data)
+        first_image(seq, "rgb").write_bytes(bytes(data))
+    return prepare
+
+
+def tiny_bag(name: str, damage: Callable[[bytearray], None] | None = None, frames: int = 4,
+             depth: float = 1.5) -> Callable[[Path, Path], None]:
+    """``tmp/name``: a ROS 1 bag of 32x24 frames whose depth is ``depth`` m everywhere, then ``damage``d."""
+    def prepare(seq: Path, tmp: Path) -> None:
+        import numpy as np
+        from bag_writer import BagWriter
+
+        rng = np.random.default_rng(0)
+        with BagWriter(tmp / name, 1) as bag:
+            for k in range(frames):
+                stamp = 5 * 10**9 + k * 33_333_333
+                bag.image("/cam/rgb", stamp, "cam", rng.integers(0, 256, (24, 32, 3), dtype=np.uint8), "bgr8")
+                bag.camera_info("/cam/camera_info", stamp, "cam", 32, 24, (40.0, 41.0, 15.5, 11.5), (0, 0, 0, 0, 0))
+                bag.image("/cam/depth", stamp + 1000, "cam", np.full((24, 32), depth, np.float32), "32FC1")
+        if damage is not None:
+            data = bytearray((tmp / name).read_bytes())
+            damage(data)
+            (tmp / name).write_bytes(bytes(data))
+    return prepare
+
+
+def flip_depth_exponent(data: bytearray) -> None:
+    """Flip bits of one depth value's exponent inside the bag's chunk: 1.5 m becomes 1.3e38 m."""
+    offset = data.index(struct.pack("<f", 1.5) * 8)
+    data[offset + 3] ^= 0x41
+
+
+def damage_record_header(data: bytearray) -> None:
+    """A field length in the header of the first message record inside the first chunk made huge."""
+    offset = data.index(b"op=\x02", data.index(b"op=\x05"))
+    data[offset - 4:offset] = b"\xff\xff\x00\x00"
+
+
+def damage_record_kind(data: bytearray) -> None:
+    """The first message record inside the first chunk made a record of no known kind."""
+    offset = data.index(b"op=\x02", data.index(b"op=\x05"))
+    data[offset + 3] = 0x09
+
+
+def truncate_chunk(data: bytearray) -> None:
+    del data[len(data) * 2 // 3:]
+
+
+def report(**changes) -> str:
+    """A `viewslam record` report of one run, as far as `diff` reads it before the trajectories."""
+    block = {"frames_with_pose": 2, "ate": None, "rpe": None, "coverage": None, "penalized_ate": None,
+             "tracking_lost": [], "parameters": {}}
+    data = {"sequence": {"name": "s", "path": "/nowhere", "frames": 3}, "pipelines": {"run": block}}
+    for key, value in changes.items():
+        where, _, name = key.rpartition("__")
+        target = {"sequence": data["sequence"], "run": block, "": data}[where]
+        target[name] = value
+    return json.dumps(data)
+
+
+DIFF = ["diff", "{tmp}/a.json", "{tmp}/a.json"]
+
+
 RECORD = ["record", "{seq}", "--out", "{out}", "--quiet"]
 RGBDSLAM = [*RECORD, "--pipeline", "rgbdslam"]
 
@@ -291,6 +365,37 @@ RECORD_CASES = {
     "png-one-pixel": Case(RGBDSLAM, "depth/", replace_image("depth", png_header(1, 1))),
     "image-missing": Case(RGBDSLAM, "depth/", remove_image),
     "depth-eight-bit": Case(RGBDSLAM, "depth/", eight_bit_depth),
+    # deeply nested, oversized and mistyped structured files
+    "camera-nested-deep": Case(RECORD, "camera.json: cannot read camera calibration: nested more than",
+                               write("camera.json", nested(100_000))),
+    "camera-nested-inside-a-value": Case(RECORD, "camera.json: cannot read camera calibration: nested more than",
+                                         camera(distortion=json.loads(nested(40, "0")))),
+    "camera-too-large": Case(RECORD, "camera.json: cannot read camera calibration: 2,",
+                             write("camera.json", json.dumps(CAMERA) + " " * 2_000_000)),
+    "camera-integer-too-long": Case(RECORD, "camera.json: cannot read camera calibration: not valid JSON",
+                                    write("camera.json", json.dumps(CAMERA).replace("640", "6" * 5000))),
+    "config-nested-arrays": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: nested more than",
+                                 write("tmp/c.toml", f"max_keypoints = {nested(5000)}\n")),
+    "config-nested-tables": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: nested more than",
+                                 write("tmp/c.toml", "max_keypoints = " + "{a = " * 3000 + "1" + "}" * 3000 + "\n")),
+    "config-integer-too-long": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: not valid TOML",
+                                    write("tmp/c.toml", "max_keypoints = " + "1" * 5000 + "\n")),
+    # images whose damage libjpeg would print about
+    "jpeg-bad-marker": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__setitem__(slice(2, 4), b"\xff\x01"))),
+    "jpeg-truncated": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__delitem__(slice(len(data) // 2, None)))),
+    "jpeg-end-in-the-header": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__setitem__(slice(20, 22), b"\xff\xd9"))),
+    # damaged ROS 1 bags
+    "bag-depth-bits-flipped": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet", "--pipeline", "rtabmap"],
+                                   "b.bag: frame 0 (5.000000 s): /cam/depth: depth 1.27606e+38 m at pixel (0, 0)",
+                                   tiny_bag("b.bag", flip_depth_exponent)),
+    "bag-record-header-damaged": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
+                                      "b.bag: cannot read the bag: Declared field size is too large",
+                                      tiny_bag("b.bag", damage_record_header)),
+    "bag-record-kind-damaged": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
+                                    "b.bag: cannot read the bag: Expected to find message data",
+                                    tiny_bag("b.bag", damage_record_kind)),
+    "bag-chunk-truncated": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"], "b.bag: ",
+                                tiny_bag("b.bag", truncate_chunk)),
 }
 
 BENCHMARK = ["benchmark", "{seq}", "--out", "{tmp}/bench", "--quiet", "--no-cache"]
@@ -389,6 +494,24 @@ OTHER_CASES = {
     "view-web-garbage": Case(["view", "{tmp}/g.rrd", "--web"], "g.rrd: not a complete", write("tmp/g.rrd", b"garbage")),
     "view-web-json": Case(["view", "{tmp}/out/run.json", "--web"], "run.json: not a complete"),
     "view-truncated": Case(["view", "{tmp}/t.rrd"], "t.rrd: not a complete", write("tmp/t.rrd", b"RRF2\0\0\0\0")),
+    # reports given to diff: nested, oversized, mistyped
+    "diff-report-nested-deep": Case(DIFF, "a.json: cannot read the report: nested more than",
+                                    write("tmp/a.json", nested(100_000))),
+    "diff-report-nested-in-a-block": Case(DIFF, "a.json: cannot read the report: nested more than",
+                                          write("tmp/a.json", report(run__parameters={"k": json.loads(nested(40))}))),
+    "diff-report-not-utf8": Case(DIFF, "a.json: cannot read the report: not UTF-8", write("tmp/a.json", b"{\xff}")),
+    "diff-run-name-with-slash": Case(DIFF, "a.json: run name 'orb/3' is not one viewslam writes",
+                                     write("tmp/a.json", report().replace('"run"', '"orb/3"'))),
+    "diff-run-name-dot-dot": Case(DIFF, "a.json: run name '..' is not one viewslam writes",
+                                  write("tmp/a.json", report().replace('"run"', '".."'))),
+    "diff-sequence-path-number": Case(DIFF, "a.json: sequence block: path is int",
+                                      write("tmp/a.json", report(sequence__path=5))),
+    "diff-sequence-frames-text": Case(DIFF, "a.json: sequence block: frames must be a count",
+                                      write("tmp/a.json", report(sequence__frames="three"))),
+    "diff-loss-without-timestamp": Case(DIFF, "a.json: run 'run': tracking_lost is not a list of losses",
+                                        write("tmp/a.json", report(run__tracking_lost=[{"frame": 1, "reason": "x"}]))),
+    "diff-lost-interval-text": Case(DIFF, "a.json: run 'run': coverage is not an object",
+                                    write("tmp/a.json", report(run__coverage={"lost_intervals": [["a", "b"]]}))),
 }
 
 CASES = RECORD_CASES | BENCHMARK_CASES | OTHER_CASES
@@ -564,3 +687,113 @@ def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, 
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
     assert result.stderr.startswith(f"viewslam: error: {seq}") and result.stderr.endswith(": Permission denied\n")
     assert snapshot(out) == EARLIER
+
+
+# Nothing but our own lines on stderr: what native libraries print is held at its source.
+
+def run_viewslam(*arguments, environment: dict[str, str] | None = None,
+                 timeout: float = 300) -> subprocess.CompletedProcess:
+    """``viewslam ARGUMENTS`` from this tree, in a process of its own, its output captured as bytes."""
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2]), **(environment or {})}
+    return subprocess.run([sys.executable, "-m", "viewer_slam", *map(str, arguments)], capture_output=True,
+                          env=environment, timeout=timeout)
+
+
+def test_a_bag_whose_depth_is_all_infinite_records_with_nothing_on_stderr(tmp_path):
+    tiny_bag("inf.bag", depth=float("inf"), frames=6)(tmp_path, tmp_path)
+    result = run_viewslam("record", tmp_path / "inf.bag", "--out", tmp_path / "run.rrd", "--quiet")
+    assert result.returncode == 0 and result.stderr == b""  # NumPy warned of invalid values in matmul
+
+
+def test_numpy_floating_point_warnings_never_reach_stderr(tmp_path, capfd):
+    """Whatever computes on NaN or infinity during a command prints nothing of NumPy's."""
+    import numpy as np
+
+    import viewer_slam.cli.evaluate as evaluate
+
+    real = evaluate.evaluate
+
+    def noisy(*arguments, **options):
+        np.array([np.inf]) - np.array([np.inf])  # "invalid value encountered in subtract"
+        np.mean(np.array([]))  # "Mean of empty slice"
+        return real(*arguments, **options)
+
+    trajectory = tmp_path / "t.txt"
+    trajectory.write_text("".join(f"{k / 10:.1f} {k / 100} 0 0 0 0 0 1\n" for k in range(30)))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(evaluate, "evaluate", noisy)
+        assert main(["evaluate", str(trajectory), str(trajectory)]) == 0
+    assert capfd.readouterr().err == ""
+
+
+def test_open3d_prints_errors_only():
+    from viewer_slam.open3d_loader import import_open3d
+
+    o3d = import_open3d()
+    assert o3d.utility.get_verbosity_level() == o3d.utility.VerbosityLevel.Error
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="an X display is Linux's here")
+def test_view_with_a_display_no_server_answers_is_one_line_naming_web(tmp_path):
+    import rerun as rr
+
+    display = next(f":{number}" for number in range(90, 200) if not Path(f"/tmp/.X11-unix/X{number}").exists())
+    recording = tmp_path / "one.rrd"
+    stream = rr.RecordingStream("viewslam-test")
+    stream.save(recording)
+    stream.log("point", rr.Points3D([[0.0, 0.0, 0.0]]))
+    stream.disconnect()
+    result = run_viewslam("view", recording, environment={"DISPLAY": display, "WAYLAND_DISPLAY": ""})
+    error = result.stderr.decode()
+    assert result.returncode == 2 and error.count("\n") == 1, error
+    assert error.startswith(f"viewslam: error: {recording}: the viewer cannot open a window (") and "--web" in error
+
+
+# Any locale: an output stream that cannot encode our text gets the nearest ASCII, never an error.
+
+ENCODINGS = ["ascii", "latin-1"]
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_record_prints_its_progress_and_summary_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
+    result = run_viewslam("record", excerpt, "--out", tmp_path / "run.rrd", "--pipeline", "rgbdslam",
+                          environment={"PYTHONIOENCODING": encoding})
+    assert result.returncode == 0, result.stderr
+    printed = result.stdout.decode("ascii")  # nothing but ASCII: the table's rules, the dashes of no figure
+    assert "rgbdslam" in printed and f"wrote {tmp_path / 'run.rrd'}" in printed and "+-" in printed
+    assert "Traceback" not in result.stderr.decode(encoding) and "3/3" in result.stderr.decode("ascii")
+
+
+@pytest.mark.parametrize("encoding", ENCODINGS)
+def test_evaluate_and_the_lists_print_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
+    for arguments in (["evaluate", excerpt / "groundtruth.txt", excerpt / "groundtruth.txt"], ["sequences"],
+                      ["pipelines"]):
+        result = run_viewslam(*arguments, environment={"PYTHONIOENCODING": encoding})
+        assert result.returncode == 0 and result.stderr == b"", (arguments, result.stderr)
+        # Their lines are echoed by click, which writes UTF-8 to a stream it takes for a misconfigured ASCII one.
+        result.stdout.decode("utf-8" if encoding == "ascii" else encoding)
+
+
+def test_diff_prints_its_table_in_a_locale_without_utf8(tmp_path, monkeypatch):
+    from benchmark_fake_pipeline import MODULE, write_tum_folder
+
+    from viewer_slam.pipelines import base
+
+    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
+    sequence = write_tum_folder(tmp_path / "tiny", frames=4)
+    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(tmp_path / "a.rrd"), "--quiet"]) == 0
+    result = run_viewslam("diff", tmp_path / "a.json", tmp_path / "a.json", environment={"PYTHONIOENCODING": "ascii"})
+    assert result.returncode == 0 and result.stderr == b"", result.stderr
+    assert "frames/s" in result.stdout.decode("ascii") and " - " in result.stdout.decode("ascii")  # "—": no figure
+
+
+def test_the_nearest_ascii_keeps_what_a_text_says():
+    import io
+
+    from viewer_slam.terminal import degrade_to_ascii
+
+    stream = io.TextIOWrapper(io.BytesIO(), encoding="ascii")
+    degrade_to_ascii(stream)
+    stream.write("ATE — 3.1 mm … 5° ± 0.2, 3×, naïve ━━ 東")
+    stream.flush()
+    assert stream.buffer.getvalue() == b"ATE - 3.1 mm ... 5 deg +/- 0.2, 3x, naive -- ?"

@@ -39,14 +39,38 @@ def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
     assert "no such recording" in capsys.readouterr().err
 
 
-def test_view_opens_the_recording_in_the_bundled_viewer(recording, monkeypatch):
+def shell_viewer(folder: Path, monkeypatch, script: str) -> Path:
+    """A stand-in for the bundled viewer: ``script`` (shell) run with the viewer's arguments,
+    which it also writes to the returned file."""
+    import viewer_slam.recording.viewer as viewer
+
+    called = folder / "called-with"
+    binary = folder / "shell-rerun"
+    binary.write_text(f'#!/bin/sh\necho "$@" > {called}\n{script}\n')
+    binary.chmod(0o755)
+    monkeypatch.setattr(viewer, "viewer_binary", lambda: binary)
+    return called
+
+
+def test_view_opens_the_recording_in_the_bundled_viewer(recording, tmp_path, monkeypatch, capfd):
     monkeypatch.setenv("DISPLAY", ":99")
-    commands = []
-    monkeypatch.setattr(subprocess, "call", lambda command: commands.append(command) or 0)
+    called = shell_viewer(tmp_path, monkeypatch, "echo 'WARN re_viewer: a log line of its own' >&2; exit 0")
     assert main(["view", str(recording)]) == 0
-    assert commands == [[str(viewer_binary()), str(recording)]]
+    assert called.read_text() == f"{recording}\n"
+    assert capfd.readouterr().err == ""  # the viewer's own log lines are not ours to print
     version = subprocess.run([viewer_binary(), "--version"], capture_output=True, text=True)
     assert version.returncode == 0 and "0.41" in version.stdout
+
+
+def test_a_viewer_that_fails_later_is_one_line_with_its_reason(recording, tmp_path, monkeypatch, capfd):
+    import viewer_slam.recording.viewer as viewer
+
+    monkeypatch.setenv("DISPLAY", ":99")
+    monkeypatch.setattr(viewer, "VIEWER_START_S", 0.0)
+    shell_viewer(tmp_path, monkeypatch, "printf '\\033[33m WARN\\033[0m noise\\nError: wgpu: the GPU went away\\n' >&2; exit 1")
+    assert main(["view", str(recording)]) == 2
+    assert capfd.readouterr().err == f"viewslam: error: {recording}: the viewer ended with an error (wgpu: the GPU " \
+                                     f"went away)\n"
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="DISPLAY and WAYLAND_DISPLAY are X11/Wayland's")

@@ -107,6 +107,16 @@ def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     ("bare", "broken_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"),
     ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
     ("raising", "broken_plugins:no_such_name", "cannot be imported: AttributeError: "),
+    ("nodefault", "broken_plugins:NoDefaultPipeline",
+     "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every parameter needs one)"),
+    ("outofbounds", "broken_plugins:DefaultOutOfBoundsPipeline",
+     "DefaultOutOfBoundsPipeline.Params: the default of parameter window must be greater than or equal to 1, got -1"),
+    ("rule", "broken_plugins:RaisingDefaultsPipeline",
+     "RaisingDefaultsPipeline.Params: its defaults cannot be built: ZeroDivisionError: a bug in the plugin's own rule"),
+    ("earlier", "earlier_api_plugin:StationaryParams",
+     "cannot be imported: ImportError: viewer_slam.pipelines.params.param is gone: pipeline parameters are a pydantic "
+     "model now; use a field of a PipelineParams subclass"),
+    ("orb/3", "benchmark_fake_pipeline:FakePipeline", "a pipeline's name holds letters, digits, '_', '-' and '.' only"),
 ])
 def test_what_a_plugin_must_be(name, value, problem):
     with pytest.raises(InputError) as raised:
@@ -116,3 +126,26 @@ def test_what_a_plugin_must_be(name, value, problem):
 
 def test_a_plugin_that_is_a_pipeline_loads():
     assert load_plugin(EntryPoint("fake", "benchmark_fake_pipeline:FakePipeline", ENTRY_POINT_GROUP)) is FakePipeline
+
+
+def test_a_plugin_whose_declaration_is_broken_is_one_line_naming_it_and_the_field(monkeypatch, tmp_path, capsys):
+    import viewer_slam.pipelines.base as base
+    from viewer_slam.cli import main
+
+    point = EntryPoint("nodefault", "broken_plugins:NoDefaultPipeline", ENTRY_POINT_GROUP)
+    monkeypatch.setattr(base, "plugin_entry_points", lambda: {"nodefault": point})
+    assert main(["record", str(tmp_path / "any"), "--pipeline", "nodefault", "--out", str(tmp_path / "r.rrd")]) == 2
+    assert capsys.readouterr().err == ("viewslam: error: pipeline plugin 'nodefault' (broken_plugins:NoDefaultPipeline): "
+                                       "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every "
+                                       "parameter needs one)\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_name_of_the_earlier_parameter_api_says_what_replaced_it():
+    import viewer_slam.pipelines.params as params
+
+    for name in ("param", "Ordered", "check_relations", "param_fields", "params_to_dict"):
+        with pytest.raises(ImportError, match=rf"^viewer_slam\.pipelines\.params\.{name} is gone: .* use .+"):
+            getattr(params, name)
+    with pytest.raises(AttributeError):
+        params.no_such_name  # noqa: B018

@@ -9,15 +9,17 @@ only those it uses, so ``viewslam --help`` and the light commands start at once.
 import errno
 import logging
 import os
-import signal
 import sys
 import tempfile
 import time
 import traceback
+import warnings
 from pathlib import Path
 from typing import Protocol, cast
 
+from .. import stopping
 from ..errors import InputError, Interrupted
+from ..terminal import degrade_to_ascii
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -26,30 +28,32 @@ EXIT_INTERRUPTED = 130
 RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off,re_grpc_client=off"
 
 
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+# NumPy's floating-point warnings (a NaN compared, a division by zero, a mean of nothing): the code
+# handles such values where it uses them, and on stderr the warnings would only be noise.
+NUMPY_FLOAT_WARNINGS = (r"(invalid value|divide by zero|overflow|underflow) encountered|Mean of empty slice|"
+                        r"Degrees of freedom <= 0")
 STDOUT_FD = 1
 # An error writing with no file name is the output stream's: full, closed pipe, closed descriptor.
 STDOUT_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EPIPE, errno.EBADF)
 
 
-def _interrupt(signum, frame) -> None:
-    raise Interrupted(signal.Signals(signum).name)
-
-
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line)."""
-    previous = {number: signal.signal(number, _interrupt) for number in STOP_SIGNALS}
-    try:
-        return _run(argv)
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+    """Run the command line ``argv``; the exit code (Ctrl-C, SIGTERM and SIGHUP: 130, one line; a
+    second stop signal while the first is honoured is absorbed, a third aborts: ``stopping.py``)."""
+    with stopping.installed():
+        try:
+            return _run(argv)
+        except Interrupted:  # a third stop signal while the line about the first was being written
+            return EXIT_INTERRUPTED
 
 
 def _run(argv: list[str] | None) -> int:
     os.environ.setdefault("RUST_LOG", RUST_LOG_DEFAULT)
     _guard_closed_stdout()
+    for stream in (sys.stdout, sys.stderr):
+        degrade_to_ascii(stream)
     logging.basicConfig(format="viewslam: warning: %(message)s", level=logging.WARNING)
+    warnings.filterwarnings("ignore", category=RuntimeWarning, message=NUMPY_FLOAT_WARNINGS)
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer  # noqa: F401  (loaded first: the except clauses below look its exceptions up)
 
@@ -195,6 +199,7 @@ def _traceback_note(error: Exception) -> str:
 
 def entry_point() -> None:
     code = main()
+    stopping.ignore()  # the command has ended: a stop signal now must not kill the exit that reports it
     recording = sys.modules.get("viewer_slam.recording.rrd_file")
     if recording is not None:  # a recording whose sink stalled: leave without waiting for it, with this code
         recording.leave_if_abandoned(code)

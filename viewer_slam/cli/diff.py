@@ -52,10 +52,7 @@ def _run_pair(runs: str | None) -> tuple[str, str] | None:
 
 
 def _write_json(path: Path, data: dict) -> None:
-    try:
-        with StagedFiles() as staged:
-            write_report(staged.path(path), data)
-            staged.commit()
-    except OSError as error:
-        raise InputError.at(path, f"cannot write: {error.strerror or error}") from None
+    with StagedFiles() as staged:
+        staged.write(path, lambda staged_path: write_report(staged_path, data))
+        staged.commit()
     print(f"wrote {path}")

@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from ..errors import InputError
-from ..recording.viewer import LOCALHOST, free_port, has_display, no_display_problem, viewer_binary
+from ..recording.viewer import LOCALHOST, free_port, has_display, no_display_problem, open_window, viewer_binary
 from .app import app
 
 
@@ -34,7 +34,7 @@ def view_command(
     if not web:
         if not has_display():
             raise InputError(no_display_problem(recording))
-        return subprocess.call([str(viewer_binary()), str(recording)])
+        return open_window(recording)
     web_port, grpc_port = free_port(), free_port()
     print(f"serving {recording} at http://{LOCALHOST}:{web_port}/?url=rerun%2Bhttp%3A%2F%2F{LOCALHOST}%3A{grpc_port}"
           f"%2Fproxy (Ctrl-C stops)", flush=True)

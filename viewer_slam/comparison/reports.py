@@ -6,13 +6,15 @@ trial's scores (``trials``). A report without the blocks a comparison reads (an 
 version's, or `evaluate --json` output) is refused in one line.
 """
 
-import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..documents import read_json
 from ..errors import InputError
-from ..geometry.trajectory import Trajectory, read_tum
+from ..geometry.trajectory import Trajectory, read_text, read_tum
+from ..pipelines.base import RUN_NAME
 
 RUN_KEYS = ("frames_with_pose", "ate", "rpe", "coverage", "penalized_ate", "tracking_lost", "parameters")
 """What every run block of a report must hold to be compared."""
@@ -34,17 +36,18 @@ class RecordReport:
 
 def load_report(path: Path) -> RecordReport:
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise InputError.at(path, "no such report") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise InputError.at(path, f"cannot read the report: {error}") from None
+    data = read_json(path, "the report")
     sequence, blocks = (data.get("sequence"), data.get("pipelines")) if isinstance(data, dict) else (None, None)
     if not isinstance(sequence, dict) or "name" not in sequence or not isinstance(blocks, dict) or not blocks:
         raise InputError.at(path, "not a `viewslam record` report (no sequence and pipelines blocks)")
+    problem = _sequence_problem(sequence)
+    if problem is not None:
+        raise InputError.at(path, f"sequence block: {problem}")
     runs = {}
     for name, block in blocks.items():
+        if not RUN_NAME.fullmatch(name) or name in (".", ".."):
+            raise InputError.at(path, f"run name {name!r} is not one viewslam writes (letters, digits, '_', '.', "
+                                      f"'-'): its trajectory file cannot be beside the report")
         if not isinstance(block, dict):
             raise InputError.at(path, f"run {name!r} is {type(block).__name__}, not a run block")
         missing = [key for key in RUN_KEYS if key not in block]
@@ -61,15 +64,42 @@ def load_report(path: Path) -> RecordReport:
     return RecordReport(path, sequence, runs)
 
 
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _sequence_problem(sequence: dict[str, Any]) -> str | None:
+    """What in the sequence block is not of the shape a comparison reads, or None."""
+    if not isinstance(sequence["name"], str):
+        return f"name is {type(sequence['name']).__name__}, not text"
+    if not _is_int(sequence.get("frames")) or sequence["frames"] < 0:
+        return f"frames must be a count of frames, got {sequence.get('frames')!r}"
+    if not isinstance(sequence.get("path"), str | None):
+        return f"path is {type(sequence['path']).__name__}, not the sequence folder's path"
+    return None
+
+
 def _shape_problem(block: dict[str, Any]) -> str | None:
     """What in a run block is not of the shape a comparison reads, or None (the metric blocks are
     read as they come: a missing figure shows as one)."""
     if not isinstance(block["parameters"], dict):
         return "parameters is not an object"
     losses = block["tracking_lost"]
-    if not isinstance(losses, list) or not all(isinstance(loss, dict) and isinstance(loss.get("frame"), int)
-                                               and not isinstance(loss["frame"], bool) for loss in losses):
-        return "tracking_lost is not a list of losses, each with its frame number"
+    if not isinstance(losses, list) or not all(
+            isinstance(loss, dict) and _is_int(loss.get("frame")) and loss["frame"] >= 0
+            and _is_number(loss.get("timestamp")) and isinstance(loss.get("reason"), str)
+            and isinstance(loss.get("text", ""), str) for loss in losses):
+        return "tracking_lost is not a list of losses, each with its frame number, timestamp and reason"
+    coverage = block["coverage"]
+    if coverage is not None and not (isinstance(coverage, dict) and isinstance(coverage.get("lost_intervals", []), list)
+                                     and all(isinstance(interval, list) and len(interval) == 2
+                                             and all(map(_is_number, interval))
+                                             for interval in coverage.get("lost_intervals", []))):
+        return "coverage is not an object whose lost_intervals are [start, end] timestamps"
     trials = block.get("trials", [])
     if not isinstance(trials, list) or not all(isinstance(trial, dict) and "status" in trial for trial in trials):
         return "trials is not a list of trials, each with its status"
@@ -78,6 +108,6 @@ def _shape_problem(block: dict[str, Any]) -> str | None:
 
 def _trajectory(path: Path) -> Trajectory:
     """The run's poses; a run that never had one left an empty file."""
-    if not path.read_text().strip():
+    if not read_text(path).strip():
         return Trajectory.empty()
     return read_tum(path)

@@ -6,10 +6,10 @@ trajectory beside it (``runs/<sequence>.<run>.txt``), so every row compares exac
 `viewslam diff` compares two reports. Folder B is compared against folder A.
 """
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..documents import read_json
 from ..errors import InputError
 from .compare import RunComparison, check_same_sequence, compare_runs, open_compared_sequence, same_sequence
 from .reports import RecordReport, load_report
@@ -46,13 +46,11 @@ def load_results(folder: Path) -> BenchmarkResults:
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError.at(folder, "not a benchmark results folder (no such folder)")
-    try:
-        data = json.loads((folder / "results.json").read_text())
-    except FileNotFoundError:
-        raise InputError.at(folder, "not a benchmark results folder (no results.json)") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise InputError.at(folder, f"cannot read results.json: {error}") from None
-    if not isinstance(data, list) or not all(isinstance(row, dict) and {"sequence", "pipeline", "status"} <= row.keys()
+    if not (folder / "results.json").exists():
+        raise InputError.at(folder, "not a benchmark results folder (no results.json)")
+    data = read_json(folder / "results.json", "the benchmark results")
+    if not isinstance(data, list) or not all(isinstance(row, dict) and all(isinstance(row.get(key), str) for key in
+                                                                           ("sequence", "pipeline", "status"))
                                              for row in data):
         raise InputError.at(folder, "not a benchmark results folder (results.json holds no result rows)")
     rows = _pair_rows(data)

@@ -25,11 +25,12 @@ import zlib
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from rich.console import Console
-from rich.progress import BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn
+from rich.progress import BarColumn, DownloadColumn, TextColumn, TimeRemainingColumn, TransferSpeedColumn
 
-from ..atomic import check_writable, exclusive
+from ..atomic import check_writable, exclusive, writing
 from ..errors import InputError
+from ..progress import StderrProgress
+from ..stopping import at_safe_points
 from .catalog import TumSequenceInfo, known_tum_sequence, tum_cache_dir
 
 TUM_MIRROR = "https://cvg.cit.tum.de/rgbd/dataset"
@@ -178,14 +179,21 @@ def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
     columns = (TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
                TimeRemainingColumn())
     received = transfer.start
-    with open(part, "ab" if transfer.start else "wb") as out, \
-            Progress(*columns, console=Console(stderr=True), disable=not progress, transient=True) as bar:
-        task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
-        while chunk := transfer.response.read1(CHUNK_BYTES):  # whatever has arrived, up to CHUNK_BYTES
-            out.write(chunk)
-            out.flush()  # every byte received survives an interrupted transfer
-            received += len(chunk)
-            bar.update(task, completed=received)
+    with at_safe_points() as stop, StderrProgress(*columns, enabled=progress, transient=True) as bar:
+        with writing(part):
+            out = open(part, "ab" if transfer.start else "wb")  # noqa: SIM115  (closed below, under the guard)
+        try:
+            task = bar.add_task(Path(transfer.response.url).name, total=transfer.total, completed=received)
+            while chunk := transfer.response.read1(CHUNK_BYTES):  # whatever has arrived, up to CHUNK_BYTES
+                with writing(part):
+                    out.write(chunk)
+                    out.flush()  # every byte received survives an interrupted transfer
+                received += len(chunk)
+                bar.update(task, completed=received)
+                stop.check()  # a stop signal ends the transfer here, with every byte received kept
+        finally:
+            with writing(part):
+                out.close()
     if transfer.total is not None and received < transfer.total:
         raise ConnectionError(f"connection closed after {received:,} of {transfer.total:,} bytes")
 

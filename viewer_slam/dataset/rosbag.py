@@ -55,6 +55,8 @@ COLOUR_ENCODINGS = {"rgb8": None, "bgr8": "COLOR_BGR2RGB", "rgba8": "COLOR_RGBA2
                     "bgra8": "COLOR_BGRA2RGB", "mono8": "COLOR_GRAY2RGB"}
 # Encoding -> (pixel type, metres per unit).
 DEPTH_ENCODINGS = {"16UC1": ("u2", 1e-3), "mono16": ("u2", 1e-3), "32FC1": ("f4", 1.0)}
+MAX_DEPTH_M = 1000.0
+"""A depth beyond this is no sensor's measurement but damaged data (a flipped exponent bit)."""
 _CHANNELS = {"rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4, "mono8": 1}
 _TOPIC_WORDS = {"colour": ("rgb", "color", "colour"), "depth": ("depth",)}
 
@@ -151,6 +153,12 @@ class BagSequence(TimedFrames):
         except (KeyError, ValueError) as error:  # an encoding that changed, data that do not fill the image
             raise InputError.at(self.path, f"frame {index} ({self.timestamps[index]:.6f} s): malformed image "
                                 f"({type(error).__name__}: {error})") from None
+        far = np.flatnonzero(depth.ravel() > MAX_DEPTH_M)
+        if len(far):
+            row, col = divmod(int(far[0]), depth.shape[1])
+            raise InputError.at(self.path, f"frame {index} ({self.timestamps[index]:.6f} s): {self.topics[1]}: depth "
+                                f"{depth[row, col]:.6g} m at pixel ({col}, {row}) is beyond any depth sensor's range "
+                                f"({MAX_DEPTH_M:g} m): damaged data")
         expected = (self.camera.height, self.camera.width)
         for topic, image in zip(self.topics, (rgb, depth)):
             if image.shape[:2] != expected:
@@ -442,9 +450,10 @@ def _colour_image(message) -> np.ndarray:
 
 
 def _depth_image(message) -> np.ndarray:
-    """Metres as float32, 0 where the sensor measured nothing (NaN or non-positive)."""
+    """Metres as float32, 0 where the sensor measured nothing: NaN, non-positive, or infinite
+    (REP 118: +Inf too far, -Inf too near to measure)."""
     dtype, metres_per_unit = DEPTH_ENCODINGS[message.encoding]
     raw = _pixels(message, dtype, 1)
     depth = raw.astype(np.float32) if metres_per_unit == 1.0 else (raw * metres_per_unit).astype(np.float32)
-    depth[~(depth > 0)] = 0.0
+    depth[~((depth > 0) & np.isfinite(depth))] = 0.0
     return depth

@@ -149,6 +149,9 @@ def _decode(path: Path, data: bytes, colour: bool, size: Callable[[int, int], No
         try:
             image: Image.Image = Image.open(io.BytesIO(data))
         except Image.UnidentifiedImageError:
+            claimed = _formats_claiming(data)
+            if claimed:  # its signature is a format Pillow reads: damaged, not for OpenCV (libjpeg would print)
+                raise InputError.at(path, f"corrupt {claimed[0]} header") from None
             return None
         except Image.DecompressionBombError:  # more pixels than any camera has: never decoded
             raise InputError.at(path, "image announces more pixels than a camera may have") from None
@@ -163,6 +166,21 @@ def _decode(path: Path, data: bytes, colour: bool, size: Callable[[int, int], No
         except (OSError, SyntaxError, ValueError, zlib.error) as error:
             raise InputError.at(path, f"corrupt {image.format or 'image'} ({error})") from None
     return pixels.astype(pixels.dtype.newbyteorder("="), copy=False)
+
+
+def _formats_claiming(data: bytes) -> list[str]:
+    """The formats Pillow knows whose signature ``data`` begins with."""
+    from PIL import Image
+
+    Image.init()
+    claimed = []
+    for name, (_, accept) in Image.OPEN.items():
+        try:
+            if accept is not None and accept(data[:16]):
+                claimed.append(name)
+        except (struct.error, IndexError, ValueError):  # a prefix too short for the signature it checks
+            continue
+    return claimed
 
 
 def _check_png(path: Path, data: bytes) -> None:

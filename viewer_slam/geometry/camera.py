@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 
+from ..documents import read_json
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -19,6 +20,8 @@ MIN_SIDE, MAX_SIDE = 16, 8192
 # Focal lengths, principal point offsets and distortion coefficients beyond these are no lens.
 MAX_FOCAL_PX = 1e6
 MAX_DISTORTION = 1e3
+CALIBRATION_BYTES = 2**20
+"""camera.json holds a dozen numbers: a file larger than this is no calibration."""
 
 
 @dataclass(frozen=True)
@@ -82,11 +85,7 @@ class Camera:
     @classmethod
     def load(cls, path: Path) -> "Camera":
         """Read ``camera.json`` (fx, fy, cx, cy, width, height, depth_factor, distortion), checked."""
-        try:
-            data = json.loads(Path(path).read_text())
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise InputError.at(path, f"cannot read camera calibration: {error}") from None
-        return cls.checked(data, path)
+        return cls.checked(read_json(path, "camera calibration", max_bytes=CALIBRATION_BYTES), path)
 
     @classmethod
     def checked(cls, data: Any, where: Path | str) -> "Camera":

@@ -8,6 +8,7 @@ an :class:`InputError` naming it when it is selected, never an obstacle to the o
 """
 
 import importlib
+import re
 from abc import ABC, abstractmethod
 from importlib.metadata import EntryPoint, entry_points
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -21,6 +22,8 @@ if TYPE_CHECKING:
     from .params import PipelineParams
 
 ENTRY_POINT_GROUP = "viewslam.pipelines"
+RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+"""The names a run may have (a pipeline, a plugin, an estimate): each names entity paths and a file."""
 # Pipelines are imported on first use so that `viewslam evaluate` never pays for them.
 PIPELINE_MODULES = {
     "rgbdslam": "viewer_slam.pipelines.rgbdslam",
@@ -81,6 +84,9 @@ def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
     where = f"pipeline plugin {plugin.name!r} ({plugin.value})"
     if plugin.name in PIPELINE_MODULES:
         raise InputError(f"{where}: the name is taken by a built-in pipeline")
+    if not RUN_NAME.fullmatch(plugin.name):
+        raise InputError(f"{where}: a pipeline's name holds letters, digits, '_', '-' and '.' only (it names "
+                         f"entities and files)")
     try:
         loaded = plugin.load()
     except (Exception, SystemExit) as error:  # whatever the plugin's import raises, it is the plugin's fault
@@ -103,7 +109,27 @@ def interface_problem(candidate: Any) -> str | None:
 
     params = getattr(candidate, "Params", None)
     if not (isinstance(params, type) and issubclass(params, PipelineParams)):
-        return f"{candidate.__name__}.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"
+        return (f"{candidate.__name__}.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams "
+                f"(parameters are a pydantic model, one field per parameter: docs/plugins.md)")
+    return declaration_problem(params, f"{candidate.__name__}.Params")
+
+
+def declaration_problem(params: type["PipelineParams"], where: str) -> str | None:
+    """What keeps a parameter model from giving a run its defaults: a field with no default (a
+    run may leave any parameter unset), or a default its own declaration refuses; None if none."""
+    from pydantic import ValidationError
+
+    from .params import key_of, problem_of
+
+    for name, field in params.model_fields.items():
+        if field.is_required():
+            return f"{where}: parameter {key_of(name, field)!r} has no default (every parameter needs one)"
+    try:
+        params.model_validate(params().model_dump(by_alias=True))  # defaults are not validated when declared
+    except ValidationError as error:
+        return f"{where}: the default of parameter {problem_of(error, params)}"
+    except Exception as error:  # a validator of the plugin's own that fails: its fault, in one line
+        return f"{where}: its defaults cannot be built: {type(error).__name__}: {' '.join(str(error).split())}"
     return None
 
 

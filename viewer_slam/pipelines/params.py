@@ -11,7 +11,6 @@ calling :func:`check_ordered`.
 """
 
 import difflib
-import tomllib
 import typing
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,10 +20,13 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError, Va
 from pydantic.fields import FieldInfo
 from pydantic_core import PydanticCustomError
 
+from ..documents import read_toml
 from ..errors import InputError
 
 # Integers go to OpenCV and GTSAM as C ints.
 INT_MAX = 2**31 - 1
+CONFIG_BYTES = 2**20
+"""A parameter file holds a few dozen values: a larger one is no config."""
 
 
 def _exact_int(value: Any) -> Any:
@@ -148,12 +150,14 @@ _EXPECTED = {int: "expects an integer", float: "expects a number", bool: "expect
 _TYPE_ERRORS = {"int": int, "float": float, "bool": bool, "string": str}
 
 
-def _problem(error: ValidationError, params_type: type[BaseModel]) -> str:
+def problem_of(error: ValidationError, params_type: type[BaseModel]) -> str:
     """``KEY problem, got VALUE`` for the first problem of a validation error, in our one-line style."""
     detail = error.errors()[0]
     kind = detail["type"]
     if kind == "parameter_problem":
         return str(detail["ctx"]["problem"])
+    if not detail["loc"]:  # a rule of the model's own, whose message says it all
+        return str(detail["msg"]).removeprefix("Value error, ")
     key = str(detail["loc"][0])
     value = detail["input"]
     if kind == "literal_error":
@@ -193,7 +197,7 @@ def _validated(params_type: type[P], values: dict[str, Any], source: str, relati
     try:
         return params_type.model_validate(values, context={"relations": relations})
     except ValidationError as error:
-        raise InputError(f"{source}: parameter {_problem(error, params_type)}") from None
+        raise InputError(f"{source}: parameter {problem_of(error, params_type)}") from None
 
 
 def parse_assignments(assignments: list[str]) -> dict[str, str]:
@@ -209,17 +213,7 @@ def parse_assignments(assignments: list[str]) -> dict[str, str]:
 
 def load_config(path: Path) -> dict[str, Any]:
     """Read a TOML parameter file: flat ``KEY = value`` lines and/or one table per pipeline."""
-    try:
-        with open(path, "rb") as handle:
-            return tomllib.load(handle)
-    except FileNotFoundError:
-        raise InputError.at(path, "no such file") from None
-    except IsADirectoryError:
-        raise InputError.at(path, "is a folder, not a TOML file") from None
-    except UnicodeDecodeError as error:
-        raise InputError.at(path, f"cannot read config: not UTF-8 text (byte {error.start})") from None
-    except (OSError, tomllib.TOMLDecodeError) as error:
-        raise InputError.at(path, f"cannot read config: {error}") from None
+    return read_toml(path, "config", max_bytes=CONFIG_BYTES)
 
 
 def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequence[str] = (),
@@ -259,3 +253,22 @@ def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequen
     # Relations on the final values: one layer may set what another relies on.
     return {name: _validated(type(params), params.model_dump(by_alias=True), " and ".join(sources) or "the defaults")
             for name, params in resolved.items()}
+
+
+_REPLACED = {
+    "param": "a field of a PipelineParams subclass: `name: int = Field(5, alias=\"Original/Name\", ge=0, "
+             "description=...)`",
+    "Ordered": "a model_validator(mode=\"after\") that calls check_ordered",
+    "check_relations": "a model_validator(mode=\"after\") that calls check_ordered",
+    "param_fields": "keyed_fields",
+    "params_to_dict": "params.model_dump(by_alias=True)",
+}
+"""The parameter API before parameters were pydantic models, and what replaced each name."""
+
+
+def __getattr__(name: str) -> Any:
+    """A plugin written against the earlier API fails to import in one line saying what replaced it."""
+    if name in _REPLACED:
+        raise ImportError(f"{__name__}.{name} is gone: pipeline parameters are a pydantic model now; use "
+                          f"{_REPLACED[name]} (docs/plugins.md)")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

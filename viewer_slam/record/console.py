@@ -4,13 +4,14 @@ import time
 
 from rich import box
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 
 from .. import palette
 from ..pipelines.events import Event, FrameTracked
 from ..pipelines.run import Sink
+from ..progress import StderrProgress
 from ..terminal import StdoutConsole, print_table
 
 _STATE_STYLES = {status: f"bold {colour.hex}" if status == "lost" else colour.hex
@@ -25,17 +26,17 @@ class RecordProgress:
 
     def __init__(self, total_frames: int, quiet: bool = False):
         self.total_frames = total_frames
-        self._progress = Progress(
+        self._progress = StderrProgress(
             TextColumn("[bold {task.fields[colour]}]{task.description:<9}"), BarColumn(), MofNCompleteColumn(),
             TextColumn("{task.fields[fps]:5.1f} frames/s"), TextColumn("{task.fields[state]}"),
-            TimeElapsedColumn(), console=Console(stderr=True), disable=quiet)
+            TimeElapsedColumn(), enabled=not quiet)
 
     def __enter__(self) -> "RecordProgress":
-        self._progress.start()
+        self._progress.__enter__()
         return self
 
     def __exit__(self, *exc_info) -> None:
-        self._progress.stop()
+        self._progress.__exit__(*exc_info)
 
     def sink(self, pipeline: str) -> Sink:
         """A sink that advances ``pipeline``'s bar on every tracked frame."""

@@ -20,7 +20,7 @@ from ..runs.replay import named_estimates
 from ..runs.report import write_report
 from ..runs.trajectory_files import score_files
 from .options import BAG_FLAGS, RecordOptions, RecordResult
-from .outputs import check_outputs, earlier_trajectories, report_paths, write_staged
+from .outputs import check_outputs, earlier_trajectories, report_paths
 
 FILES_ONLY = "a recording of trajectory files alone (--groundtruth without SEQUENCE)"
 
@@ -96,8 +96,8 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
             if recording.error is not None:
                 raise InputError(f"{out}: recording not written: {recording.error}")
             for run in scored.runs:
-                write_staged(trajectory_paths[run.name], partial(write_tum, trajectory=run.trajectory), staged)
-            write_staged(report_path, lambda path: write_report(path, report), staged)
+                staged.write(trajectory_paths[run.name], partial(write_tum, trajectory=run.trajectory))
+            staged.write(report_path, lambda path: write_report(path, report))
             staged.commit()
     for path in set(earlier) - set(trajectory_paths.values()):
         path.unlink(missing_ok=True)  # the earlier recording's, which the report now in place does not list

@@ -1,12 +1,12 @@
 """Where `viewslam record` writes (the recording, ``NAME.json`` and ``NAME.<run>.txt`` beside it),
 checked before any work starts and written under temporary names."""
 
-import json
-from collections.abc import Callable
 from pathlib import Path
 
-from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
+from ..atomic import check_writable, refuse_inputs_as_outputs
+from ..documents import read_json
 from ..errors import InputError
+from ..pipelines.base import RUN_NAME
 
 DEMO_OUT = Path("recordings/demo.rrd")
 
@@ -45,15 +45,7 @@ def earlier_trajectories(out: Path) -> list[Path]:
     """The trajectory files of the run recorded at ``out`` before, as its report lists them (none
     when it has no readable report)."""
     try:
-        pipelines = json.loads(out.with_suffix(".json").read_text())["pipelines"]
-        return list(report_paths(out, [str(name) for name in pipelines])[1].values())
-    except (OSError, ValueError, KeyError, TypeError):
+        pipelines = read_json(out.with_suffix(".json"), "the earlier report")["pipelines"]
+        return list(report_paths(out, [name for name in pipelines if RUN_NAME.fullmatch(name)])[1].values())
+    except (InputError, KeyError, TypeError):
         return []
-
-
-def write_staged(target: Path, write: Callable[[Path], None], staged: StagedFiles) -> None:
-    """``write`` to ``target``'s temporary file; a failure (a full disk) is one line naming ``target``."""
-    try:
-        write(staged.path(target))
-    except OSError as error:
-        raise InputError.at(target, f"cannot write: {error.strerror or error}") from None

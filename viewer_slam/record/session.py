@@ -44,7 +44,7 @@ from .files import is_files_only, record_files
 from .inputs import open_input
 from .interrupt import StopRequest
 from .options import RecordOptions, RecordResult
-from .outputs import check_outputs, earlier_trajectories, output_path, report_paths, write_staged
+from .outputs import check_outputs, earlier_trajectories, output_path, report_paths
 
 
 class GuardedSequence(TimedFrames):
@@ -181,14 +181,14 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
         for name, trajectory in trajectories.items():  # written once a failed recording made room
-            write_staged(trajectory_paths[name], partial(write_tum, trajectory=trajectory), staged)
+            staged.write(trajectory_paths[name], partial(write_tum, trajectory=trajectory))
         report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
         errors = [str(failure) if failure is not None else None,
                   f"{out}: {recording.error}" if recording.error is not None else None]
         report["failed"] = any(errors)
         if report["failed"]:
             report["error"] = "; ".join(error for error in errors if error)
-        write_staged(report_path, lambda path: write_report(path, report), staged)
+        staged.write(report_path, lambda path: write_report(path, report))
         staged.commit()
     for path in set(earlier) - {trajectory_paths[name] for name in trajectories}:
         path.unlink(missing_ok=True)  # the earlier run's, which the report now in place does not list

@@ -17,6 +17,7 @@ from .. import palette
 from ..atomic import StagedFiles
 from ..comparison.compare import Comparison, RunComparison
 from ..comparison.reports import RecordedRun
+from ..errors import InputError
 from . import layout
 from .blueprint import (
     LOST_BAND,
@@ -27,6 +28,7 @@ from .blueprint import (
 )
 from .fit import LEFT_SHARE, RIGHT_SHARE
 from .recorder import log_world, lost_colour, transform
+from .rrd_file import RecordingFile
 from .timelines import gap_starts, log_lost_band, send_frame_columns, send_log_messages
 
 SIDE_COLORS = {"A": (255, 140, 0), "B": (40, 150, 255)}
@@ -74,17 +76,18 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
 
 
 def write_diff_recording(comparison: Comparison, out: Path) -> None:
+    """The recording at ``out``, through the file sink guard of every ``.rrd`` (a full disk is one
+    line naming ``out``, and whatever was at ``out`` before stays)."""
     with StagedFiles() as staged:
-        stream = rr.RecordingStream("viewslam-diff")
-        rr.set_log_time_enabled(False, recording=stream)
-        stream.save(staged.path(out), default_blueprint=diff_blueprint(comparison))
+        recording = RecordingFile(staged.path(out), out, diff_blueprint(comparison), application="viewslam-diff")
         try:
-            log_world(stream, comparison.sequence.groundtruth)
+            log_world(recording.stream, comparison.sequence.groundtruth)
             for run in comparison.runs:
-                _log_run(stream, run)
-            stream.flush()
+                _log_run(recording.stream, run)
         finally:
-            stream.disconnect()
+            recording.close()
+        if recording.error is not None:
+            raise InputError(f"{out}: recording not written: {recording.error}")
         staged.commit()
 
 

@@ -56,11 +56,12 @@ class RecordingFile:
     is complete (it ends with the RRD footer that readers need).
     """
 
-    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, viewer: LiveViewer | None = None):
+    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, viewer: LiveViewer | None = None,
+                 application: str = "viewslam"):
         self.path = path
         self.viewer = viewer
         self.error: str | None = None
-        self.stream = rr.RecordingStream("viewslam", batcher_config=BATCHER)
+        self.stream = rr.RecordingStream(application, batcher_config=BATCHER)
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
         free = shutil.disk_usage(path.parent).free
         if free < START_BYTES:

@@ -2,9 +2,12 @@
 viewer a recording is also streamed to live (``record --spawn`` or ``--connect ADDR``)."""
 
 import os
+import re
 import socket
 import subprocess
 import sys
+import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -43,6 +46,42 @@ def no_display_problem(recording) -> str:
     """The one line for a viewer window that cannot open, naming the browser alternative."""
     return (f"no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset); "
             f"`viewslam view {recording} --web` serves the viewer to a browser instead")
+
+
+def open_window(recording: Path) -> int:
+    """Show ``recording`` in the bundled viewer's window until it is closed; its exit code.
+
+    The viewer's own log lines (its warnings, a graphics stack that fails) are kept off
+    stderr; a viewer that fails is one line with the reason it gave last, and one that fails
+    at once, as it does when no window can open (a DISPLAY with no X server behind it), is
+    an :class:`InputError` that names the browser alternative.
+    """
+    with tempfile.TemporaryFile() as log:
+        started = time.monotonic()
+        process = subprocess.Popen([str(viewer_binary()), str(recording)], stdin=subprocess.DEVNULL,
+                                   stdout=log, stderr=log)
+        try:
+            code = process.wait()
+        finally:
+            if process.poll() is None:  # stopped by a signal sent to this process alone
+                process.terminate()
+                process.wait()
+        if code == 0:
+            return 0
+        log.seek(0)
+        reason = _last_line(log.read().decode(errors="replace")) or f"exit code {code}"
+    if time.monotonic() - started < VIEWER_START_S:
+        raise InputError(f"{recording}: the viewer cannot open a window ({reason}); `viewslam view {recording} "
+                         f"--web` serves the viewer to a browser instead")
+    raise InputError(f"{recording}: the viewer ended with an error ({reason})")
+
+
+def _last_line(text: str) -> str:
+    """The last line a program wrote, without terminal colours or a Rust error's source location."""
+    lines = [line.strip() for line in re.sub(r"\x1b\[[0-9;]*m", "", text).splitlines() if line.strip()]
+    if not lines:
+        return ""
+    return re.sub(r"\s+at \S+\.rs:\d+:\s*", ": ", lines[-1]).removeprefix("Error: ")
 
 
 def viewer_binary() -> Path:

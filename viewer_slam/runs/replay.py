@@ -19,7 +19,6 @@ on a node that starts a new map, the recovery says so (RTAB-Map starts a map aft
 odometry was reset or, in its dataset tool, lost).
 """
 
-import re
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +32,7 @@ from ..geometry.camera import Camera
 from ..geometry.rtabmap_database import RtabmapDatabase, is_sqlite, read_rtabmap_database
 from ..geometry.trajectory import Trajectory
 from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory
-from ..pipelines.base import Pipeline
+from ..pipelines.base import RUN_NAME, Pipeline
 from ..pipelines.edges import EdgeClassifier
 from ..pipelines.events import (
     Event,
@@ -47,8 +46,6 @@ from ..pipelines.params import PipelineParams
 from .rtabmap_graph import graph_events, node_metrics
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
-# An estimate's name becomes entity paths and a file name.
-RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 
 
 class EstimateParams(PipelineParams):

@@ -15,7 +15,6 @@ benchmark cut with ``--max-frames`` renders no frame it does not read.
 
 import contextlib
 import functools
-import json
 import multiprocessing
 import os
 import shutil
@@ -28,12 +27,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ...atomic import check_name
+from ...atomic import check_name, writing
 from ...cache import cache_dir
+from ...documents import read_json
 from ...errors import InputError
 from ...geometry.camera import Camera
 from ...geometry.trajectory import Trajectory
 from ...progress import counted
+from ...stopping import at_safe_points
 from . import writer
 from .catalog import MAX_FRAMES, SCENARIOS
 from .render import Renderer
@@ -119,15 +120,29 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
     if out.is_dir() and any(out.iterdir()) and not force:
         raise InputError.at(out, "folder exists and is not empty; use --force to overwrite")
     check_name(out)
-    try:
+    with writing(out):
         out.parent.mkdir(parents=True, exist_ok=True)
         staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    except OSError as error:
-        raise InputError.at(out, f"cannot write: {error.strerror or error}") from None
     try:
         run = _Run(scenario, frames, cam, seed)
-        with counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance:
-            run.write(staging, camera, workers, rendered, advance)
+        with (writing(out), at_safe_points() as stop,
+              counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance):
+            def done() -> None:
+                advance()
+                stop.check()  # a stop signal ends the render here, between two frames
+
+            run.write(staging, camera, workers, rendered, done)
+        _publish(staging, out)
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging)
+    return out
+
+
+def _publish(staging: Path, out: Path) -> None:
+    """Move the rendered folder into place: replace what the generator writes in ``out``, or
+    rename the whole folder to ``out``."""
+    with writing(out):
         if out.is_dir():
             for entry in _WRITTEN:
                 target = out / entry
@@ -140,10 +155,6 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
             staging.rmdir()
         else:
             os.replace(staging, out)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
-    return out
 
 
 def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
@@ -351,4 +362,4 @@ def preview_frames(name: str, fractions, *, frames: int | None = None, resolutio
 
 def read_info(folder) -> dict:
     """The ``scenario.json`` of a generated folder."""
-    return json.loads((Path(folder) / "scenario.json").read_text())
+    return read_json(Path(folder) / "scenario.json", "the scenario's description")
