@@ -95,3 +95,17 @@ def test_points_on_one_plane_give_the_best_samples_pose():
         result = solve_pnp_ransac(points, seen, small, reprojection_error=2.0, iterations=300, min_inliers=20)
         assert result is not None and result.inlier_count >= 100
         assert np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) < 0.04
+
+
+def test_refinement_moves_the_samples_pose_onto_all_inliers_and_keeps_ransacs_inliers():
+    """util3d::solvePnPRansac with Vis/PnPRefineIterations 1: OpenCV's iterative PnP from the
+    best sample's pose on its inliers; the inliers reported are RANSAC's. With 0.7 px noise
+    the six-point pose is centimetres off; the refined one fits 140 points."""
+    points, pixels, pose = scene(outliers=60, seed=5)
+    noisy = pixels + np.random.default_rng(2).normal(0, 0.7, pixels.shape)
+    sample = solve_pnp_ransac(points, noisy, K, reprojection_error=4.0, iterations=300, min_inliers=20)
+    refined = solve_pnp_ransac(points, noisy, K, reprojection_error=4.0, iterations=300, min_inliers=20,
+                               refine_iterations=1, refine_distance=2.0)
+    assert np.array_equal(refined.inliers, sample.inliers)
+    error = [np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) for result in (sample, refined)]
+    assert error[1] < 0.5 * error[0] and error[1] < 0.005

@@ -424,7 +424,8 @@ def test_pnp_counts_a_match_as_an_inlier_within_the_square_of_vis_pnp_reproj_err
     world = np.c_[rng.uniform(-0.9, 0.9, 300), rng.uniform(-0.6, 0.6, 300), rng.uniform(2.0, 4.0, 300)]
     words = descriptors(300, rng)
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(
-        RtabmapParams(), {"Vis/PnPReprojError": reprojection_error, "OdomF2M/BundleAdjustment": 0}, "test"))
+        RtabmapParams(), {"Vis/PnPReprojError": reprojection_error, "OdomF2M/BundleAdjustment": 0,
+                          "Vis/PnPRefineIterations": 0}, "test"))
     odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(Rotation.from_rotvec([0, np.radians(1), 0]).as_matrix(), [0.02, 0, 0])
     seen = view(world, moved, words)

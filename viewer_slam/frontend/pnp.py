@@ -13,9 +13,12 @@ follows that copy step by step:
 - a hypothesis replaces the best when it has more inliers (at least six), and the number of
   iterations then shrinks to what 0.99 confidence needs with that inlier ratio
   (``RANSACUpdateNumIters``), at most ``iterations``;
-- the result is the best hypothesis' pose and inliers: the copy fits the inliers again but
-  returns the sample's pose, and RTAB-Map built with g2o refines nothing
-  (Vis/PnPRefineIterations 0); its local bundle adjustment refines the odometry instead.
+- the result is the best hypothesis' pose and inliers (the copy fits the inliers again but
+  returns the sample's pose); then ``util3d::solvePnPRansac`` refines that pose
+  Vis/PnPRefineIterations times: OpenCV's iterative PnP from it on the current inliers, the
+  inliers counted again within Vis/PnPReprojError (the plain distance now) and the next
+  threshold ``min(Vis/PnPReprojError, 3 σ)`` of their errors, until the set no longer
+  changes or falls under the minimum; it returns the refined pose with RANSAC's inliers.
 """
 
 import math
@@ -80,16 +83,44 @@ def distinct_sample(rng: OpenCvRng, count: int) -> np.ndarray:
     return np.array(chosen)
 
 
+def refine(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, lens: np.ndarray | None, rvec: np.ndarray,
+           tvec: np.ndarray, inliers: np.ndarray, distance: float, iterations: int,
+           min_inliers: int) -> tuple[np.ndarray, np.ndarray]:
+    """``util3d::solvePnPRansac``'s refinement of RANSAC's pose (module docstring)."""
+    current, threshold = inliers, np.float32(distance)
+    for _ in range(iterations):
+        _, rvec, tvec = cv2.solvePnP(objects[current], pixels[current], K, lens, rvec, tvec, True,
+                                     cv2.SOLVEPNP_ITERATIVE)
+        errors = reprojection_errors(objects, pixels, K, lens, rvec, tvec)
+        counted = np.flatnonzero(errors <= threshold)
+        if len(counted) < min_inliers or np.array_equal(counted, current):
+            break
+        threshold = np.float32(min(distance, 3.0 * math.sqrt(float(np.var(errors[counted])))))
+        current = counted
+    return rvec, tvec
+
+
+def reprojection_errors(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, lens: np.ndarray | None,
+                        rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
+    """Each correspondence's reprojection distance in pixels, in float32 as the copy computes it."""
+    projected = cv2.projectPoints(objects, rvec, tvec, K, lens)[0].reshape(-1, 2).astype(np.float32)
+    offset = (pixels - projected).astype(np.float64)
+    return np.sqrt(offset[:, 0] ** 2 + offset[:, 1] ** 2).astype(np.float32)
+
+
 def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
                      reprojection_error: float, iterations: int, min_inliers: int,
-                     distortion: tuple[float, ...] | None = None) -> PnpResult | None:
+                     distortion: tuple[float, ...] | None = None, refine_iterations: int = 0,
+                     refine_distance: float | None = None) -> PnpResult | None:
     """Camera pose from 3D points ``(N, 3)`` seen at pixels ``(N, 2)``, or None when fewer
     than ``min_inliers`` (at least 4) correspondences agree with the best hypothesis.
 
     ``reprojection_error`` is the inlier distance in pixels (RTAB-Map's copy compares the
     distance with its threshold squared: its callers pass Vis/PnPReprojError², see
     ``RtabmapParams.pnp_inlier_distance``). ``distortion`` (OpenCV's k1, k2, p1, p2, k3) is
-    the lens model of the pixels: TUM's freiburg1/2 images are not rectified.
+    the lens model of the pixels: TUM's freiburg1/2 images are not rectified. With
+    ``refine_iterations`` the pose is refined (module docstring), the inliers recounted
+    within ``refine_distance`` px (Vis/PnPReprojError itself).
     """
     count = len(object_points)
     if count < max(min_inliers, 4, SAMPLE_SIZE):
@@ -110,9 +141,7 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
             continue                                 # a degenerate sample: no model, as runKernel's 0
         if not solved:
             continue
-        projected = cv2.projectPoints(objects, rvec, tvec, K, lens)[0].reshape(-1, 2).astype(np.float32)
-        offset = (pixels - projected).astype(np.float64)
-        mask = np.sqrt(offset[:, 0] ** 2 + offset[:, 1] ** 2).astype(np.float32) <= threshold
+        mask = reprojection_errors(objects, pixels, K, lens, rvec, tvec) <= threshold
         agreeing = int(mask.sum())
         if agreeing > max(best_count, SAMPLE_SIZE - 1):
             best, best_mask, best_count = (rvec, tvec), mask, agreeing
@@ -120,4 +149,8 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
     if best is None or best_count < max(min_inliers, 4):
         return None
     rvec, tvec = best
-    return PnpResult(invert(make_pose(cv2.Rodrigues(rvec)[0], tvec.ravel())), best_mask)
+    if refine_iterations > 0:
+        rvec, tvec = refine(objects, pixels, K, lens, rvec, tvec, np.flatnonzero(best_mask),
+                            refine_distance if refine_distance is not None else reprojection_error,
+                            refine_iterations, max(min_inliers, 4))
+    return PnpResult(invert(make_pose(cv2.Rodrigues(rvec)[0], np.asarray(tvec).ravel())), best_mask)

@@ -58,7 +58,9 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
     query, train = matches.query, matches.train
     solution = solve_pnp_ransac(old.points[with_depth[train]], new.keypoints[query], camera.K,
                                 reprojection_error=params.pnp_inlier_distance, distortion=camera.distortion,
-                                iterations=params.ransac_iterations, min_inliers=params.min_inliers)
+                                iterations=params.ransac_iterations, min_inliers=params.min_inliers,
+                                    refine_iterations=params.pnp_refine_iterations,
+                                    refine_distance=params.pnp_reprojection_error)
     if solution is None:
         return Registration(None, len(query), 0,
                             rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")

@@ -324,7 +324,9 @@ class FrameToMapOdometry:
         params = self.params
         solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
                                     reprojection_error=params.pnp_inlier_distance, distortion=self.camera.distortion,
-                                    iterations=params.ransac_iterations, min_inliers=params.min_inliers)
+                                    iterations=params.ransac_iterations, min_inliers=params.min_inliers,
+                                    refine_iterations=params.pnp_refine_iterations,
+                                    refine_distance=params.pnp_reprojection_error)
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
         variance, map_points = Variance(), None

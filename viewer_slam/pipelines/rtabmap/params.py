@@ -31,6 +31,9 @@ class RtabmapParams(PipelineParams):
     pnp_reprojection_error: float = Field(2.0, alias="Vis/PnPReprojError", gt=0,
                                           description="PnP RANSAC threshold: a match reprojected within its square (px) is an "
                                                       "inlier, as RTAB-Map's RANSAC compares")
+    pnp_refine_iterations: int = Field(1, alias="Vis/PnPRefineIterations", ge=0,
+                                       description="refinements of PnP RANSAC's pose on its inliers (RTAB-Map built "
+                                                   "without g2o: 1; with g2o: 0 and Vis/BundleAdjustment instead)")
     min_inliers: int = Field(20, alias="Vis/MinInliers", ge=4, description="inliers needed to accept a registration")
     ransac_iterations: int = Field(300, alias="Vis/Iterations", ge=1, description="PnP RANSAC iterations")
     repeat_once: bool = Field(True, alias="Reg/RepeatOnce",
