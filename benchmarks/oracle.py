@@ -295,7 +295,8 @@ def main() -> None:
                 originals = []
                 for k in range(1, args.runs + 1):
                     check_frames(folder, listed)
-                    run = run_original(args.oracle, folder, args.out / "original" / f"s{seed}-{args.mode}-{rule}-{k}",
+                    run = run_original(args.oracle, folder,
+                                       args.out / "original" / f"{args.scene}-s{seed}-{args.mode}-{rule}-{k}",
                                        rule, args.mode, Path(scratch))
                     originals.append(summarise_original(run, sequence))
                 check_frames(folder, listed)
