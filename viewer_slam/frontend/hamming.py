@@ -182,20 +182,23 @@ def _words(descriptors: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class PackedDescriptors:
-    """Binary descriptors as 64-bit words, ``rows`` ``(N, W)`` to be matched and ``columns``
-    ``(W, N)`` to be searched: packed once per keypoint set rather than once per comparison,
-    since a node is searched by every later frame that it is a candidate for."""
+    """Binary descriptors as 64-bit words, word-major ``columns`` ``(W, N)`` to be searched
+    and ``rows`` ``(N, W)`` (a view of them) to be matched: packed once per keypoint set rather
+    than once per comparison, since a node is searched by every later frame that it is a
+    candidate for. One copy, so a node keeps its descriptors twice, not three times."""
 
-    rows: np.ndarray
     columns: np.ndarray
 
     @classmethod
     def of(cls, descriptors: np.ndarray) -> "PackedDescriptors":
-        rows = _words(descriptors)
-        return cls(rows, np.ascontiguousarray(rows.T))
+        return cls(np.ascontiguousarray(_words(descriptors).T))
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self.columns.T
 
     def __len__(self) -> int:
-        return len(self.rows)
+        return self.columns.shape[1]
 
 
 def packed(descriptors: "np.ndarray | PackedDescriptors") -> PackedDescriptors:
