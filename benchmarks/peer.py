@@ -6,11 +6,18 @@ Open3D's frame-to-frame RGB-D odometry (the hybrid photometric and geometric ter
 default) runs over exactly the frames each pipeline gets, recording off. Every figure comes
 with its ratio to Open3D's, and ratios measured in one run on one machine hold across
 machines where absolute frames per second do not. CPU frames per second use the process's
-CPU time, which other load on a shared machine does not inflate.
+CPU time, which other load on a shared machine does not inflate. Each pipeline's mean
+milliseconds per frame by stage (its report's ``timing``) follow the table.
+
+Run with the defaults on a TUM excerpt that docs/pipelines.md shows (the 200-frame and the
+87-frame fr1/rpy), it writes the table there (figure block ``peer-<folder>``), stamped with
+the command, the machine, the date and the load before and after: too costly for the test
+suite, so never re-run there.
 """
 
 import argparse
 import os
+import sys
 import time
 from pathlib import Path
 
@@ -25,9 +32,17 @@ from viewer_slam.open3d_loader import import_open3d
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import resolve_params
 from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.runs.report import versions
 
-DEFAULT_SEQUENCE = str(Path(__file__).resolve().parents[1].parent / "shared/data/tum/rgbd_dataset_freiburg1_rpy_200")
+REPO = Path(__file__).resolve().parents[1]
+DEFAULT_SEQUENCE = str(REPO.parent / "shared/data/tum/rgbd_dataset_freiburg1_rpy_200")
+DEFAULT_PIPELINES = ["rgbdslam", "rtabmap"]
 DEPTH_TRUNC_M = 4.0
+DOCUMENT = REPO / "docs" / "pipelines.md"
+# TUM folders whose figures docs/pipelines.md shows, by folder name, and their block.
+SEQUENCE_BLOCKS = {"rgbd_dataset_freiburg1_rpy_200": "peer-fr1-rpy-200", "rgbd_dataset_freiburg1_rpy": "peer-fr1-rpy-87"}
+sys.path.insert(0, str(REPO / "scripts"))
+from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
 
 
 def process_cpu_s() -> float:
@@ -66,35 +81,55 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
-    parser.add_argument("--pipelines", nargs="+", default=["rgbdslam", "rtabmap"])
+    parser.add_argument("--pipelines", nargs="+", default=DEFAULT_PIPELINES)
     parser.add_argument("--param", action="append", default=[],
                         help="KEY=VALUE for the pipelines that have KEY, as `viewslam record --param`")
     args = parser.parse_args()
+    load = os.getloadavg()[0]
     params = resolve_params({name: pipeline_class(name).Params for name in args.pipelines}, args.param)
     sequence = open_source(args.sequence)
     frames = min(len(sequence), args.frames or len(sequence))
     print(f"sequence {sequence.name}: {frames} frames, {sequence.camera.width}x{sequence.camera.height}")
 
     trajectory, wall_s, cpu_s = open3d_odometry(sequence, args.frames)
-    peer_ate = _ate_cm(sequence, trajectory) / 100
+    peer_ate = _ate_cm(sequence, trajectory)
     peer_fps, peer_cpu_fps = frames / wall_s, frames / cpu_s
-    print("| method | ATE RMSE cm | odometry ATE cm | ATE / Open3D | fps (wall) | fps / Open3D | fps (CPU) | "
-          "CPU fps / Open3D |")
-    print("|---|---|---|---|---|---|---|---|")
-    print(f"| Open3D RGB-D odometry | {100 * peer_ate:.2f} | {100 * peer_ate:.2f} | 1.00 | {peer_fps:.1f} | 1.00 | "
-          f"{peer_cpu_fps:.1f} | 1.00 |")
+    rows = ["| method | ATE RMSE | odometry ATE | frames/s, wall (× Open3D) | frames/s, CPU time (× Open3D) |",
+            "|---|---|---|---|---|",
+            f"| Open3D RGB-D odometry | {peer_ate:.2f} cm | {peer_ate:.2f} cm | {peer_fps:.1f} (1.00) | "
+            f"{peer_cpu_fps:.1f} (1.00) |"]
+    print("\n".join(rows))
+    stages = []
     for name in args.pipelines:
         cpu = process_cpu_s()
         run = run_pipeline(sequence, name, params[name], seed=0, max_frames=args.frames)
         cpu_fps = run.frames / (process_cpu_s() - cpu)
         ate, odometry_ate = (_ate_cm(sequence, trajectory) for trajectory in (run.trajectory, run.odometry))
-        print(f"| {name} | {ate:.2f} | {odometry_ate:.2f} | {ate / (100 * peer_ate):.2f} | {run.fps:.1f} | "
-              f"{run.fps / peer_fps:.2f} | {cpu_fps:.1f} | {cpu_fps / peer_cpu_fps:.2f} |", flush=True)
+        rows.append(f"| {name} | {ate:.2f} cm | {odometry_ate:.2f} cm | {run.fps:.1f} ({run.fps / peer_fps:.2f}) | "
+                    f"{cpu_fps:.1f} ({cpu_fps / peer_cpu_fps:.2f}) |")
+        stages.append(f"{name}: " + ", ".join(f"`{stage}` {ms:.1f}" for stage, ms in run.per_stage_ms.items()))
+        print(rows[-1], flush=True)
+    print("\n".join(stages))
+    block = SEQUENCE_BLOCKS.get(Path(args.sequence).resolve().name)
+    if block and args.frames is None and not args.param and args.pipelines == DEFAULT_PIPELINES:
+        write_block(block, load, rows, stages)
 
 
-def _ate_cm(sequence, trajectory: Trajectory) -> float:
+def write_block(block: str, load: float, rows: list[str], stages: list[str]) -> None:
+    """The table and the stage times into docs/pipelines.md, stamped."""
+    installed = versions()
+    command = " ".join([".venv/bin/python benchmarks/peer.py", *sys.argv[1:]])
+    text = (f"{stamp(command)} Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after; "
+            f"OpenCV {installed['opencv']}, GTSAM {installed['gtsam']}, Open3D {installed['open3d']}.\n\n"
+            + "\n".join(rows)
+            + "\n\nMean milliseconds per frame by stage, by the wall clock (the report's `timing`; stages "
+            "that run on threads of their own overlap): " + "; ".join(stages) + ".")
+    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), block, text))
+
+
+def _ate_cm(sequence, trajectory: Trajectory | None) -> float:
     """ATE RMSE in cm, NaN for a run without a pose."""
-    evaluation = evaluate(sequence.groundtruth, trajectory) if len(trajectory) else None
+    evaluation = evaluate(sequence.groundtruth, trajectory) if trajectory is not None and len(trajectory) else None
     return float("nan") if evaluation is None or evaluation.ate is None else 100 * evaluation.ate.stats()["rmse"]
 
 

@@ -4,7 +4,13 @@ by image position) against distances counted by hand."""
 import numpy as np
 from binary_descriptors import descriptors
 
-from viewer_slam.frontend.hamming import hamming_nearest_matches, hamming_ratio_matches, nearest_within_radius
+from viewer_slam.frontend.features import match_with_ratios
+from viewer_slam.frontend.hamming import (
+    PackedDescriptors,
+    hamming_nearest_matches,
+    hamming_ratio_matches,
+    nearest_within_radius,
+)
 
 
 def test_nearest_over_second_nearest_distance_is_the_ratio():
@@ -69,3 +75,27 @@ def test_equal_nearest_distances_are_ambiguous_and_every_query_picks_on_its_own(
     # both queries pick row 1 (0 bits against 1): what to do with a row picked twice is the caller's
     picked = nearest_within_radius(positions, descriptors(0, 0), train_positions, descriptors(1, 0, 40), 20.0, 0.8)
     assert picked.tolist() == [1, 1]
+
+
+def brute_force_nearest(query: np.ndarray, train: np.ndarray, bound: int) -> list[tuple[int, int, int]]:
+    """(query, train, distance) for each query's first nearest train row under ``bound``, counted bit by bit."""
+    bits = np.unpackbits(query[:, None, :] ^ train[None, :, :], axis=2).sum(axis=2)
+    nearest = bits.argmin(axis=1)
+    return [(i, int(j), int(bits[i, j])) for i, j in enumerate(nearest) if bits[i, j] < bound]
+
+
+def test_packed_descriptors_match_as_the_raw_ones_and_as_counted_by_hand_ties_included():
+    rng = np.random.default_rng(3)
+    for query, train in [(rng.integers(0, 256, (300, 32), dtype=np.uint8), rng.integers(0, 256, (250, 32), dtype=np.uint8)),
+                         (rng.integers(0, 2, (120, 32), dtype=np.uint8), rng.integers(0, 2, (90, 32), dtype=np.uint8)),
+                         (rng.integers(0, 256, (40, 61), dtype=np.uint8), rng.integers(0, 256, (2, 61), dtype=np.uint8))]:
+        packed_query, packed_train = PackedDescriptors.of(query), PackedDescriptors.of(train)
+        assert len(packed_query) == len(query) and len(packed_train) == len(train)
+        nearest = hamming_nearest_matches(packed_query, packed_train, 8 * query.shape[1] // 2)
+        assert list(zip(*(part.tolist() for part in nearest))) == brute_force_nearest(query, train, 8 * query.shape[1] // 2)
+        raw = hamming_nearest_matches(query, train, 8 * query.shape[1] // 2)
+        assert all(np.array_equal(a, b) for a, b in zip(raw, nearest))
+        for ratio in (0.8, 1.0):   # the low-entropy pair has many equal distances: ties decide
+            by_ratio = hamming_ratio_matches(packed_query, packed_train, ratio)
+            opencv = match_with_ratios(query, train, True, ratio)
+            assert all(np.array_equal(a, b) for a, b in zip(by_ratio, opencv))

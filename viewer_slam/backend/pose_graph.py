@@ -115,8 +115,8 @@ class PoseGraph:
         less than that fraction (RGB-D SLAM v2's ``optimizer_iterations`` below 1).
         """
         graph, values = self._build()
-        before = graph.error(values)
         if not self.edges and not self.priors:
+            before = graph.error(values)
             return before, before
         parameters = gtsam.LevenbergMarquardtParams()
         parameters.setMaxIterations(max_iterations)
@@ -125,10 +125,12 @@ class PoseGraph:
         if self.linear_solver == PCG:
             parameters.setIterativeParams(self._pcg_parameters())
             parameters.setLinearSolverType("ITERATIVE")
-        result = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters).optimize()
+        optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters)
+        before = optimizer.error()  # the optimiser's own graph.error of the values, before and after
+        result = optimizer.optimize()
         for node_id in self.poses:
             self.poses[node_id] = result.atPose3(node_id).matrix()
-        return before, graph.error(result)
+        return before, optimizer.error()
 
     def _pcg_parameters(self) -> gtsam.PCGSolverParameters:
         """g2o's stopping rule; single-threaded, as g2o's solver is, so sums keep their order."""

@@ -3,13 +3,16 @@
 Ratio-test matching gives the same matches as :func:`.features.match_with_ratios` gives for
 binary descriptors (the nearest and second-nearest Hamming distances, the ratio test, one
 match per train descriptor, the one with the smallest distance, earlier query on ties), in
-about a third of the time of OpenCV's ``batchDistance``: the distances are popcounts of
-64-bit words.
+a third of the time of OpenCV's ``batchDistance``: the distances are popcounts of 64-bit
+words, a query's distances to every train descriptor computed word by word on vectors, then
+searched.
 Nearest-neighbour matching keeps each query's nearest train descriptor under a distance
 bound, with no ratio test and no claim on the train side (RGB-D SLAM v2's ORB matching).
 Guided matching compares a query only with the train descriptors whose image positions lie
 near its own, found on a grid of cells as large as the search window.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -56,27 +59,56 @@ def _kept_by_nearest_query(nearest, distance, train_count):
 
 
 @jit
-def _ratio_matches(query, train, ratio):
-    """The ratio test, then each train row kept for its nearest query."""
-    rows = np.arange(train.shape[0])
+def _ratio_matches(query, columns, ratio):
+    """The ratio test, then each train row kept for its nearest query. The second-nearest
+    distance is the least over every row but the nearest (which equals the nearest's on ties)."""
+    distances = np.empty(columns.shape[1], dtype=np.int64)
     first, second = np.empty(query.shape[0], dtype=np.int64), np.empty(query.shape[0], dtype=np.int64)
     nearest = np.full(query.shape[0], -1, dtype=np.int64)
     for i in range(query.shape[0]):
-        first[i], second[i], best = _two_nearest(query, i, train, rows)
+        _distances_to_all(query, i, columns, distances)
+        first[i], best = _least(distances)
+        second[i] = NO_DISTANCE
+        for j in range(distances.shape[0]):
+            if j != best and distances[j] < second[i]:
+                second[i] = distances[j]
         if first[i] < ratio * second[i]:
             nearest[i] = best
-    query_index = _kept_by_nearest_query(nearest, first, train.shape[0])
+    query_index = _kept_by_nearest_query(nearest, first, columns.shape[1])
     return query_index, nearest[query_index], first[query_index] / second[query_index]
 
 
 @jit
-def _nearest_matches(query, train, max_distance):
-    """Each query's nearest train row (the first on ties) and its distance, for the queries
-    whose nearest distance is below ``max_distance``."""
-    rows = np.arange(train.shape[0])
+def _distances_to_all(query, i, columns, distances):
+    """The Hamming distances of query row ``i`` to every train descriptor, into ``distances``:
+    word by word over the word-major ``columns``, a loop that runs on vectors (one popcount
+    instruction per lane where the CPU has one)."""
+    distances[:] = 0
+    for k in range(columns.shape[0]):
+        word, column = query[i, k], columns[k]
+        for j in range(columns.shape[1]):
+            distances[j] += _popcount(word ^ column[j])
+
+
+@jit
+def _least(distances):
+    """The least distance and its first row."""
+    least = distances.min()
+    row = 0
+    while distances[row] != least:
+        row += 1
+    return least, row
+
+
+@jit
+def _nearest_matches(query, columns, max_distance):
+    """Each query's nearest train descriptor (the first on ties) and its distance, for the
+    queries whose nearest distance is below ``max_distance``."""
+    distances = np.empty(columns.shape[1], dtype=np.int64)
     nearest, distance = np.empty(query.shape[0], dtype=np.int64), np.empty(query.shape[0], dtype=np.int64)
     for i in range(query.shape[0]):
-        distance[i], _, nearest[i] = _two_nearest(query, i, train, rows)
+        _distances_to_all(query, i, columns, distances)
+        distance[i], nearest[i] = _least(distances)
     query_index = np.flatnonzero(distance < max_distance)
     return query_index, nearest[query_index], distance[query_index]
 
@@ -148,22 +180,48 @@ def _words(descriptors: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.pad(descriptors, ((0, 0), (0, padding)))).view(np.uint64)
 
 
-def hamming_ratio_matches(query: np.ndarray, train: np.ndarray, ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Matches of binary descriptors ``(N, B)`` uint8 that pass the ratio test: query
+@dataclass(frozen=True)
+class PackedDescriptors:
+    """Binary descriptors as 64-bit words, word-major ``columns`` ``(W, N)`` to be searched
+    and ``rows`` ``(N, W)`` (a view of them) to be matched: packed once per keypoint set rather
+    than once per comparison, since a node is searched by every later frame that it is a
+    candidate for. One copy, so a node keeps its descriptors twice, not three times."""
+
+    columns: np.ndarray
+
+    @classmethod
+    def of(cls, descriptors: np.ndarray) -> "PackedDescriptors":
+        return cls(np.ascontiguousarray(_words(descriptors).T))
+
+    @property
+    def rows(self) -> np.ndarray:
+        return self.columns.T
+
+    def __len__(self) -> int:
+        return self.columns.shape[1]
+
+
+def packed(descriptors: "np.ndarray | PackedDescriptors") -> PackedDescriptors:
+    return descriptors if isinstance(descriptors, PackedDescriptors) else PackedDescriptors.of(descriptors)
+
+
+def hamming_ratio_matches(query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors",
+                          ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Matches of binary descriptors ``(N, B)`` uint8 (or packed) that pass the ratio test: query
     indices (ascending), train indices and distance ratios."""
     if len(query) == 0 or len(train) < 2:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
-    return _ratio_matches(_words(query), _words(train), float(ratio))
+    return _ratio_matches(packed(query).rows, packed(train).columns, float(ratio))
 
 
-def hamming_nearest_matches(query: np.ndarray, train: np.ndarray,
+def hamming_nearest_matches(query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors",
                             max_distance: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each query descriptor's nearest train descriptor (``(N, B)`` uint8), the first on ties,
-    when fewer than ``max_distance`` bits apart: query indices (ascending), train indices
+    """Each query descriptor's nearest train descriptor (``(N, B)`` uint8, or packed), the first
+    on ties, when fewer than ``max_distance`` bits apart: query indices (ascending), train indices
     (a train descriptor may be matched by several queries) and Hamming distances."""
     if len(query) == 0 or len(train) == 0:
         return np.zeros(0, int), np.zeros(0, int), np.zeros(0, int)
-    return _nearest_matches(_words(query), _words(train), int(max_distance))
+    return _nearest_matches(packed(query).rows, packed(train).columns, int(max_distance))
 
 
 def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positions: np.ndarray, train: np.ndarray,

@@ -42,6 +42,9 @@ NO_INLIERS_ERROR = 1e9
 NO_HYPOTHESIS_ERROR = 1e6
 # Jacobi sweeps at most for the 4x4 eigenproblem of the fit (it converges in about six).
 JACOBI_SWEEPS = 30
+# Rows of pair_terms: source x, y, z; target x, y, z; the source's covariance diagonal; the
+# target's; the shortcut bound.
+PAIR_TERMS = 13
 
 
 
@@ -60,35 +63,58 @@ class RansacResult:
 
 
 @jit
-def _pair_distance(r, source, target, sigma_depth):
-    """errorFunction2 for one pair: squared Mahalanobis distance of ``r source - target``
-    under ``R^T C_source R + C_target`` (v2's form), or inf beyond the shortcut bound.
+def pair_terms(source, target, sigma_depth):
+    """What errorFunction2 computes of each pair alone, once per RANSAC run instead of once per
+    hypothesis: ``(PAIR_TERMS, N)`` rows (see :data:`PAIR_TERMS`), contiguous so that the
+    distance loop runs on vectors.
 
-    ``r`` is the transform's top 3x4 as a flat tuple. Each covariance is
-    ``diag(RASTER_COV_X z, RASTER_COV_Y z, (sigma_depth z²)²)``; the symmetric 3x3 system is
-    solved in closed form (adjugate over determinant).
+    Each covariance is ``diag(RASTER_COV_X z, RASTER_COV_Y z, (sigma_depth z²)²)``; the shortcut
+    bound is SHORTCUT_FACTOR times the two points' largest variances (with v2's
+    RASTER_COV_X for both lateral terms).
+    """
+    terms = np.empty((PAIR_TERMS, source.shape[0]))
+    for n in range(source.shape[0]):
+        z_source, z_target = source[n, 2], target[n, 2]
+        depth_source = (sigma_depth * z_source * z_source) ** 2
+        depth_target = (sigma_depth * z_target * z_target) ** 2
+        terms[0, n], terms[1, n], terms[2, n] = source[n, 0], source[n, 1], z_source
+        terms[3, n], terms[4, n], terms[5, n] = target[n, 0], target[n, 1], z_target
+        terms[6, n], terms[7, n], terms[8, n] = RASTER_COV_X * z_source, RASTER_COV_Y * z_source, depth_source
+        terms[9, n], terms[10, n], terms[11, n] = RASTER_COV_X * z_target, RASTER_COV_Y * z_target, depth_target
+        terms[12, n] = SHORTCUT_FACTOR * (max(RASTER_COV_X, depth_source) + max(RASTER_COV_X, depth_target))
+    return terms
+
+
+@jit
+def _distances_into(r, terms, out):
+    """errorFunction2 for every pair, into ``out``: squared Mahalanobis distance of
+    ``r source - target`` under ``R^T C_source R + C_target`` (v2's form), or inf beyond the
+    shortcut bound.
+
+    ``r`` is the transform's top 3x4 as a flat tuple. The symmetric 3x3 system is solved in
+    closed form (adjugate over determinant). Every pair is computed and the shortcut applied
+    as a choice, so that the loop has no branch and runs on vectors; each lane does the same
+    operations in the same order as one pair alone, so the distances are the same to the bit.
     """
     r00, r01, r02, r03, r10, r11, r12, r13, r20, r21, r22, r23 = r
-    sx, sy, z_source = source
-    tx, ty, z_target = target
-    x = r00 * sx + r01 * sy + r02 * z_source + r03 - tx
-    y = r10 * sx + r11 * sy + r12 * z_source + r13 - ty
-    z = r20 * sx + r21 * sy + r22 * z_source + r23 - z_target
-    depth_source = (sigma_depth * z_source * z_source) ** 2
-    depth_target = (sigma_depth * z_target * z_target) ** 2
-    if x * x + y * y + z * z > SHORTCUT_FACTOR * (max(RASTER_COV_X, depth_source) + max(RASTER_COV_X, depth_target)):
-        return np.inf
-    cx, cy, cz = RASTER_COV_X * z_source, RASTER_COV_Y * z_source, depth_source
-    s00 = cx * r00 * r00 + cy * r10 * r10 + cz * r20 * r20 + RASTER_COV_X * z_target
-    s11 = cx * r01 * r01 + cy * r11 * r11 + cz * r21 * r21 + RASTER_COV_Y * z_target
-    s22 = cx * r02 * r02 + cy * r12 * r12 + cz * r22 * r22 + depth_target
-    s01 = cx * r00 * r01 + cy * r10 * r11 + cz * r20 * r21
-    s02 = cx * r00 * r02 + cy * r10 * r12 + cz * r20 * r22
-    s12 = cx * r01 * r02 + cy * r11 * r12 + cz * r21 * r22
-    a00, a11, a22 = s11 * s22 - s12 * s12, s00 * s22 - s02 * s02, s00 * s11 - s01 * s01
-    a01, a02, a12 = s02 * s12 - s01 * s22, s01 * s12 - s11 * s02, s01 * s02 - s00 * s12
-    determinant = s00 * a00 + s01 * a01 + s02 * a02
-    return (a00 * x * x + a11 * y * y + a22 * z * z + 2.0 * (a01 * x * y + a02 * x * z + a12 * y * z)) / determinant
+    sx, sy, z_source, tx, ty, z_target = terms[0], terms[1], terms[2], terms[3], terms[4], terms[5]
+    cx, cy, cz, target_x, target_y, target_z, bound = (terms[6], terms[7], terms[8], terms[9], terms[10], terms[11],
+                                                       terms[12])
+    for n in range(out.shape[0]):
+        x = r00 * sx[n] + r01 * sy[n] + r02 * z_source[n] + r03 - tx[n]
+        y = r10 * sx[n] + r11 * sy[n] + r12 * z_source[n] + r13 - ty[n]
+        z = r20 * sx[n] + r21 * sy[n] + r22 * z_source[n] + r23 - z_target[n]
+        s00 = cx[n] * r00 * r00 + cy[n] * r10 * r10 + cz[n] * r20 * r20 + target_x[n]
+        s11 = cx[n] * r01 * r01 + cy[n] * r11 * r11 + cz[n] * r21 * r21 + target_y[n]
+        s22 = cx[n] * r02 * r02 + cy[n] * r12 * r12 + cz[n] * r22 * r22 + target_z[n]
+        s01 = cx[n] * r00 * r01 + cy[n] * r10 * r11 + cz[n] * r20 * r21
+        s02 = cx[n] * r00 * r02 + cy[n] * r10 * r12 + cz[n] * r20 * r22
+        s12 = cx[n] * r01 * r02 + cy[n] * r11 * r12 + cz[n] * r21 * r22
+        a00, a11, a22 = s11 * s22 - s12 * s12, s00 * s22 - s02 * s02, s00 * s11 - s01 * s01
+        a01, a02, a12 = s02 * s12 - s01 * s22, s01 * s12 - s11 * s02, s01 * s02 - s00 * s12
+        determinant = s00 * a00 + s01 * a01 + s02 * a02
+        distance = (a00 * x * x + a11 * y * y + a22 * z * z + 2.0 * (a01 * x * y + a02 * x * z + a12 * y * z)) / determinant
+        out[n] = np.inf if x * x + y * y + z * z > bound[n] else distance
 
 
 @jit
@@ -100,13 +126,10 @@ def _top_rows(transform):
 
 
 @jit
-def _distances(transforms, source, target, sigma_depth):
-    out = np.empty((transforms.shape[0], source.shape[0]))
+def _distances(transforms, terms):
+    out = np.empty((transforms.shape[0], terms.shape[1]))
     for h in range(transforms.shape[0]):
-        r = _top_rows(transforms[h])
-        for n in range(source.shape[0]):
-            out[h, n] = _pair_distance(r, (source[n, 0], source[n, 1], source[n, 2]),
-                                       (target[n, 0], target[n, 1], target[n, 2]), sigma_depth)
+        _distances_into(_top_rows(transforms[h]), terms, out[h])
     return out
 
 
@@ -114,8 +137,8 @@ def mahalanobis_squared(transforms: np.ndarray, source: np.ndarray, target: np.n
                         sigma_depth: float) -> np.ndarray:
     """v2's ``errorFunction2`` ``(H, N)`` for transforms ``(H, 4, 4)`` and pairs ``(N, 3)``:
     squared Mahalanobis distances, inf for pairs beyond the shortcut."""
-    return _distances(np.ascontiguousarray(transforms, dtype=np.float64), np.ascontiguousarray(source, dtype=np.float64),
-                      np.ascontiguousarray(target, dtype=np.float64), float(sigma_depth))
+    terms = pair_terms(np.asarray(source, dtype=np.float64), np.asarray(target, dtype=np.float64), float(sigma_depth))
+    return _distances(np.ascontiguousarray(transforms, dtype=np.float64), terms)
 
 
 @jit
@@ -158,10 +181,28 @@ def preferred_samples(count: int, hypotheses: int, rng: np.random.Generator, siz
 
 
 @jit
+def _moved(old, new):
+    """Whether 4x4 ``new`` differs from ``old`` in any bit (NaN always counts as moved)."""
+    for i in range(4):
+        for j in range(4):
+            if not (old[i, j] == new[i, j] and np.copysign(1.0, old[i, j]) == np.copysign(1.0, new[i, j])):
+                return True
+    return False
+
+
+@jit
 def _largest_eigenvector(matrix):
     """Unit eigenvector of the largest eigenvalue of a symmetric 4x4 matrix (cyclic Jacobi
-    rotations until the off-diagonal part vanishes; overwrites ``matrix``)."""
+    rotations until the off-diagonal part vanishes; overwrites ``matrix``).
+
+    The off-diagonal part often stops short of zero, some 1e-155, where each rotation's angle
+    overflows to zero and changes nothing; a sweep that left the matrix and the vectors the
+    same to the bit would leave them so every time after, so the rotations end there (with
+    the result of running all JACOBI_SWEEPS, in a fraction of the time: those sweeps also
+    compute on subnormal numbers, at a hundred times the cost of normal ones).
+    """
     vectors = np.eye(4)
+    before = np.empty((2, 4, 4))
     for _ in range(JACOBI_SWEEPS):
         off = 0.0
         for p in range(3):
@@ -169,6 +210,7 @@ def _largest_eigenvector(matrix):
                 off += matrix[p, q] * matrix[p, q]
         if off == 0.0:
             break
+        before[0], before[1] = matrix, vectors
         for p in range(3):
             for q in range(p + 1, 4):
                 if matrix[p, q] == 0.0:
@@ -186,6 +228,8 @@ def _largest_eigenvector(matrix):
                 for k in range(4):
                     kp, kq = vectors[k, p], vectors[k, q]
                     vectors[k, p], vectors[k, q] = c * kp - s * kq, s * kp + c * kq
+        if not _moved(before[0], matrix) and not _moved(before[1], vectors):
+            break
     best = 0
     for k in range(1, 4):
         if matrix[k, k] > matrix[best, best]:
@@ -199,62 +243,72 @@ def _fit(source, target, weights, members):
     weighted centroids, then the rotation as the quaternion that maximises the correlation
     of the centred points (Horn 1987; the same optimum as the SVD fit, always proper)."""
     total = 0.0
-    mean_source, mean_target = np.zeros(3), np.zeros(3)
+    source_x = source_y = source_z = target_x = target_y = target_z = 0.0
     for n in members:
         total += weights[n]
-        for i in range(3):
-            mean_source[i] += weights[n] * source[n, i]
-            mean_target[i] += weights[n] * target[n, i]
-    mean_source /= total
-    mean_target /= total
-    m = np.zeros((3, 3))  # m[a, b] = sum w (source_a - mean) (target_b - mean)
+        source_x += weights[n] * source[n, 0]
+        source_y += weights[n] * source[n, 1]
+        source_z += weights[n] * source[n, 2]
+        target_x += weights[n] * target[n, 0]
+        target_y += weights[n] * target[n, 1]
+        target_z += weights[n] * target[n, 2]
+    source_x, source_y, source_z = source_x / total, source_y / total, source_z / total
+    target_x, target_y, target_z = target_x / total, target_y / total, target_z / total
+    # m_ab = sum w (source_a - mean) (target_b - mean), in scalars that stay in registers
+    m00 = m01 = m02 = m10 = m11 = m12 = m20 = m21 = m22 = 0.0
     for n in members:
         w = weights[n] / total
-        for a in range(3):
-            for b in range(3):
-                m[a, b] += w * (source[n, a] - mean_source[a]) * (target[n, b] - mean_target[b])
+        a0, a1, a2 = source[n, 0] - source_x, source[n, 1] - source_y, source[n, 2] - source_z
+        b0, b1, b2 = target[n, 0] - target_x, target[n, 1] - target_y, target[n, 2] - target_z
+        m00 += w * a0 * b0
+        m01 += w * a0 * b1
+        m02 += w * a0 * b2
+        m10 += w * a1 * b0
+        m11 += w * a1 * b1
+        m12 += w * a1 * b2
+        m20 += w * a2 * b0
+        m21 += w * a2 * b1
+        m22 += w * a2 * b2
     horn = np.empty((4, 4))
-    horn[0, 0] = m[0, 0] + m[1, 1] + m[2, 2]
-    horn[1, 1] = m[0, 0] - m[1, 1] - m[2, 2]
-    horn[2, 2] = m[1, 1] - m[0, 0] - m[2, 2]
-    horn[3, 3] = m[2, 2] - m[0, 0] - m[1, 1]
-    horn[0, 1] = horn[1, 0] = m[1, 2] - m[2, 1]
-    horn[0, 2] = horn[2, 0] = m[2, 0] - m[0, 2]
-    horn[0, 3] = horn[3, 0] = m[0, 1] - m[1, 0]
-    horn[1, 2] = horn[2, 1] = m[0, 1] + m[1, 0]
-    horn[1, 3] = horn[3, 1] = m[2, 0] + m[0, 2]
-    horn[2, 3] = horn[3, 2] = m[1, 2] + m[2, 1]
+    horn[0, 0] = m00 + m11 + m22
+    horn[1, 1] = m00 - m11 - m22
+    horn[2, 2] = m11 - m00 - m22
+    horn[3, 3] = m22 - m00 - m11
+    horn[0, 1] = horn[1, 0] = m12 - m21
+    horn[0, 2] = horn[2, 0] = m20 - m02
+    horn[0, 3] = horn[3, 0] = m01 - m10
+    horn[1, 2] = horn[2, 1] = m01 + m10
+    horn[1, 3] = horn[3, 1] = m20 + m02
+    horn[2, 3] = horn[3, 2] = m12 + m21
     w, x, y, z = _largest_eigenvector(horn)
     transform = np.eye(4)
     transform[0, 0], transform[0, 1], transform[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
     transform[1, 0], transform[1, 1], transform[1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
     transform[2, 0], transform[2, 1], transform[2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-    for i in range(3):
-        transform[i, 3] = mean_target[i] - (transform[i, 0] * mean_source[0] + transform[i, 1] * mean_source[1]
-                                            + transform[i, 2] * mean_source[2])
+    for i, target_mean in enumerate((target_x, target_y, target_z)):
+        transform[i, 3] = target_mean - (transform[i, 0] * source_x + transform[i, 1] * source_y
+                                         + transform[i, 2] * source_z)
     return transform
 
 
 @jit
-def _inliers(transform, source, target, sigma_depth, threshold):
+def _inliers(transform, terms, threshold, distances):
     """computeInliersAndError: inlier indices and their RMS Mahalanobis distance
-    (NO_INLIERS_ERROR below three inliers)."""
-    members = np.empty(source.shape[0], dtype=np.int64)
+    (NO_INLIERS_ERROR below three inliers); ``distances`` is scratch space, one per pair."""
+    _distances_into(_top_rows(transform), terms, distances)
+    members = np.empty(distances.shape[0], dtype=np.int64)
     count, total = 0, 0.0
-    r = _top_rows(transform)
-    for n in range(source.shape[0]):
-        distance = _pair_distance(r, (source[n, 0], source[n, 1], source[n, 2]),
-                                  (target[n, 0], target[n, 1], target[n, 2]), sigma_depth)
-        if distance <= threshold:
+    for n in range(distances.shape[0]):
+        if distances[n] <= threshold:
             members[count] = n
             count += 1
-            total += distance
+            total += distances[n]
     error = np.sqrt(total / count) if count >= 3 else NO_INLIERS_ERROR
     return members[:count], error
 
 
 @jit
-def _refine(sample, source, target, weights, sigma_depth, max_distance, min_inliers):
+def _refine(sample, source, target, weights, terms, distances, max_distance, min_inliers):
     """One hypothesis as v2 refines it: (transform, inlier indices, RMS error), no inliers
     when it never reached ``min_inliers`` within ``max_distance``."""
     best_transform = np.eye(4)
@@ -263,7 +317,7 @@ def _refine(sample, source, target, weights, sigma_depth, max_distance, min_inli
     members = sample
     for _ in range(MAX_REFINEMENTS):
         transform = _fit(source, target, weights, members)
-        members, error = _inliers(transform, source, target, sigma_depth, max_distance * max_distance)
+        members, error = _inliers(transform, terms, max_distance * max_distance, distances)
         if len(members) < min_inliers or error > max_distance:
             break
         if len(members) < len(best_members) or error > best_error:
@@ -276,17 +330,18 @@ def _refine(sample, source, target, weights, sigma_depth, max_distance, min_inli
 
 
 @jit
-def _search(samples, source, target, iterations, max_distance, min_inliers, sigma_depth):
+def _search(samples, source, target, terms, iterations, max_distance, min_inliers):
     """v2's hypothesis loop over ``samples``: (transform, inlier indices, RMS error, number
     of hypotheses that reached ``min_inliers``)."""
     count = source.shape[0]
     weights = 1.0 / (source[:, 2] * target[:, 2])
+    distances = np.empty(count)
     best_transform = np.eye(4)
     best_members = samples[0, :0]
     best_error = NO_HYPOTHESIS_ERROR
     valid, drawn = 0, 0
     while drawn < iterations:
-        transform, members, error = _refine(samples[drawn], source, target, weights, sigma_depth, max_distance,
+        transform, members, error = _refine(samples[drawn], source, target, weights, terms, distances, max_distance,
                                             min_inliers)
         drawn += 1
         inliers = len(members)
@@ -315,11 +370,12 @@ def ransac_rigid(source: np.ndarray, target: np.ndarray, *, iterations: int, max
     target = np.ascontiguousarray(target, dtype=np.float64)
     min_inliers = min(min_inliers, int(0.75 * count))
     samples = preferred_samples(count, iterations, rng)
-    transform, members, error, valid = _search(samples, source, target, iterations, float(max_mahalanobis),
-                                               min_inliers, float(sigma_depth))
+    terms = pair_terms(source, target, float(sigma_depth))
+    transform, members, error, valid = _search(samples, source, target, terms, iterations, float(max_mahalanobis),
+                                               min_inliers)
     if valid == 0:
         identity = np.eye(4)
-        members, error = _inliers(identity, source, target, float(sigma_depth), float(max_mahalanobis) ** 2)
+        members, error = _inliers(identity, terms, float(max_mahalanobis) ** 2, np.empty(count))
         if not (len(members) > min_inliers and error < max_mahalanobis):
             return None
         transform = identity

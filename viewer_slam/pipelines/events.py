@@ -5,6 +5,7 @@ Pipelines know nothing of Rerun or files: they return these plain objects from
 Poses are 4x4 ``T_map_camera`` in the pipeline's own map frame; points are in that frame.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -106,14 +107,45 @@ class GraphOptimized:
     error_after: float
 
 
-@dataclass
 class MapUpdated:
-    """Map points ``(N, 3)`` and colours ``(N, 3)`` uint8, added or replacing the map."""
+    """Map points ``(N, 3)`` and colours ``(N, 3)`` uint8, added or replacing the map.
 
-    frame_index: int
-    points: np.ndarray
-    colors: np.ndarray
-    replace: bool = False
+    A whole map rebuilt after each optimisation is costly (every node's cloud moved to its
+    pose) and serves only a sink that shows it: :meth:`deferred` makes the event with the
+    points computed when first read, from inputs fixed when it was made, so a run without a
+    recorder never computes them and a recorder only those it shows.
+    """
+
+    def __init__(self, frame_index: int, points: np.ndarray, colors: np.ndarray, replace: bool = False):
+        self.frame_index, self.replace = frame_index, replace
+        self.point_count = len(points)
+        self._cloud: tuple[np.ndarray, np.ndarray] | None = (points, colors)
+        self._build: Callable[[], tuple[np.ndarray, np.ndarray]] | None = None
+
+    @classmethod
+    def deferred(cls, frame_index: int, build: Callable[[], tuple[np.ndarray, np.ndarray]], point_count: int,
+                 replace: bool = False) -> "MapUpdated":
+        """The event whose ``(points, colors)`` ``build()`` returns, ``point_count`` of them."""
+        event = cls(frame_index, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), replace)
+        event.point_count, event._cloud, event._build = point_count, None, build
+        return event
+
+    @property
+    def points(self) -> np.ndarray:
+        return self._built()[0]
+
+    @property
+    def colors(self) -> np.ndarray:
+        return self._built()[1]
+
+    def _built(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._cloud is None:
+            assert self._build is not None  # a deferred event
+            self._cloud, self._build = self._build(), None
+        return self._cloud
+
+    def __repr__(self) -> str:
+        return f"MapUpdated(frame_index={self.frame_index}, {self.point_count} points, replace={self.replace})"
 
 
 @dataclass

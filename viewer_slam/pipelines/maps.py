@@ -11,13 +11,18 @@ from .events import MapUpdated
 def rebuilt_map(frame_index: int, clouds: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray]],
                 max_points: int) -> MapUpdated:
     """A replacing MapUpdated from ``(pose, camera-frame points, colours)`` per node, every
-    k-th point kept so that at most ``max_points`` remain."""
-    points, colors = [], []
-    for pose, node_points, node_colors in clouds:
-        points.append(transform_points(pose, node_points))
-        colors.append(node_colors)
-    if not points:
+    k-th point kept so that at most ``max_points`` remain; computed when a sink reads it
+    (:meth:`MapUpdated.deferred`), from the poses as they are now."""
+    clouds = [(np.array(pose), points, colors) for pose, points, colors in clouds]
+    total = sum(len(points) for _, points, _ in clouds)
+    if not total:
         return MapUpdated(frame_index, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), replace=True)
-    merged_points, merged_colors = np.concatenate(points), np.concatenate(colors)
-    stride = max(1, -(-len(merged_points) // max_points))
-    return MapUpdated(frame_index, merged_points[::stride].astype(np.float32), merged_colors[::stride], replace=True)
+    stride = max(1, -(-total // max_points))
+    return MapUpdated.deferred(frame_index, lambda: _merged(clouds, stride), -(-total // stride), replace=True)
+
+
+def _merged(clouds: list[tuple[np.ndarray, np.ndarray, np.ndarray]], stride: int) -> tuple[np.ndarray, np.ndarray]:
+    """Every ``stride``-th point of the clouds moved to their poses, as float32, with its colour."""
+    points = np.concatenate([transform_points(pose, node_points) for pose, node_points, _ in clouds])
+    colors = np.concatenate([node_colors for _, _, node_colors in clouds])
+    return points[::stride].astype(np.float32), colors[::stride]

@@ -28,6 +28,7 @@ from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_fr
 from ..errors import InputError
 from ..geometry.trajectory import Trajectory, write_tum
 from ..pipelines.base import Pipeline
+from ..recording.background import RecordingThread
 from ..recording.blueprint import default_blueprint
 from ..recording.loss_causes import log_loss_causes
 from ..recording.recorder import PipelineRecorder, log_frame_image, log_world
@@ -138,7 +139,7 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
         recording = RecordingFile(staged.path(out), out, blueprint, viewer)
         stream = recording.stream
         try:
-            with RecordProgress(total, quiet=options.quiet) as progress:
+            with RecordProgress(total, quiet=options.quiet) as progress, RecordingThread() as background:
                 log_world(stream, groundtruth)
                 for position, name in enumerate(pipelines):
                     if stop.requested:
@@ -147,15 +148,16 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, op
                                                 scene_extent, tracker_counts=name in counted)
 
                     def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
-                        recorder.begin_frame(frame)
+                        background.submit(recorder.begin_frame, frame)
                         if first:  # one copy of each image serves every pipeline's view
-                            log_frame_image(stream, frame)
+                            background.submit(log_frame_image, stream, frame)
 
                     guarded = GuardedSequence(sequence)
                     try:
                         scored = score_run(guarded, runs[name], name, max_frames=options.max_frames,
-                                           stride=options.stride, sinks=[recorder, progress.sink(name)],
+                                           stride=options.stride, sinks=[background.sink(recorder), progress.sink(name)],
                                            frame_sinks=[on_frame], should_stop=stop)
+                        background.drain()  # the run's events are recorded before its evaluation
                     except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
                         if isinstance(error, SystemExit):  # a plugin that exits: that pipeline's failure
                             error = InputError(f"pipeline {name} called sys.exit({error.code!r})")

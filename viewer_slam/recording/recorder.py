@@ -359,7 +359,7 @@ class PipelineRecorder:
         self._log(layout.metric(self.name, "graph_error"), rr.Scalars(float(event.error_after)))
 
     def _map_updated(self, event: MapUpdated) -> None:
-        self._map.update(event.points, event.colors, event.replace)
+        self._map.add(event)
         self._map_budget.dirty = True
 
     # --- growing snapshots --------------------------------------------------------------

@@ -3,6 +3,7 @@
 import numpy as np
 
 from ..open3d_loader import import_open3d
+from ..pipelines.events import MapUpdated
 
 MAX_PENDING_POINTS = 200_000
 
@@ -22,17 +23,23 @@ class VoxelMap:
         self.max_points = max_points
         self._points = np.zeros((0, 3))
         self._colors = np.zeros((0, 3), dtype=np.uint8)
-        self._pending: list[tuple[np.ndarray, np.ndarray]] = []
+        self._pending: list[MapUpdated] = []
         self._pending_points = 0
         self._kept_share = 1.0  # of the points the last downsampling received
 
     def update(self, points: np.ndarray, colors: np.ndarray, replace: bool = False) -> None:
-        if replace:
+        """Add ``points`` with their ``colors`` (or replace the map with them)."""
+        self.add(MapUpdated(0, np.asarray(points, dtype=np.float64).reshape(-1, 3),
+                            np.asarray(colors, dtype=np.uint8).reshape(-1, 3), replace))
+
+    def add(self, update: MapUpdated) -> None:
+        """Add a pipeline's map update; a deferred one (:meth:`MapUpdated.deferred`) is only
+        computed if it is still part of the map when the cloud is next read."""
+        if update.replace:
             self._points, self._colors = self._points[:0], self._colors[:0]
             self._pending, self._pending_points = [], 0
-        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-        self._pending.append((points, np.asarray(colors, dtype=np.uint8).reshape(-1, 3)))
-        self._pending_points += len(points)
+        self._pending.append(update)
+        self._pending_points += update.point_count
         if self._pending_points > MAX_PENDING_POINTS:
             self._fold()
 
@@ -58,8 +65,10 @@ class VoxelMap:
         """Downsample the cloud together with the additions that wait."""
         if not self._pending:
             return
-        points = np.concatenate([self._points, *(p for p, _ in self._pending)])
-        colors = np.concatenate([self._colors, *(c for _, c in self._pending)]).astype(np.float64) / 255.0
+        points = np.concatenate([self._points, *(np.asarray(u.points, dtype=np.float64).reshape(-1, 3)
+                                                 for u in self._pending)])
+        colors = np.concatenate([self._colors, *(np.asarray(u.colors, dtype=np.uint8).reshape(-1, 3)
+                                                 for u in self._pending)]).astype(np.float64) / 255.0
         self._pending, self._pending_points = [], 0
         o3d = import_open3d()
         cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))

@@ -80,7 +80,7 @@ class NodeGraph:
         """The whole map from every node that has a measured pose (v2 does not render
         no-motion nodes), thinned to at most MAX_MAP_POINTS."""
         shown = [node for node in self.nodes.values() if node.measured_pose]
-        samples = sum(int(np.count_nonzero(node.depth)) for node in shown)
+        samples = sum(node.depth_samples for node in shown)
         step = max(1, int(np.ceil(np.sqrt(samples / MAX_MAP_POINTS))))
         return rebuilt_map(frame_index, ((self.poses.poses[node.node_id], *self._cloud(node, camera, step))
                                          for node in shown), MAX_MAP_POINTS)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...frontend.features import Features, match_with_ratios
-from ...frontend.hamming import hamming_nearest_matches, hamming_ratio_matches
+from ...frontend.hamming import PackedDescriptors, hamming_nearest_matches, hamming_ratio_matches
 from ...frontend.ransac import ransac_rigid
 from ...geometry.se3 import rotation_angle
 from .params import RgbdSlamParams
@@ -22,13 +22,21 @@ SORT_JITTER = 1e-3
 
 @dataclass
 class MeasuredFeatures:
-    """Keypoints that have a 3D point."""
+    """Keypoints that have a 3D point; binary descriptors also ``packed`` for matching, once
+    here rather than at each of the dozen comparisons a frame and a node take part in."""
 
     features: Features
+    packed: PackedDescriptors | None = None
 
     @classmethod
     def from_features(cls, features: Features) -> "MeasuredFeatures":
-        return cls(features.subset(features.has_depth))
+        measured = features.subset(features.has_depth)
+        return cls(measured, PackedDescriptors.of(measured.descriptors) if measured.binary else None)
+
+    @property
+    def descriptors(self) -> "np.ndarray | PackedDescriptors":
+        """The descriptors as the matchers take them: packed where binary."""
+        return self.features.descriptors if self.packed is None else self.packed
 
     def __len__(self) -> int:
         return len(self.features)
@@ -76,15 +84,16 @@ def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParam
     half the bits, scored by that distance over the descriptor's bits. Otherwise, and for
     every other descriptor, by the ratio test (a node keypoint matched once), scored by the ratio.
     """
-    query, train = frame.features.descriptors, node.features.descriptors
+    query, train = frame.descriptors, node.descriptors
     if params.matcher_type == "FLANN" and params.feature_detector_type == "ORB":
-        bits = 8 * query.shape[1]
+        bits = 8 * frame.features.descriptors.shape[1]
         frame_index, node_index, distance = hamming_nearest_matches(query, train, bits // 2)
         score = distance / bits
     elif frame.features.binary:
         frame_index, node_index, score = hamming_ratio_matches(query, train, params.nn_distance_ratio)
     else:
-        frame_index, node_index, score = match_with_ratios(query, train, False, params.nn_distance_ratio)
+        frame_index, node_index, score = match_with_ratios(frame.features.descriptors, node.features.descriptors,
+                                                           False, params.nn_distance_ratio)
     order = np.argsort(score + SORT_JITTER * rng.random(len(score)), kind="stable")[:params.max_matches]
     return frame_index[order], node_index[order]
 

@@ -1,6 +1,7 @@
 """Graph nodes: the frames kept for matching, mapping and the environment measurement model."""
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -33,6 +34,11 @@ class Node:
                    rgb: np.ndarray, depth: np.ndarray, segment: int, measured_pose: bool = True) -> "Node":
         return cls(node_id, frame_index, timestamp, measured, np.ascontiguousarray(depth[::MAP_STEP, ::MAP_STEP]),
                    np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]), segment, measured_pose)
+
+    @cached_property
+    def depth_samples(self) -> int:
+        """How many of the kept depth pixels are non-zero (the map's size before thinning)."""
+        return int(np.count_nonzero(self.depth))
 
     def cloud(self, camera: Camera, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Camera-frame points and their colours from the kept depth, every ``step``-th sample."""
