@@ -20,8 +20,9 @@ the nodes' odometry. The original's per-frame odometry comes from its console (o
 ``Iteration`` line per frame, lost when it warns that odometry was reset), everything else
 from its database through viewslam's own reader (``--estimate NAME=rtabmap.db``).
 
-Writes ``OUT/<scene>-s<seed>-<mode>.json`` and ``OUT/tables.md``; with ``--docs``, the tables
-replace the block ``<!-- oracle: <scene> -->`` of docs/pipelines/rtabmap.md.
+Writes ``OUT/<scene>-s<seed>-<mode>-<rule>.json`` and ``OUT/tables.md``; with ``--docs``, the
+tables replace the block ``<!-- oracle: <scene> -->`` (or ``--block``'s) of
+docs/pipelines/rtabmap.md.
 """
 
 import argparse
@@ -277,6 +278,7 @@ def main() -> None:
     parser.add_argument("--param", action="append", default=[], help="KEY=VALUE for ours, on top of the rule's")
     parser.add_argument("--out", type=Path, default=Path("recordings/oracle"))
     parser.add_argument("--docs", action="store_true", help="write the tables into docs/pipelines/rtabmap.md")
+    parser.add_argument("--block", help="the docs block to write (default: the scene's name)")
     args = parser.parse_args()
     if not (args.oracle / "bin" / TOOL).is_file():
         raise SystemExit(f"{args.oracle}: no bin/{TOOL}; give --oracle the RTAB-Map 0.23.8 folder")
@@ -303,15 +305,17 @@ def main() -> None:
                 ours = summarise_ours(folder, rule, args.mode, extra)
                 result = {"scene": args.scene, "seed": seed, "mode": args.mode, "rule": rule, "ours": ours,
                           "original": originals, "frames_sha256": str(listed_path), "overrides": extra}
-                (args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}.json").write_text(
+                (args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}{'-' + args.block if args.block else ''}.json").write_text(
                     json.dumps(result, indent=1) + "\n")
-                sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}", ours, originals))
+                settings = ", ".join(f"{key}={value}" for key, value in extra.items())
+                sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"
+                                      + (f"; ours with {settings}" if settings else ""), ours, originals))
                 print(sections[-1] + "\n", flush=True)
     command = "python benchmarks/oracle.py " + " ".join(arg for arg in sys.argv[1:] if arg != "--docs")
     text = "\n\n".join(sections) + f"\n\n{stamp(command)}"
     (args.out / "tables.md").write_text(text + "\n")
     if args.docs:
-        write_docs(args.scene, text)
+        write_docs(args.block or args.scene, text)
 
 
 if __name__ == "__main__":
