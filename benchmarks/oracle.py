@@ -229,13 +229,17 @@ def resumption_text(resumed: list[tuple[int, int]]) -> str:
     return " / ".join(f"{frame} ({inliers})" for frame, inliers in resumed) or "never"
 
 
+def resumption_spread(originals: list[dict], k: int) -> str:
+    """The k-th resumption's frame and inliers over the runs that have one, and how many do."""
+    having = [run["resumptions"][k] for run in originals if k < len(run["resumptions"])]
+    text = f"{spread([frame for frame, _ in having])} ({spread([inliers for _, inliers in having])})"
+    return text if len(having) == len(originals) else f"{text} in {len(having)} of {len(originals)} runs"
+
+
 def table(title: str, ours: dict, originals: list[dict]) -> str:
     count = max(len(run["resumptions"]) for run in [ours, *originals])
     rows = [("resumes at frame (inliers)", resumption_text(ours["resumptions"]),
-             " / ".join(spread([run["resumptions"][k][0] if k < len(run["resumptions"]) else None
-                                for run in originals]) + " (" +
-                        spread([run["resumptions"][k][1] if k < len(run["resumptions"]) else None
-                                for run in originals]) + ")" for k in range(count)) or "never")]
+             " / ".join(resumption_spread(originals, k) for k in range(count)) or "never")]
     for key, label in (("maps", "maps"), ("joining_links", "loop closures and proximity links between maps"),
                        ("all_joined", "every map joined to the first"), ("loop_closures", "loop closures"),
                        ("proximity", "proximity links"), ("nodes", "nodes"), ("node_ate", "ATE over the nodes (cm)"),
