@@ -11,6 +11,7 @@ before a caller looks inside. What the values mean (types, ranges) the callers c
 import json
 import os
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,26 +25,24 @@ MAX_BYTES = 256 * 2**20
 
 def read_json(path: Path, what: str, max_bytes: int = MAX_BYTES) -> Any:
     """The JSON value in ``path``, ``what`` naming the kind of file in errors."""
-    text = _read_text(Path(path), what, max_bytes)
-    try:
-        data = json.loads(text)
-    except RecursionError:
-        raise _error(path, what, f"nested more than {MAX_DEPTH} levels deep") from None
-    except ValueError as error:  # JSONDecodeError, or an integer too long to convert
-        raise _error(path, what, f"not valid JSON: {' '.join(str(error).split())}") from None
-    _check_depth(data, path, what)
-    return data
+    return _read_document(Path(path), what, max_bytes, json.loads, "JSON")
 
 
 def read_toml(path: Path, what: str, max_bytes: int = MAX_BYTES) -> dict[str, Any]:
     """The TOML document in ``path``, ``what`` naming the kind of file in errors."""
-    text = _read_text(Path(path), what, max_bytes)
+    data: dict[str, Any] = _read_document(Path(path), what, max_bytes, tomllib.loads, "TOML")
+    return data
+
+
+def _read_document(path: Path, what: str, max_bytes: int, parse: Callable[[str], Any], language: str) -> Any:
+    """``parse`` of the file's text, bounded in size and depth; every failure an :class:`InputError`."""
+    text = _read_text(path, what, max_bytes)
     try:
-        data = tomllib.loads(text)
+        data = parse(text)
     except RecursionError:
         raise _error(path, what, f"nested more than {MAX_DEPTH} levels deep") from None
-    except ValueError as error:  # TOMLDecodeError, or an integer too long to convert
-        raise _error(path, what, f"not valid TOML: {' '.join(str(error).split())}") from None
+    except ValueError as error:  # a decoding error, or an integer too long to convert
+        raise _error(path, what, f"not valid {language}: {' '.join(str(error).split())}") from None
     _check_depth(data, path, what)
     return data
 

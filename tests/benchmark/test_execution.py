@@ -4,28 +4,18 @@ import json
 
 import numpy as np
 import pytest
-from benchmark_fake_pipeline import FRAME_RATE_HZ, MODULE, FakeParams, write_tum_folder
+from benchmark_fake_pipeline import FRAME_RATE_HZ, FakeParams, write_tum_folder
 
 from viewer_slam.benchmark.cache import ResultCache, sequence_fingerprint
 from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
 from viewer_slam.benchmark.suite import deliver_files, run_benchmark
-from viewer_slam.pipelines import base
 from viewer_slam.record.options import RecordOptions
 from viewer_slam.record.session import record
 from viewer_slam.runs.report import write_report
 
-
-@pytest.fixture(autouse=True)
-def fake_pipeline(monkeypatch, tmp_path):
-    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
-    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
-
-
-@pytest.fixture
-def folder(tmp_path):
-    return write_tum_folder(tmp_path / "tiny", frames=30)
+pytestmark = pytest.mark.usefixtures("fake_pipeline")
 
 
 def task(folder, name="tiny", **parameters):

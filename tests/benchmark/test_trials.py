@@ -6,7 +6,6 @@ import json
 import statistics
 
 import pytest
-from benchmark_fake_pipeline import MODULE, write_tum_folder
 from matplotlib.container import BarContainer
 
 from viewer_slam.benchmark.cache import ResultCache
@@ -18,22 +17,13 @@ from viewer_slam.benchmark.tables import TRIAL_COLUMNS
 from viewer_slam.benchmark.trials import summarise_pairs
 from viewer_slam.cli import main
 from viewer_slam.comparison.results import compare_results, load_results
-from viewer_slam.pipelines import base
 from viewer_slam.schemas import validator
 
 TRIALS = 3
 SPREAD = ["--param", "wobble_per_seed_m=0.01"]  # seed s: a wobble of 0.01 * (1 + s) m, so the trials differ
 
 
-@pytest.fixture(autouse=True)
-def fake_pipeline(monkeypatch, tmp_path):
-    monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
-    monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
-
-
-@pytest.fixture
-def folder(tmp_path):
-    return write_tum_folder(tmp_path / "tiny", frames=30)
+pytestmark = pytest.mark.usefixtures("fake_pipeline")
 
 
 def benchmark(folder, out, *options) -> int:

@@ -130,17 +130,9 @@ def test_config_reader(text, capfd):
 @pytest.fixture(scope="module")
 def report(tmp_path_factory) -> Path:
     """A report of a 4-frame run of the scripted pipeline, and its trajectory beside it."""
-    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from benchmark_fake_pipeline import recorded_report as record_fake
 
-    from viewer_slam.cli import main
-    from viewer_slam.pipelines import base
-
-    folder = tmp_path_factory.mktemp("run")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
-        sequence = write_tum_folder(folder / "tiny", frames=4)
-        assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(folder / "a.rrd"), "--quiet"]) == 0
-    return folder / "a.json"
+    return record_fake(tmp_path_factory.mktemp("run"))
 
 
 @SETTINGS

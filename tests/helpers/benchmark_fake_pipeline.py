@@ -121,3 +121,21 @@ class FakePipeline(Pipeline):
 
 
 PIPELINE = FakePipeline
+
+
+def recorded_report(folder: Path) -> Path:
+    """The report (``a.json``, its trajectory beside it) of a 4-frame run of this pipeline in ``folder``."""
+    from viewer_slam.cli import main
+    from viewer_slam.pipelines import base
+
+    saved = base.PIPELINE_MODULES.get("fake")
+    base.PIPELINE_MODULES["fake"] = MODULE
+    try:
+        sequence = write_tum_folder(folder / "tiny", frames=4)
+        assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(folder / "a.rrd"), "--quiet"]) == 0
+    finally:
+        if saved is None:
+            del base.PIPELINE_MODULES["fake"]
+        else:
+            base.PIPELINE_MODULES["fake"] = saved
+    return folder / "a.json"

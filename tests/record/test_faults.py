@@ -325,6 +325,7 @@ def test_the_record_summary_is_not_cut_on_a_narrow_console():
 
 def test_benchmark_max_frames_cuts_the_scenario_rendered_at_its_own_length_and_renders_only_the_cut(monkeypatch):
     import viewer_slam.benchmark.plan as plan
+    import viewer_slam.benchmark.runner as runner
 
     rendered = []
 
@@ -332,7 +333,7 @@ def test_benchmark_max_frames_cuts_the_scenario_rendered_at_its_own_length_and_r
         rendered.append((spec, frames, first))
         return Path("/scenarios") / spec
 
-    monkeypatch.setattr(plan, "resolve_sequence", resolve)
+    monkeypatch.setattr(runner, "resolve_sequence", resolve)
     tasks = plan.plan_tasks(["360_kidnap"], ["rgbdslam"], max_frames=60)
     assert rendered == [("360_kidnap", None, 60)] and tasks[0].max_frames == 60
 
@@ -506,16 +507,9 @@ def limit_file_size_to(size: int):
 @pytest.fixture(scope="module")
 def recorded_report(tmp_path_factory) -> Path:
     """The report (and trajectory) of a 4-frame run of the scripted pipeline."""
-    from benchmark_fake_pipeline import MODULE, write_tum_folder
+    from benchmark_fake_pipeline import recorded_report as record_fake
 
-    from viewer_slam.pipelines import base
-
-    folder = tmp_path_factory.mktemp("run")
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
-        sequence = write_tum_folder(folder / "tiny", frames=4)
-        assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(folder / "a.rrd"), "--quiet"]) == 0
-    return folder / "a.json"
+    return record_fake(tmp_path_factory.mktemp("run"))
 
 
 @pytest.mark.parametrize("option, name", [("--out", "d.rrd"), ("--json", "d.json")])
