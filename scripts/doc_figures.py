@@ -180,8 +180,19 @@ def diff() -> str:
 
 
 def diff_table(printed: str) -> str:
-    """What `viewslam diff` printed, less the timing row (timings are no reproducible figure)."""
+    """What `viewslam diff` printed, less the timing row (timings are no reproducible figure),
+    the score table's columns aligned again without it (its numbers set their widths)."""
     lines = [line.rstrip() for line in printed.strip("\n").splitlines() if not line.lstrip().startswith("frames/s")]
+    table = [k for k, line in enumerate(lines) if line.startswith(" ") and line.strip()]
+    rows = {k: re.split(r"\s{2,}", lines[k].strip()) for k in table if not set(lines[k].strip()) <= {"─"}}
+    if rows:
+        columns = max(len(cells) for cells in rows.values())
+        widths = [max(len(cells[c]) for cells in rows.values() if c < len(cells)) for c in range(columns)]
+        for k in table:
+            cells = rows.get(k)
+            lines[k] = (" " + "─" * (sum(widths) + 3 * (columns - 1)) if cells is None else
+                        " " + cells[0].ljust(widths[0]) + "".join("   " + cell.rjust(width)
+                                                                  for cell, width in zip(cells[1:], widths[1:])))
     return "\n".join(["```", *lines, "```"])
 
 

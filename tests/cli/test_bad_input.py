@@ -756,8 +756,9 @@ ENCODINGS = ["ascii", "latin-1"]
 
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_record_prints_its_progress_and_summary_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
+    # A wide terminal: the long temporary path is printed on one line, as the check below reads it.
     result = run_viewslam("record", excerpt, "--out", tmp_path / "run.rrd", "--pipeline", "rgbdslam",
-                          environment={"PYTHONIOENCODING": encoding})
+                          environment={"PYTHONIOENCODING": encoding, "COLUMNS": "400"})
     assert result.returncode == 0, result.stderr
     printed = result.stdout.decode("ascii")  # nothing but ASCII: the table's rules, the dashes of no figure
     assert "rgbdslam" in printed and f"wrote {tmp_path / 'run.rrd'}" in printed and "+-" in printed
