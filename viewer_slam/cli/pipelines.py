@@ -16,7 +16,7 @@ _BOUND_SIGNS = {"ge": ">=", "gt": ">", "le": "<=", "lt": "<"}
 
 @app.command("pipelines")
 def pipelines_command() -> None:
-    """List the pipelines `record --pipeline` and `benchmark --pipelines` accept, with their parameters.
+    """List the pipelines `record --pipeline` and `benchmark --pipeline` accept, with their parameters.
 
     A plugin that cannot be loaded is reported on one line and left out; the others are listed.
     """
