@@ -12,9 +12,10 @@ RTAB-Map databases.
   ``#timestamp [ns],tx,ty,tz,qw,qx,qy,qz``.
 - ``rtabmap``: an ``rtabmap.db``, its nodes' optimised poses (:mod:`.rtabmap_database`).
 
-Detection: a SQLite file is ``rtabmap``; otherwise it looks at the first line that is not blank: a comma-separated header of at least
-eight names, the first a timestamp, means ``euroc``; otherwise 12 numbers on the first data
-line mean ``kitti``; anything else is read as ``tum``.
+Detection: a SQLite file is ``rtabmap``; otherwise it looks at the first line that is not
+blank: a comma-separated header of at least eight names, the first a timestamp, means
+``euroc``; otherwise 12 numbers on the first data line mean ``kitti``; anything else is read
+as ``tum``.
 """
 
 import re
@@ -64,7 +65,7 @@ def read_trajectory(path: Path, format: str | None = None,
     path = Path(path)
     if format is not None and format not in tuple(TrajectoryFormat):
         raise InputError.at(path, f"unknown trajectory format {format!r}; valid: {', '.join(TrajectoryFormat)}")
-    if format == TrajectoryFormat.RTABMAP or (format is None and is_sqlite(path)):
+    if reads_as_rtabmap(path, format):
         return read_rtabmap_database(path).trajectory(), TrajectoryFormat.RTABMAP
     text = read_text(path)
     kind = detect_format(path, text) if format is None else TrajectoryFormat(format)
@@ -73,6 +74,12 @@ def read_trajectory(path: Path, format: str | None = None,
     if kind is TrajectoryFormat.KITTI:
         return _read_kitti(path, text, timestamps), kind
     return _read_euroc(path, text), kind
+
+
+def reads_as_rtabmap(path: Path, format: str | None = None) -> bool:
+    """Whether ``path`` is read as an RTAB-Map database: ``format`` says so, or none is given
+    and the file is SQLite."""
+    return format == TrajectoryFormat.RTABMAP or (format is None and is_sqlite(path))
 
 
 def detect_format(path: Path, text: str | None = None) -> TrajectoryFormat:

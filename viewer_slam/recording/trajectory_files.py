@@ -29,7 +29,6 @@ from .. import palette
 from ..evaluation.coverage import MIN_LOST_GAP_S, median_period
 from ..geometry.trajectory import Trajectory
 from ..runs.files_summary import summary_markdown
-from ..runs.rtabmap_graph import node_edges
 from ..runs.trajectory_files import ScoredFile, ScoredFiles
 from . import layout
 from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time
@@ -111,7 +110,7 @@ def log_graph(stream: rr.RecordingStream, run: ScoredFile, groundtruth: Trajecto
     closures: dict[bool, list[np.ndarray]] = {True: [], False: []}
     for node, frame in zip(nodes, frames):
         lines = [f"{run.name}: new map {node.map_id}"] if node.stamp in run.trajectory.resumptions else []
-        for edge in node_edges(run.database, node):
+        for edge in run.edges[node.id]:
             if edge.detection in ("odometry", "user"):
                 continue
             closures[edge.accepted].append(np.stack([position[edge.from_id], position[edge.to_id]]))

@@ -29,9 +29,9 @@ from ..errors import InputError
 from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.rtabmap_database import RtabmapDatabase, is_sqlite, read_rtabmap_database
+from ..geometry.rtabmap_database import RtabmapDatabase, read_rtabmap_database
 from ..geometry.trajectory import Trajectory
-from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory
+from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory, reads_as_rtabmap
 from ..pipelines.base import RUN_NAME, Pipeline
 from ..pipelines.edges import EdgeClassifier
 from ..pipelines.events import (
@@ -43,7 +43,7 @@ from ..pipelines.events import (
     TrajectoryFinal,
 )
 from ..pipelines.params import PipelineParams
-from .rtabmap_graph import graph_events, node_metrics
+from .rtabmap_graph import edges_by_node, graph_events, node_metrics
 
 ASSOCIATION_MAX_DIFFERENCE_S = 0.02
 
@@ -59,7 +59,7 @@ def read_estimate(path: Path, format: str | None = None, timestamps: np.ndarray 
                   ) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
     """An estimate file (``format``, else detected), the format it was read as and, for an RTAB-Map
     database, the database itself: its nodes, links and statistics say more than its poses."""
-    if format == TrajectoryFormat.RTABMAP or (format is None and is_sqlite(path)):
+    if reads_as_rtabmap(path, format):
         database = read_rtabmap_database(path)
         return database.trajectory(), TrajectoryFormat.RTABMAP, database
     trajectory, detected = read_trajectory(path, format, timestamps)
@@ -120,6 +120,7 @@ class EstimateReplay(Pipeline):
         self._lost_intervals = coverage(span, self.trajectory.timestamps, median_period(frame_stamps),
                                         resumptions=self.trajectory.resumptions).lost_intervals
         self._edges = EdgeClassifier()
+        self._node_edges = edges_by_node(self.database) if self.database else {}
         self._frame_stamps = np.asarray(frame_stamps)
         self._frame_indices: list[int] = []
         self._state: TrackingStatus | None = None
@@ -149,9 +150,8 @@ class EstimateReplay(Pipeline):
     def _node_events(self, frame: Frame, row: int, events: list[Event]) -> list[Event]:
         """A database node's frame: its statistics, the node as a keyframe and its edges; a new
         map says so where tracking resumes."""
-        assert self.database is not None
         node, pose = self._nodes[row], self.trajectory.poses[row]
-        if row > 0 and self._nodes[row - 1].map_id != node.map_id:
+        if node.stamp in self.trajectory.resumptions:
             reason = f"new map {node.map_id} in {Path(self.params.file).name}"
             events = [TrackingRecovered(event.frame_index, event.timestamp, reason)
                       if isinstance(event, TrackingRecovered) else event for event in events]
@@ -160,7 +160,8 @@ class EstimateReplay(Pipeline):
                                features=int(stats.get("Odometry/Features/", 0)),
                                inliers=int(stats.get("Odometry/Inliers/", 0)), keyframe_id=node.id,
                                metrics=node_metrics(node))
-        return [tracked, *events, *graph_events(self.database, node, frame.index, frame.timestamp, pose, self._edges)]
+        return [tracked, *events,
+                *graph_events(node, self._node_edges[node.id], frame.index, frame.timestamp, pose, self._edges)]
 
     def finish(self) -> list[Event]:
         """The estimate's poses in the span of the frames seen, each placed at its nearest frame."""

@@ -32,36 +32,42 @@ class NodeEdge:
     inliers: int = 0
 
 
-def node_edges(database: RtabmapDatabase, node: RtabmapNode) -> list[NodeEdge]:
-    """The edges from earlier nodes to ``node``: its links, then a hypothesis rejected there.
+def edges_by_node(database: RtabmapDatabase) -> dict[int, list[NodeEdge]]:
+    """Each node's edges from earlier nodes (by stamp): its links, then a hypothesis rejected there.
 
     A loop closure carries the node's highest hypothesis value and its visual inliers
     (``Loop/Highest_hypothesis_value/``, ``Loop/Visual_inliers/``)."""
-    stats = node.statistics
-    value, inliers = stats.get("Loop/Highest_hypothesis_value/", 0.0), int(stats.get("Loop/Visual_inliers/", 0))
-    earlier = {other.id for other in database.nodes if (other.stamp, other.id) < (node.stamp, node.id)}
-    edges = []
+    order = {node.id: rank for rank, node in enumerate(database.nodes)}
+    by_id = {node.id: node for node in database.nodes}
+    edges: dict[int, list[NodeEdge]] = {node.id: [] for node in database.nodes}
     for link in database.links:
-        partner = link.from_id if link.to_id == node.id else link.to_id if link.from_id == node.id else None
-        if partner in earlier and link.kind in LINK_DETECTION:
-            loop = LINK_DETECTION[link.kind] == "appearance"
-            edges.append(NodeEdge(partner, node.id, LINK_DETECTION[link.kind], True, f"{link.kind} link",
-                                  value if loop else 0.0, inliers if loop else 0))
-    hypothesis = int(stats.get("Loop/Highest_hypothesis_id/", 0))
-    if stats.get("Loop/RejectedHypothesis/", 0) and hypothesis in earlier:
-        edges.append(NodeEdge(hypothesis, node.id, "appearance", False, REJECTED, value, inliers))
+        if link.kind not in LINK_DETECTION:
+            continue
+        older, newer = sorted((link.from_id, link.to_id), key=order.__getitem__)
+        stats = by_id[newer].statistics
+        loop = LINK_DETECTION[link.kind] == "appearance"
+        edges[newer].append(NodeEdge(older, newer, LINK_DETECTION[link.kind], True, f"{link.kind} link",
+                                     stats.get("Loop/Highest_hypothesis_value/", 0.0) if loop else 0.0,
+                                     int(stats.get("Loop/Visual_inliers/", 0)) if loop else 0))
+    for node in database.nodes:
+        stats = node.statistics
+        hypothesis = int(stats.get("Loop/Highest_hypothesis_id/", 0))
+        if stats.get("Loop/RejectedHypothesis/", 0) and order.get(hypothesis, len(order)) < order[node.id]:
+            edges[node.id].append(NodeEdge(hypothesis, node.id, "appearance", False, REJECTED,
+                                           stats.get("Loop/Highest_hypothesis_value/", 0.0),
+                                           int(stats.get("Loop/Visual_inliers/", 0))))
     return edges
 
 
-def graph_events(database: RtabmapDatabase, node: RtabmapNode, frame_index: int, timestamp: float, pose: np.ndarray,
+def graph_events(node: RtabmapNode, edges: list[NodeEdge], frame_index: int, timestamp: float, pose: np.ndarray,
                  classifier: EdgeClassifier) -> list[Event]:
-    """The node as a keyframe at ``frame_index`` and its edges as graph edges, classified by
-    ``classifier`` (which learns the node), as a pipeline emits them."""
+    """The node as a keyframe at ``frame_index`` and its ``edges`` (:func:`edges_by_node`) as
+    graph edges, classified by ``classifier`` (which learns the node), as a pipeline emits them."""
     classifier.add_node(node.id, node.stamp)
     return [KeyframeAdded(node.id, frame_index, timestamp, pose),
             *[GraphEdge(frame_index, edge.from_id, edge.to_id, edge.accepted, edge.reason,
                         classifier.kind(edge.from_id, edge.to_id), edge.score, edge.inliers, edge.detection)
-              for edge in node_edges(database, node)]]
+              for edge in edges]]
 
 
 def node_metrics(node: RtabmapNode) -> dict[str, float]:

@@ -10,6 +10,7 @@ groundtruth file.
 """
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -25,7 +26,7 @@ from ..pipelines.edges import EdgeClassifier
 from ..pipelines.run import PipelineRun
 from .replay import no_pose_reason, read_estimate
 from .report import pipeline_report, versions
-from .rtabmap_graph import graph_events
+from .rtabmap_graph import NodeEdge, edges_by_node, graph_events
 
 
 @dataclass
@@ -39,6 +40,11 @@ class ScoredFile:
     trajectory: Trajectory
     evaluation: Evaluation
     database: RtabmapDatabase | None = None
+
+    @cached_property
+    def edges(self) -> dict[int, list[NodeEdge]]:
+        """The database's graph edges by node id (:func:`~.rtabmap_graph.edges_by_node`; none for a file)."""
+        return edges_by_node(self.database) if self.database is not None else {}
 
     @property
     def ate(self) -> ErrorSeries:
@@ -82,7 +88,8 @@ class ScoredFile:
             return pipeline_report(run, self.evaluation, None)
         classifier = EdgeClassifier()
         for index, node in enumerate(self.database.nodes):  # the database's poses are its nodes, in order
-            for event in graph_events(self.database, node, index, node.stamp, self.trajectory.poses[index], classifier):
+            for event in graph_events(node, self.edges[node.id], index, node.stamp, self.trajectory.poses[index],
+                                      classifier):
                 run.observe(event)
         return pipeline_report(run, replace(self.evaluation, node_ate=self.evaluation.ate), None)
 
