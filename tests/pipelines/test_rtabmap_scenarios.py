@@ -27,7 +27,8 @@ from viewer_slam.pipelines.events import (
 )
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
-from viewer_slam.pipelines.run import run_pipeline
+from viewer_slam.pipelines.base import make_pipeline
+from viewer_slam.pipelines.run import drive, run_pipeline
 from viewer_slam.runs.report import pipeline_report
 
 pytestmark = pytest.mark.slow
@@ -225,3 +226,34 @@ def test_with_a_memory_threshold_the_weighted_first_place_stays_and_the_loop_is_
     assert np.diff(ltm).max() <= 2
     closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
     assert closures and min(e.from_keyframe for e in closures) <= 1
+
+
+@pytest.mark.parametrize("rule", ["largest", "own"])
+def test_an_odometry_link_carries_the_covariance_the_front_end_passes_on(rule):
+    """rtabmap_ros (CoreWrapper) and RtabmapThread keep, of the registrations since the last
+    location, the covariance whose (0, 0) is largest ("to be independent of the odometry frame
+    rate"); the rtabmap-rgbd_dataset tool passes the location frame's own. Neither adds them up."""
+    sequence, _ = scenario("nostructure_texture_near_withloop", LOOP_FRAMES)
+    params = apply_overrides(RtabmapParams(), {**FAST, "viewslam/LinkCovariance": rule}, "test")
+    pipeline = make_pipeline("rtabmap", sequence.camera, params, 0)
+    registered, linked = [], []
+    process, add_location = pipeline.odometry.process, pipeline.graph.add_location
+
+    def recording_process(*args):
+        result = process(*args)
+        if result.pose is not None:
+            registered.append(result.variance)
+        return result
+
+    def recording_add_location(location, session, pose, variance):
+        linked.append((len(registered), variance))
+        add_location(location, session, pose, variance)
+
+    pipeline.odometry.process, pipeline.graph.add_location = recording_process, recording_add_location
+    drive(pipeline, "rtabmap", sequence, max_frames=40)
+    assert len(linked) >= 4
+    for (before, _), (upto, variance) in zip(linked, linked[1:]):
+        since = registered[before:upto]
+        expected = since[-1] if rule == "own" else max(since, key=lambda v: v.translation)
+        assert variance == expected
+        assert variance.translation < sum(v.translation for v in since)

@@ -27,13 +27,14 @@ ANCHOR_INFORMATION = information_from_sigmas(ANCHOR_SIGMA, ANCHOR_SIGMA)
 @dataclass(frozen=True)
 class Variance:
     """The diagonal of RTAB-Map's registration covariance: each translation axis (m²) and each
-    rotation axis. Variances of successive registrations add up."""
+    rotation axis."""
 
     translation: float = 0.0
     rotation: float = 0.0
 
-    def __add__(self, other: "Variance") -> "Variance":
-        return Variance(self.translation + other.translation, self.rotation + other.rotation)
+    def larger(self, other: "Variance") -> "Variance":
+        """The one with the larger translation variance, as rtabmap_ros compares covariance(0, 0)."""
+        return other if other.translation > self.translation else self
 
 
 def registration_variance(reference: np.ndarray, measured: np.ndarray) -> Variance:
@@ -96,7 +97,7 @@ class LocationGraph:
 
     def add_location(self, location: int, session: int, odometry_pose: np.ndarray, variance: Variance) -> None:
         """Chain a location to the previous one of its session (or anchor a new session);
-        ``variance`` is the odometry's accumulated since the previous location."""
+        ``variance`` is that of the odometry link from the previous location."""
         previous = self.last_of_session.get(session)
         self.odometry[location] = odometry_pose
         self.session[location] = session

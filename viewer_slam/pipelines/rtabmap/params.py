@@ -70,6 +70,13 @@ class RtabmapParams(PipelineParams):
                                   description="viewslam's option, as the rtabmap-rgbd_dataset tool does (not the "
                                               "library): start a new map with the first location after odometry was "
                                               "lost")
+    link_covariance: Literal["largest", "own"] = Field(
+        "largest", alias="viewslam/LinkCovariance",
+        description="viewslam's name for how the front-end the original ran in sets a location's odometry "
+                    "link covariance: 'largest', that of the registration with the largest translation variance "
+                    "since the previous location (rtabmap_ros and RtabmapThread, 'to be independent of the "
+                    "odometry frame rate'), or 'own', the location frame's registration alone (the "
+                    "rtabmap-rgbd_dataset tool)")
     # Locations.
     detection_rate: float = Field(1.0, alias="Rtabmap/DetectionRate", ge=0,
                                   description="locations per second at most (0: every frame)")

@@ -84,7 +84,7 @@ class Rtabmap(Pipeline):
         self.posterior_max = 0.0
         self.lost = False
         self.new_map_due = False               # viewslam/NewMapOnLoss: odometry was lost since the last location
-        self.odometry_variance = Variance()    # accumulated since the last location
+        self.odometry_variance = Variance()    # of the link to the next location (viewslam/LinkCovariance)
         self.records: list[_FrameRecord] = []
         self.cloud_step = max(1, camera.width // CLOUD_POINTS_ACROSS)
 
@@ -111,7 +111,8 @@ class Rtabmap(Pipeline):
                                            f"local map, fewer than Vis/MinInliers {self.params.min_inliers} agree"))
         else:
             status = self._track_status(frame, odometry, events)
-            self.odometry_variance += odometry.variance
+            self.odometry_variance = (self.odometry_variance.larger(odometry.variance)
+                                      if self.params.link_covariance == "largest" else odometry.variance)
             if odometry.new_session or self._detection_due(frame.timestamp):
                 if self.new_map_due:
                     self._begin_map(frame.timestamp)
