@@ -31,11 +31,6 @@ sys.path.insert(0, str(REPO / "scripts"))
 from doc_figures import scratch, stamp, with_block  # noqa: E402  (a script beside this one, not a package)
 
 
-def process_cpu_s() -> float:
-    times = os.times()
-    return times.user + times.system
-
-
 def measure(options: argparse.Namespace) -> list[dict]:
     """Every task of the plan run and measured, in plan order."""
     recordings = scratch() if options.record else None
@@ -43,9 +38,9 @@ def measure(options: argparse.Namespace) -> list[dict]:
                        resolution=parse_resolution(options.resolution), trials=options.trials, recordings=recordings)
     measured = []
     for task in tasks:
-        wall, cpu = time.perf_counter(), process_cpu_s()
+        wall, cpu = time.perf_counter(), lab.process_cpu_s()
         result = execute_task(task)
-        wall, cpu = time.perf_counter() - wall, process_cpu_s() - cpu
+        wall, cpu = time.perf_counter() - wall, lab.process_cpu_s() - cpu
         if not result.ok:
             raise RuntimeError(f"{task.label}: {result.error}")
         measured.append({"sequence": task.name, "pipeline": task.pipeline, "trial": task.trial, "seed": task.seed,
