@@ -18,6 +18,8 @@ from typing import Any, NoReturn
 
 from viewer_slam.dataset.frame import Sequence as FrameSequence
 from viewer_slam.errors import InputError
+from viewer_slam.evaluation import ErrorSeries, evaluate
+from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.base import pipeline_class
 from viewer_slam.pipelines.params import resolve_params
 from viewer_slam.pipelines.run import Sink
@@ -34,18 +36,18 @@ def add_parameter_options(parser: argparse.ArgumentParser, applies_to: str = "th
                         help="parameters from a TOML file, as `viewslam record --config`")
 
 
-def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace, *, preset: Mapping[str, Any] | None = None,
+def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace | None = None, *, preset: Mapping[str, Any] | None = None,
                    last: Mapping[str, Any] | None = None, seed: int = 0) -> dict[str, PipelineSpec]:
     """Each of ``pipelines`` with its parameters validated: the defaults, ``--config``, then
     ``preset`` (a configuration the script replays), ``--param``, and ``last`` (what the script
-    itself varies), each as ``--param`` values."""
-    assignments = [*_assignments(preset), *options.param, *_assignments(last)]
-    params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments,
-                            options.config)
+    itself varies), each as ``--param`` values. Without ``options``, neither ``--config`` nor ``--param``."""
+    given = options or argparse.Namespace(param=[], config=None)
+    assignments = [*_assignments(preset), *given.param, *_assignments(last)]
+    params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, given.config)
     return {name: PipelineSpec(name, params[name], seed) for name in pipelines}
 
 
-def pipeline_spec(pipeline: str, options: argparse.Namespace, *, preset: Mapping[str, Any] | None = None,
+def pipeline_spec(pipeline: str, options: argparse.Namespace | None = None, *, preset: Mapping[str, Any] | None = None,
                   last: Mapping[str, Any] | None = None, seed: int = 0) -> PipelineSpec:
     """One pipeline's run description (see :func:`pipeline_specs`)."""
     return pipeline_specs([pipeline], options, preset=preset, last=last, seed=seed)[pipeline]
@@ -61,6 +63,24 @@ def run(sequence: FrameSequence, spec: RunSpec, name: str, *, max_frames: int | 
     driven over ``sequence``'s first ``max_frames`` frames by the run service and scored."""
     return score_run(sequence, build_run(spec, sequence, max_frames=max_frames), name, max_frames=max_frames,
                      sinks=sinks)
+
+
+def rmse(series: ErrorSeries | None) -> float:
+    """The RMSE of an error series; NaN for none (no groundtruth, no pose paired with it)."""
+    return float("nan") if series is None else float(series.stats()["rmse"])
+
+
+def ate_rmse(groundtruth: Trajectory | None, trajectory: Trajectory | None) -> float:
+    """ATE RMSE (m) of ``trajectory`` against ``groundtruth``, as ``viewslam evaluate`` scores it by
+    default; NaN without either or without a pose."""
+    if groundtruth is None or trajectory is None or not len(trajectory):
+        return float("nan")
+    return rmse(evaluate(groundtruth, trajectory).ate)
+
+
+def arguments(argv: list[str] | None) -> list[str]:
+    """The arguments a script's ``main`` was given: ``argv``, or the command line's."""
+    return sys.argv[1:] if argv is None else argv
 
 
 def process_cpu_s() -> float:

@@ -29,6 +29,7 @@ where the two first diverge and where most.
 import argparse
 import json
 import tempfile
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +45,7 @@ from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.evaluation.rpe import relative_errors
 from viewer_slam.geometry.association import associate
-from viewer_slam.geometry.trajectory import write_tum
+from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
 from viewer_slam.runs.report import build_report, write_report
 from viewer_slam.runs.service import EstimateSpec
@@ -168,8 +169,12 @@ def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) 
     by over 2 cm, and where most."""
     if our_trajectory is None or reference_trajectory is None or len(reference_trajectory) < 3:
         return f"{label}: –"
+    if sequence.groundtruth is None:
+        return f"{label}: no groundtruth"
     ours = evaluate(sequence.groundtruth, our_trajectory).ate
     theirs = evaluate(sequence.groundtruth, reference_trajectory).ate
+    if ours is None or theirs is None:
+        return f"{label}: –"
     ours_at = dict(zip(np.round(ours.timestamps, 4), ours.errors))
     pairs = [(t, ours_at[round(t, 4)], e) for t, e in zip(theirs.timestamps, theirs.errors) if round(t, 4) in ours_at]
     if not pairs:
@@ -209,10 +214,11 @@ def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namesp
         out.mkdir(parents=True, exist_ok=True)
         with StagedFiles() as staged:
             staged.write(report_path, lambda path: write_report(path, report))
-            for name, result in scored.items():
-                staged.write(out / f"{run.name}.{name}.txt", lambda path, result=result: write_tum(path, result.run.trajectory))
-            if ours.odometry is not None:
-                staged.write(out / f"{run.name}.rtabmap-odometry.txt", lambda path: write_tum(path, ours.odometry))
+            trajectories: dict[str, Trajectory | None] = {name: result.run.trajectory for name, result in scored.items()}
+            trajectories["rtabmap-odometry"] = ours.odometry
+            for name, trajectory in trajectories.items():
+                if trajectory is not None:
+                    staged.write(out / f"{run.name}.{name}.txt", partial(write_tum, trajectory=trajectory))
             staged.commit()
         stamps = np.asarray(sequence.timestamps)
         ref_series = reference_series(run, stamps)

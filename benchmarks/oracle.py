@@ -29,6 +29,7 @@ docs/pipelines/rtabmap.md.
 import argparse
 import hashlib
 import json
+import math
 import os
 import re
 import subprocess
@@ -41,11 +42,11 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 
 import numpy as np
 
-from viewer_slam.dataset.sources import open_source
+from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.dataset.synth import generate_scenario
 from viewer_slam.errors import InputError
-from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.rtabmap_database import read_rtabmap_database
+from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
 from viewer_slam.pipelines.params import parse_assignments
 
@@ -212,9 +213,10 @@ def all_joined(maps: list[int], links: list[tuple[int, int]]) -> bool:
     return joined == set(maps)
 
 
-def ate_cm(sequence, trajectory) -> float | None:
-    scores = evaluate(sequence.groundtruth, trajectory).ate if len(trajectory) >= 3 else None
-    return 100 * scores.stats()["rmse"] if scores is not None else None
+def ate_cm(sequence: RgbdSequence, trajectory: Trajectory) -> float | None:
+    """ATE RMSE in cm; None for fewer than 3 poses or none paired with the groundtruth."""
+    rmse = lab.ate_rmse(sequence.groundtruth, trajectory) if len(trajectory) >= 3 else float("nan")
+    return None if math.isnan(rmse) else 100 * rmse
 
 
 def spread(values: list) -> str:
@@ -267,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--docs", action="store_true", help="write the tables into docs/pipelines/rtabmap.md")
     parser.add_argument("--block", help="the docs block to write (default: the scene's name)")
     args = parser.parse_args(argv)
-    arguments = sys.argv[1:] if argv is None else argv
+    arguments = lab.arguments(argv)
     if not (args.oracle / "bin" / TOOL).is_file():
         raise InputError(f"{args.oracle}: no bin/{TOOL}; give --oracle the RTAB-Map 0.23.8 folder")
     block = args.block or args.scene
@@ -285,7 +287,7 @@ def main(argv: list[str] | None = None) -> int:
             listed_path = folder.parent / f"{folder.name}.sha256"
             if not listed_path.is_file():
                 listed_path.write_text("".join(f"{digest}  {name}\n" for name, digest in frame_digests(folder).items()))
-            listed = dict(reversed(line.split("  ", 1)) for line in listed_path.read_text().splitlines())
+            listed = {name: digest for digest, name in (line.split("  ", 1) for line in listed_path.read_text().splitlines())}
             synced(args.oracle, folder)
             sequence = open_source(folder)
             for rule in args.rules:

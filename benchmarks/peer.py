@@ -19,7 +19,6 @@ suite, so never re-run there.
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -27,8 +26,7 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 
 import numpy as np
 
-from viewer_slam.dataset.sources import open_source
-from viewer_slam.evaluation import evaluate
+from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.open3d_loader import import_open3d
 from viewer_slam.runs.report import versions
@@ -105,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(stages))
     block = SEQUENCE_BLOCKS.get(Path(args.sequence).resolve().name)
     if block and args.frames is None and not args.param and not args.config and args.pipelines == DEFAULT_PIPELINES:
-        document(block, invocation("benchmarks.peer", sys.argv[1:] if argv is None else argv), load, rows, stages)
+        document(block, invocation("benchmarks.peer", lab.arguments(argv)), load, rows, stages)
     return 0
 
 
@@ -120,10 +118,9 @@ def document(block: str, command: str, load: float, rows: list[str], stages: lis
     write_block(DOCUMENT, block, text)
 
 
-def _ate_cm(sequence, trajectory: Trajectory | None) -> float:
+def _ate_cm(sequence: RgbdSequence, trajectory: Trajectory | None) -> float:
     """ATE RMSE in cm, NaN for a run without a pose."""
-    evaluation = evaluate(sequence.groundtruth, trajectory) if trajectory is not None and len(trajectory) else None
-    return float("nan") if evaluation is None or evaluation.ate is None else 100 * evaluation.ate.stats()["rmse"]
+    return 100 * lab.ate_rmse(sequence.groundtruth, trajectory)
 
 
 if __name__ == "__main__":

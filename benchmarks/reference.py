@@ -119,7 +119,7 @@ def read_links(run: ReferenceRun) -> list[dict[str, str]]:
 
 def number(text: str | None) -> float:
     """A CSV cell as a number, NaN where it is empty."""
-    return float(text) if text not in ("", None) else float("nan")
+    return float(text) if text else float("nan")
 
 
 def frame_rows(run: ReferenceRun) -> list[dict[str, str]]:

@@ -14,7 +14,6 @@ own process.
 """
 
 import argparse
-import os
 import resource
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
@@ -22,7 +21,6 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 import numpy as np
 
 from viewer_slam.dataset.sources import open_source
-from viewer_slam.evaluation import evaluate
 from viewer_slam.pipelines.events import Event, FrameTracked
 
 from . import lab
@@ -57,10 +55,7 @@ def speed(args: argparse.Namespace) -> None:
         cpu_start = lab.process_cpu_s()
         run = lab.run(sequence, spec, "rgbdslam", max_frames=args.frames, sinks=[collect]).run
         cpu_fps = run.frames / (lab.process_cpu_s() - cpu_start)
-        ate = odometry_ate = float("nan")
-        if sequence.groundtruth is not None and len(run.trajectory.timestamps):
-            ate = evaluate(sequence.groundtruth, run.trajectory).ate.stats()["rmse"]
-            odometry_ate = evaluate(sequence.groundtruth, run.odometry).ate.stats()["rmse"]
+        ate, odometry_ate = (lab.ate_rmse(sequence.groundtruth, trajectory) for trajectory in (run.trajectory, run.odometry))
         cells = " | ".join(f"{np.median(v):.1f} / {np.mean(v):.1f}" for v in stage_ms.values())
         print(f"| {detector} | {run.fps:.1f} | {cpu_fps:.1f} | {cells} | {run.keyframes} | {run.loop_closures_accepted} "
               f"| {ate:.4f} | {odometry_ate:.4f} | {peak_rss_mb():.0f} |", flush=True)
