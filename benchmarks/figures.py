@@ -22,9 +22,10 @@ SHARED_DATA = REPO.parent / "shared" / "data"
 TUM = SHARED_DATA / "tum"
 
 
-def invocation(module: str, arguments: Sequence[str]) -> str:
-    """The command line that runs ``module`` with ``arguments``, as a stamp records it."""
-    return " ".join(["python -m", module, *arguments])
+def invocation(prog: str, arguments: Sequence[str]) -> str:
+    """The command line a script was run with, as a stamp records it: its ``prog`` (``python -m
+    benchmarks.NAME``) and ``arguments``."""
+    return " ".join([prog, *arguments])
 
 
 def stamp(command: str) -> str:

@@ -31,7 +31,6 @@ import json
 import tempfile
 from functools import partial
 from pathlib import Path
-from typing import Any
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
@@ -47,6 +46,7 @@ from viewer_slam.evaluation.rpe import relative_errors
 from viewer_slam.geometry.association import associate
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
+from viewer_slam.pipelines.params import parse_assignments
 from viewer_slam.runs.report import build_report, write_report
 from viewer_slam.runs.service import EstimateSpec
 
@@ -207,7 +207,7 @@ def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namesp
         report = build_report(sequence, blocks, interrupted=False)
         report["sequence"]["path"] = str(frames)
         report["like_for_like"] = {"reference": str(run.folder), "mode": run.mode,
-                                   "overrides": {**run.overrides, **spec_overrides(options)},
+                                   "overrides": {**run.overrides, **parse_assignments(options.param)},
                                    "camera": sequence.camera.to_json(),
                                    "frames_checked": {"listed": listed, "equal": equal,
                                                       "images_differing": differing_images}}
@@ -226,11 +226,6 @@ def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namesp
         summary = summarise(run, blocks, ours, our, ref_series, sequence, replays, report_path,
                             (listed, equal, differing_images), events)
     return summary
-
-
-def spec_overrides(options: argparse.Namespace) -> dict[str, Any]:
-    """The ``--param`` values given, as the report records them (text, as typed)."""
-    return dict(item.split("=", 1) for item in options.param)
 
 
 def first_loss(rows: list[dict]) -> int | None:
@@ -334,7 +329,7 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.like_for_like", description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="*", help="reference run folders (or parts of their names); default: all found")
     parser.add_argument("--reference", type=Path, default=REFERENCE)
     parser.add_argument("--tum", type=Path, default=TUM, help="folder holding the shared TUM excerpts")

@@ -256,7 +256,7 @@ def table(title: str, ours: dict, originals: list[dict]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.oracle", description=__doc__.split("\n\n")[0])
     parser.add_argument("--oracle", type=Path, default=ORACLE, help="the RTAB-Map 0.23.8 build (bin/, lib/)")
     parser.add_argument("--scene", default="360_kidnap")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -308,7 +308,7 @@ def main(argv: list[str] | None = None) -> int:
                 sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"
                                       + (f"; ours with {settings}" if settings else ""), ours, originals))
                 print(sections[-1] + "\n", flush=True)
-    command = invocation("benchmarks.oracle", [arg for arg in arguments if arg != "--docs"])
+    command = invocation(parser.prog, [arg for arg in arguments if arg != "--docs"])
     text = "\n\n".join(sections) + f"\n\n{stamp(command)}"
     (args.out / "tables.md").write_text(text + "\n")
     if args.docs:

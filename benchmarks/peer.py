@@ -70,7 +70,7 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.peer", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=DEFAULT_PIPELINES)
@@ -103,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(stages))
     block = SEQUENCE_BLOCKS.get(Path(args.sequence).resolve().name)
     if block and args.frames is None and not args.param and not args.config and args.pipelines == DEFAULT_PIPELINES:
-        document(block, invocation("benchmarks.peer", lab.arguments(argv)), load, rows, stages)
+        document(block, invocation(parser.prog, lab.arguments(argv)), load, rows, stages)
     return 0
 
 

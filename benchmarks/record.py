@@ -177,7 +177,7 @@ def table(results: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.record", description=__doc__.splitlines()[0])
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--scenario", default="360_kidnap")
     source.add_argument("--sequence", type=Path, help="a TUM folder instead of a synthetic scenario")
@@ -203,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
         "record-cost" if args.scenario == "360_kidnap" else None)
     if block is None:
         return 0
-    command = invocation("benchmarks.record", lab.arguments(argv))
+    command = invocation(parser.prog, lab.arguments(argv))
     loads = f"Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after."
     write_block(DOCUMENT, block, f"{stamp(command)} {loads}\n\n{table(results)}")
     return 0

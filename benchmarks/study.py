@@ -60,7 +60,7 @@ def redraw() -> int:
 
 def main(argv: list[str] | None = None) -> int:
     arguments = lab.arguments(argv)
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.study", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=None, help="frames per scenario (default: each one's own)")
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--jobs", type=int, default=2)
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     report = (options.out / "report.md").read_text()
     table_and_findings = report[report.index("| Sequence |"):report.index("\n## Charts")].replace(
         "## Findings", "**Findings** (written by the benchmark):")
-    write_block(DOCUMENT, "study", f"{stamp(invocation('benchmarks.study', arguments))}\n\n{table_and_findings.strip()}")
+    write_block(DOCUMENT, "study", f"{stamp(invocation(parser.prog, arguments))}\n\n{table_and_findings.strip()}")
     return code
 
 

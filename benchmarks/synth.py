@@ -143,7 +143,7 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.synth", description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, default=150)
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--repeats", type=int, default=1)

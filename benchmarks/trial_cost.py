@@ -64,7 +64,7 @@ def table(measured: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     arguments = lab.arguments(argv)
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.trial_cost", description=__doc__.splitlines()[0])
     parser.add_argument("sequences", nargs="*", default=["360_kidnap"])
     parser.add_argument("--scenario-frames", type=int, default=120)
     parser.add_argument("--resolution", default="640x480")
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     options = parser.parse_args(arguments)
     load = os.getloadavg()[0]
     measured = measure(options)
-    text = (f"{stamp(invocation('benchmarks.trial_cost', arguments))} Load average {load:.1f} at the start (other work shared the cores: "
+    text = (f"{stamp(invocation(parser.prog, arguments))} Load average {load:.1f} at the start (other work shared the cores: "
             f"compare CPU seconds, not wall).\n\n{table(measured)}")
     write_block(DOCUMENT, "trial-cost", text)
     print(text)

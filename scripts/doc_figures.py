@@ -232,7 +232,7 @@ def stale(documents: dict[str, str], figures: dict[str, str]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m scripts.doc_figures", description=__doc__.split("\n\n")[0])
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"blocks to make: {', '.join(FIGURES)} (all by default)")
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a block differs")
     options = parser.parse_args(argv)

@@ -144,7 +144,7 @@ def write_reference(folder: Path, reference: Path = REFERENCE) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m scripts.reference_runs", description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a run differs")
     parser.add_argument("--emulate", default=None, metavar="SETTING",
                         help=f"'all', or one of: {', '.join(SETTINGS)}; {', '.join(MACHINES)}")

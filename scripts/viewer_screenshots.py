@@ -96,7 +96,7 @@ def image_name(name: str, size: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m scripts.viewer_screenshots", description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help=f"figures to take (default: all): {', '.join(FIGURES)}")
     names = parser.parse_args(argv).names or list(FIGURES)
     if unknown := sorted(set(names) - set(FIGURES)):

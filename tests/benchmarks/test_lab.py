@@ -77,7 +77,7 @@ def test_a_block_is_replaced_in_place_and_a_missing_one_named():
 
 
 def test_a_stamp_names_the_command_the_machine_and_the_commit():
-    stamp = figures.stamp(figures.invocation("benchmarks.peer", ["--sequence", "X"]))
+    stamp = figures.stamp(figures.invocation("python -m benchmarks.peer", ["--sequence", "X"]))
     assert stamp.startswith("Made by `python -m benchmarks.peer --sequence X` on ")
     assert " cores), " in stamp and " at " in stamp
 
