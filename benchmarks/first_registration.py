@@ -72,7 +72,8 @@ def best_consensus(camera, object_points: np.ndarray, image_points: np.ndarray, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.first_registration", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.first_registration",
+                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run", default="rgbd_dataset_freiburg1_rpy_200-perframe",
                         help="reference run folder under --reference (a TUM sequence's)")
     parser.add_argument("--reference", type=Path, default=REFERENCE)

@@ -1,5 +1,6 @@
 """What the lab's scripts share with ``viewslam record``: one way to set a pipeline's parameters,
-one way to run it, and one way to end on bad input.
+one way to run it, and one way to end on bad input; and the measures they all take (an ATE
+RMSE, the process's CPU time).
 
 Parameters are read as the command line reads them (:func:`viewer_slam.pipelines.params.resolve_params`):
 the defaults, then ``--config FILE`` (a TOML file, flat keys or one table per pipeline), then
@@ -31,24 +32,27 @@ EXIT_BAD_INPUT = 2
 def add_parameter_options(parser: argparse.ArgumentParser, applies_to: str = "the pipelines that have KEY") -> None:
     """``--param KEY=VALUE`` (repeatable) and ``--config FILE``, as ``viewslam record`` takes them."""
     parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                        help=f"a parameter for {applies_to}, as `viewslam record --param` (repeatable; on top of --config)")
+                        help=f"a parameter for {applies_to}, as `viewslam record --param` "
+                             "(repeatable; on top of --config)")
     parser.add_argument("--config", type=Path, metavar="FILE.toml",
                         help="parameters from a TOML file, as `viewslam record --config`")
 
 
-def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace | None = None, *, preset: Mapping[str, Any] | None = None,
-                   last: Mapping[str, Any] | None = None, seed: int = 0) -> dict[str, PipelineSpec]:
+def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace | None = None, *,
+                   preset: Mapping[str, Any] | None = None, last: Mapping[str, Any] | None = None,
+                   seed: int = 0) -> dict[str, PipelineSpec]:
     """Each of ``pipelines`` with its parameters validated: the defaults, ``--config``, then
     ``preset`` (a configuration the script replays), ``--param``, and ``last`` (what the script
-    itself varies), each as ``--param`` values. Without ``options``, neither ``--config`` nor ``--param``."""
+    itself varies), each as ``--param`` values; without ``options``, no ``--config`` and no ``--param``."""
     given = options or argparse.Namespace(param=[], config=None)
     assignments = [*_assignments(preset), *given.param, *_assignments(last)]
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, given.config)
     return {name: PipelineSpec(name, params[name], seed) for name in pipelines}
 
 
-def pipeline_spec(pipeline: str, options: argparse.Namespace | None = None, *, preset: Mapping[str, Any] | None = None,
-                  last: Mapping[str, Any] | None = None, seed: int = 0) -> PipelineSpec:
+def pipeline_spec(pipeline: str, options: argparse.Namespace | None = None, *,
+                  preset: Mapping[str, Any] | None = None, last: Mapping[str, Any] | None = None,
+                  seed: int = 0) -> PipelineSpec:
     """One pipeline's run description (see :func:`pipeline_specs`)."""
     return pipeline_specs([pipeline], options, preset=preset, last=last, seed=seed)[pipeline]
 

@@ -70,7 +70,8 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.peer", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.peer",
+                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=DEFAULT_PIPELINES)

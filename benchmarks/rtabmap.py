@@ -159,7 +159,8 @@ CASES: dict[str, Callable[[argparse.Namespace], None]] = {"speed": speed, "accur
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.rtabmap", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.rtabmap",
+                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("case", nargs="?", choices=list(CASES), help="one case (default: all)")
     parser.add_argument("only", nargs="?", help="fidelity: only the sequences whose name holds this")
     lab.add_parameter_options(parser, "every case, under the case's own")
