@@ -2,6 +2,8 @@
 
 from collections.abc import Iterator
 
+import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
+
 import numpy as np
 
 from viewer_slam.dataset.frame import Frame, TimedFrames, select_frames
