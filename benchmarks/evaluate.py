@@ -5,14 +5,14 @@ milliseconds, so both associate, align (rigid Horn/Umeyama), and compute the ATE
 RPE translation and rotation. Prints the median wall time of each, the ratio, and checks
 that the numbers agree to 1e-9 relative.
 
-    .venv/bin/python benchmarks/evaluate.py [--poses N] [--repeats R]
+    python -m benchmarks.evaluate [--poses N] [--repeats R]
 """
 
 import argparse
 import copy
 import statistics
-import sys
 import time
+from collections.abc import Callable
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
@@ -22,8 +22,11 @@ from evo.core.trajectory import PoseTrajectory3D
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.evaluation import evaluate
+from viewer_slam.evaluation.rpe import DeltaUnit
 from viewer_slam.geometry.se3 import make_pose
 from viewer_slam.geometry.trajectory import Trajectory
+
+from . import lab
 
 
 def trajectories(count: int, seed: int) -> tuple[Trajectory, Trajectory]:
@@ -40,9 +43,9 @@ def trajectories(count: int, seed: int) -> tuple[Trajectory, Trajectory]:
 
 
 def ours(groundtruth: Trajectory, estimate: Trajectory) -> dict[str, float]:
-    evaluation = evaluate(groundtruth, estimate, delta=1, delta_unit="frames")
-    return {"pairs": len(evaluation.pairs[0]), "ate": evaluation.ate.stats()["rmse"],
-            "rpe_trans": evaluation.rpe_trans.stats()["rmse"], "rpe_rot": evaluation.rpe_rot.stats()["rmse"]}
+    evaluation = evaluate(groundtruth, estimate, delta=1, delta_unit=DeltaUnit.FRAMES)
+    return {"pairs": len(evaluation.pairs[0]), "ate": lab.rmse(evaluation.ate),
+            "rpe_trans": lab.rmse(evaluation.rpe_trans), "rpe_rot": lab.rmse(evaluation.rpe_rot)}
 
 
 def evos(reference: PoseTrajectory3D, estimate: PoseTrajectory3D) -> dict[str, float]:
@@ -61,7 +64,7 @@ def evos(reference: PoseTrajectory3D, estimate: PoseTrajectory3D) -> dict[str, f
     return result
 
 
-def median_seconds(function, repeats: int) -> tuple[float, dict[str, float]]:
+def median_seconds(function: Callable[[], dict[str, float]], repeats: int) -> tuple[float, dict[str, float]]:
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
@@ -70,11 +73,11 @@ def median_seconds(function, repeats: int) -> tuple[float, dict[str, float]]:
     return statistics.median(times), result
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.evaluate", description=__doc__.splitlines()[0])
     parser.add_argument("--poses", type=int, default=20_000)
     parser.add_argument("--repeats", type=int, default=5)
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
 
     groundtruth, estimate = trajectories(args.poses, seed=0)
     evo_reference = PoseTrajectory3D(poses_se3=list(groundtruth.poses), timestamps=groundtruth.timestamps)
@@ -99,4 +102,4 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    lab.main_of(main)

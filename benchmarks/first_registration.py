@@ -1,10 +1,12 @@
 """One registration of viewslam's rtabmap odometry beside the real RTAB-Map's, on the same frames.
 
-    .venv/bin/python benchmarks/first_registration.py                  # frame 1 of fr1/rpy, 200 frames
-    .venv/bin/python benchmarks/first_registration.py --frame 2 --run rgbd_dataset_freiburg1_rpy_200-perframe
+    python -m benchmarks.first_registration                  # frame 1 of fr1/rpy, 200 frames
+    python -m benchmarks.first_registration --frame 2 --run rgbd_dataset_freiburg1_rpy_200-perframe
 
 Frames 0 to ``--frame`` go through our frame-to-map odometry in the original's configuration
-(its intrinsics without distortion, OdomF2M/BundleAdjustment 0; see like_for_like.py). For the
+(its intrinsics without distortion, OdomF2M/BundleAdjustment 0, then ``--config`` and ``--param``;
+see like_for_like). The odometry is stepped frame by frame, not run: its local map is read
+before each registration. For the
 last frame it prints our matches and inliers, the inliers a long RANSAC alone finds among
 our matches (RANSAC_ITERATIONS hypotheses, no refit), and, under the original's own pose for
 that frame (its odometry, relative to frame 0) and under ours, how many points of our local
@@ -16,21 +18,23 @@ below its count, the two differ before matching: in the corners or in the map's 
 """
 
 import argparse
-import sys
 from pathlib import Path
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
 import cv2
 import numpy as np
-from like_for_like import REFERENCE, THAT_BUILD, TUM, ReferenceRun, number, read_nodes, reference_camera
 from scipy.spatial import cKDTree
 
 from viewer_slam.dataset.sources import open_source
+from viewer_slam.errors import InputError
 from viewer_slam.geometry.se3 import invert, transform_points
 from viewer_slam.geometry.trajectory import read_tum
-from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.rtabmap.pipeline import Rtabmap
+
+from . import lab
+from .figures import TUM
+from .reference import REFERENCE, THAT_BUILD, ReferenceRun, number, read_nodes, reference_camera
 
 RANSAC_ITERATIONS = 20_000
 RADII_PX = (1.0, 2.0)
@@ -67,23 +71,25 @@ def best_consensus(camera, object_points: np.ndarray, image_points: np.ndarray, 
     return len(inliers) if ok and inliers is not None else 0
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.first_registration",
+                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run", default="rgbd_dataset_freiburg1_rpy_200-perframe",
                         help="reference run folder under --reference (a TUM sequence's)")
     parser.add_argument("--reference", type=Path, default=REFERENCE)
     parser.add_argument("--tum", type=Path, default=TUM)
     parser.add_argument("--frame", type=int, default=1, help="the registration to look at (frame index, >= 1)")
-    args = parser.parse_args()
+    lab.add_parameter_options(parser, "our odometry, on top of the reference's configuration")
+    args = parser.parse_args(argv)
     if args.frame < 1:
-        raise SystemExit("--frame: 1 or more (frame 0 starts the map)")
+        parser.error("--frame: 1 or more (frame 0 starts the map)")
     name, _, mode = args.run.rpartition("-")
     run = ReferenceRun(args.reference / args.run, name, mode, synthetic=False)
     if not run.folder.is_dir():
-        raise SystemExit(f"{run.folder}: no such reference run")
+        raise InputError(f"{run.folder}: no such reference run")
+    params = lab.pipeline_spec("rtabmap", args, preset=THAT_BUILD).params
     sequence = open_source(args.tum / name)
-    camera = reference_camera(sequence.camera, run)
-    params = RtabmapParams.model_validate(THAT_BUILD)
+    camera = reference_camera(sequence.camera)
     pipeline = Rtabmap(camera, params)
     odometry = pipeline.odometry
     for index in range(args.frame + 1):
@@ -92,7 +98,8 @@ def main() -> None:
         map_points = odometry.map.points.copy()
         result = odometry.process(features, frame.timestamp)
     if result.pose is None:
-        raise SystemExit(f"frame {args.frame}: our odometry found no pose ({result.matches} matches)")
+        print(f"frame {args.frame}: our odometry found no pose ({result.matches} matches)")
+        return 1
     if result.kept is not None:
         features = features.subset(result.kept)
 
@@ -118,7 +125,8 @@ def main() -> None:
     most = most_near_any_pose(camera, map_points, their_pose, features.keypoints, params.pnp_inlier_distance)
     print(f"  any pose near the original's: at most {most} map points with a corner within "
           f"{params.pnp_inlier_distance:g} px")
+    return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    lab.main_of(main)

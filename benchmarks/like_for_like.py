@@ -1,9 +1,9 @@
 """viewslam's rtabmap against the real RTAB-Map 0.23.8, like for like and frame by frame.
 
-    .venv/bin/python benchmarks/like_for_like.py                      # every reference run found
-    .venv/bin/python benchmarks/like_for_like.py rgbd_dataset_freiburg1_rpy_200-perframe
-    .venv/bin/python benchmarks/like_for_like.py 360_kidnap-default --synthetic DIR   # DIR: the rendered scenes
-    .venv/bin/python benchmarks/like_for_like.py ... --param Vis/MinInliers=20 --out DIR
+    python -m benchmarks.like_for_like                      # every reference run found
+    python -m benchmarks.like_for_like rgbd_dataset_freiburg1_rpy_200-perframe
+    python -m benchmarks.like_for_like 360_kidnap-default --synthetic DIR   # DIR: the rendered scenes
+    python -m benchmarks.like_for_like ... --param Vis/MinInliers=20 --out DIR
 
 The reference (``../shared/data/reference/rtabmap-0.23.8``, ``--reference``) holds the
 original's runs, one folder per sequence and mode: ``<sequence>-perframe`` (a node every
@@ -15,7 +15,8 @@ frame: Rtabmap/DetectionRate 0, RGBD/LinearUpdate 0, RGBD/AngularUpdate 0) and
 - the same camera: the intrinsics the original used, without lens distortion (the dataset
   tool reads no distortion coefficients), through a view of the folder with its own
   camera.json;
-- the same mode, and OdomF2M/BundleAdjustment 0 (that build has no g2o).
+- the same mode, and OdomF2M/BundleAdjustment 0 (that build has no g2o); ``--config`` and
+  ``--param`` as ``viewslam record`` takes them, ``--param`` on top of that configuration.
 
 The run is written as ``viewslam record`` writes one (report, trajectory files), with the
 original's optimised graph (``poses_tum.txt``) and its odometry (``db_poses_odom_tum.txt``)
@@ -26,146 +27,54 @@ where the two first diverge and where most.
 """
 
 import argparse
-import csv
-import hashlib
 import json
-import sys
 import tempfile
-from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from viewer_slam.atomic import StagedFiles
+from viewer_slam.comparison.compare import compare_reports
+from viewer_slam.comparison.output import print_comparison
+from viewer_slam.dataset.sources import open_source
+from viewer_slam.errors import InputError
+from viewer_slam.evaluation import evaluate
+from viewer_slam.evaluation.rpe import relative_errors
+from viewer_slam.geometry.association import associate
+from viewer_slam.geometry.trajectory import Trajectory, write_tum
+from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
+from viewer_slam.pipelines.params import parse_assignments
+from viewer_slam.runs.report import build_report, write_report
+from viewer_slam.runs.service import EstimateSpec
 
-from viewer_slam.comparison.compare import compare_reports  # noqa: E402
-from viewer_slam.comparison.output import print_comparison  # noqa: E402
-from viewer_slam.dataset.sources import open_source  # noqa: E402
-from viewer_slam.evaluation.rpe import relative_errors  # noqa: E402
-from viewer_slam.geometry.association import associate  # noqa: E402
-from viewer_slam.geometry.trajectory import write_tum  # noqa: E402
-from viewer_slam.pipelines.base import make_pipeline  # noqa: E402
-from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered  # noqa: E402
-from viewer_slam.pipelines.params import apply_overrides  # noqa: E402
-from viewer_slam.pipelines.rtabmap import RtabmapParams  # noqa: E402
-from viewer_slam.pipelines.run import drive  # noqa: E402
-from viewer_slam.runs.replay import estimate_replay  # noqa: E402
-from viewer_slam.runs.report import build_report, pipeline_report, write_report  # noqa: E402
-from viewer_slam.runs.scoring import evaluate_run  # noqa: E402
+from . import lab
+from .figures import TUM
+from .reference import (
+    REFERENCE,
+    REFERENCE_NAME,
+    ReferenceRun,
+    camera_view,
+    frame_rows,
+    frames_folder,
+    number,
+    read_links,
+    read_nodes,
+    reference_camera,
+    reference_runs,
+    same_frames,
+)
 
-REFERENCE = ROOT.parent / "shared" / "data" / "reference" / "rtabmap-0.23.8"
-TUM = ROOT.parent / "shared" / "data" / "tum"
-REFERENCE_NAME = "rtabmap-0.23.8"
-PER_FRAME = {"Rtabmap/DetectionRate": 0, "RGBD/LinearUpdate": 0, "RGBD/AngularUpdate": 0}
-THAT_BUILD = {"OdomF2M/BundleAdjustment": 0}
-SYNTHETIC_PREFIX = "rgbd_dataset_freiburg"
 FRAME_STAMP_TOLERANCE = 0.005  # s: a pose belongs to the frame taken within this (frames 33 ms apart)
 # A count differs when it is off by more than this share of the reference's (and by more than 2).
 COUNT_TOLERANCE = 0.2
-
-
-@dataclass
-class ReferenceRun:
-    folder: Path
-    sequence: str          # the folder name of the frames
-    mode: str              # "perframe" or "default"
-    synthetic: bool
-
-    @property
-    def name(self) -> str:
-        return self.folder.name
-
-    @property
-    def overrides(self) -> dict:
-        return {**THAT_BUILD, **(PER_FRAME if self.mode == "perframe" else {})}
-
-
-def reference_runs(reference: Path) -> list[ReferenceRun]:
-    runs = []
-    for folder in sorted([*reference.glob("*-perframe"), *reference.glob("*-default"),
-                          *(reference / "synthetic").glob("*-perframe"), *(reference / "synthetic").glob("*-default")]):
-        sequence, _, mode = folder.name.rpartition("-")
-        runs.append(ReferenceRun(folder, sequence, mode, folder.parent.name == "synthetic"))
-    return runs
-
-
-def scene_name(sequence: str) -> str:
-    """``rgbd_dataset_freiburg2_synth_360_kidnap`` -> ``360_kidnap``."""
-    return sequence.split("_synth_", 1)[1] if "_synth_" in sequence else sequence
-
-
-def frames_folder(run: ReferenceRun, tum: Path, synthetic: Path | None) -> Path:
-    if not run.synthetic:
-        return tum / run.sequence
-    if synthetic is None:
-        raise SystemExit(f"{run.name}: a synthetic scene; render it (viewslam synth {scene_name(run.sequence)} "
-                         f"--out DIR/{run.sequence} --resolution 640x480 --seed 0) and pass --synthetic DIR")
-    for candidate in (synthetic / run.sequence, synthetic / scene_name(run.sequence)):
-        if candidate.is_dir():
-            return candidate
-    raise SystemExit(f"{run.name}: no {run.sequence} (or {scene_name(run.sequence)}) under {synthetic}")
-
-
-def same_frames(run: ReferenceRun, folder: Path) -> tuple[int, int, int]:
-    """(files listed, files equal, rgb/depth PNGs that differ) against the reference's SHA-256 list."""
-    listing = run.folder.parent / f"{run.sequence}.sha256"
-    if not listing.is_file():
-        return 0, 0, 0
-    listed = equal = images = 0
-    for line in listing.read_text().splitlines():
-        digest, _, name = line.partition("  ")
-        path = folder / name
-        listed += 1
-        if path.is_file() and hashlib.sha256(path.read_bytes()).hexdigest() == digest:
-            equal += 1
-        elif name.endswith(".png"):
-            images += 1
-    return listed, equal, images
-
-
-def reference_camera(sequence_camera, run: ReferenceRun):
-    """The intrinsics the original used: the same focal lengths and centre, no distortion."""
-    return replace(sequence_camera, distortion=(0.0,) * 5)
-
-
-def camera_view(folder: Path, camera, into: Path) -> Path:
-    """A folder of the same name whose files link to ``folder``'s, with ``camera`` in camera.json."""
-    view = into / folder.name
-    view.mkdir(parents=True, exist_ok=True)
-    for item in folder.iterdir():
-        if item.name != "camera.json" and not (view / item.name).exists():
-            (view / item.name).symlink_to(item.resolve())
-    camera.save(view / "camera.json")
-    return view
+# The original's optimised graph and its odometry, replayed as estimates, by their run names.
+REFERENCE_FILES = {REFERENCE_NAME: "poses_tum.txt", f"{REFERENCE_NAME}-odometry": "db_poses_odom_tum.txt"}
 
 
 # -- the reference's per-frame internals -----------------------------------------------------
-
-def read_nodes(run: ReferenceRun) -> list[dict]:
-    with open(run.folder / "nodes.csv", newline="") as file:
-        return list(csv.DictReader(file))
-
-
-def read_links(run: ReferenceRun) -> list[dict]:
-    with open(run.folder / "links.csv", newline="") as file:
-        return list(csv.DictReader(file))
-
-
-def number(text: str) -> float:
-    return float(text) if text not in ("", None) else float("nan")
-
-
-def frame_rows(run: ReferenceRun) -> list[dict]:
-    """The original's per-frame rows (frames.csv: odometry, lost flag, node, map), or none."""
-    frames_csv = run.folder / "frames.csv"
-    if not frames_csv.is_file():
-        return []
-    with open(frames_csv, newline="") as file:
-        return list(csv.DictReader(file))
-
 
 def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndarray]:
     """Per processed frame (NaN where the original has no node): its statistics."""
@@ -258,11 +167,14 @@ def frame_to_frame(trajectory, sequence) -> str:
 def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) -> str:
     """Per-frame ATE (each aligned to the groundtruth on its own): first frame where ours is worse
     by over 2 cm, and where most."""
-    from viewer_slam.evaluation import evaluate
     if our_trajectory is None or reference_trajectory is None or len(reference_trajectory) < 3:
         return f"{label}: –"
+    if sequence.groundtruth is None:
+        return f"{label}: no groundtruth"
     ours = evaluate(sequence.groundtruth, our_trajectory).ate
     theirs = evaluate(sequence.groundtruth, reference_trajectory).ate
+    if ours is None or theirs is None:
+        return f"{label}: –"
     ours_at = dict(zip(np.round(ours.timestamps, 4), ours.errors))
     pairs = [(t, ours_at[round(t, 4)], e) for t, e in zip(theirs.timestamps, theirs.errors) if round(t, 4) in ours_at]
     if not pairs:
@@ -279,37 +191,36 @@ def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) 
 
 # -- one comparison ----------------------------------------------------------------------------
 
-def compare(run: ReferenceRun, frames: Path, out: Path, extra: dict) -> dict:
+def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namespace) -> dict:
     listed, equal, differing_images = same_frames(run, frames)
-    sequence = open_source(frames)
+    spec = lab.pipeline_spec("rtabmap", options, preset=run.overrides)
     with tempfile.TemporaryDirectory() as views:
-        view = camera_view(frames, reference_camera(sequence.camera, run), Path(views))
-        sequence = open_source(view)
-        params = apply_overrides(apply_overrides(RtabmapParams(), run.overrides, "like_for_like"), extra,
-                                 "--param", text=True)
-        events = []
-        ours = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence,
-                     sinks=[events.append])
-        stamps = np.asarray(sequence.timestamps)
-        replays = {name: drive(estimate_replay(sequence, run.folder / file), name, sequence)
-                   for name, file in ((REFERENCE_NAME, "poses_tum.txt"),
-                                      (f"{REFERENCE_NAME}-odometry", "db_poses_odom_tum.txt"))}
-        blocks, trajectories = {}, {}
-        for name, result in {"rtabmap": ours, **replays}.items():
-            blocks[name] = pipeline_report(result, *evaluate_run(sequence.groundtruth, result, stamps))
-            trajectories[name] = result.trajectory
-        out.mkdir(parents=True, exist_ok=True)
+        sequence = open_source(camera_view(frames, reference_camera(open_source(frames).camera), Path(views)))
+        events: list[Event] = []
+        scored = {"rtabmap": lab.run(sequence, spec, "rtabmap", sinks=[events.append])}
+        scored.update({name: lab.run(sequence, EstimateSpec(run.folder / file), name)
+                       for name, file in REFERENCE_FILES.items()})
+        ours = scored["rtabmap"].run
+        replays = {name: scored[name].run for name in REFERENCE_FILES}
+        blocks = {name: result.report for name, result in scored.items()}
         report_path = out / f"{run.name}.json"
         report = build_report(sequence, blocks, interrupted=False)
         report["sequence"]["path"] = str(frames)
-        report["like_for_like"] = {"reference": str(run.folder), "mode": run.mode, "overrides": {**run.overrides, **extra},
+        report["like_for_like"] = {"reference": str(run.folder), "mode": run.mode,
+                                   "overrides": {**run.overrides, **parse_assignments(options.param)},
                                    "camera": sequence.camera.to_json(),
                                    "frames_checked": {"listed": listed, "equal": equal,
                                                       "images_differing": differing_images}}
-        write_report(report_path, report)
-        for name, trajectory in trajectories.items():
-            write_tum(out / f"{run.name}.{name}.txt", trajectory)
-        write_tum(out / f"{run.name}.rtabmap-odometry.txt", ours.odometry)
+        out.mkdir(parents=True, exist_ok=True)
+        with StagedFiles() as staged:
+            staged.write(report_path, lambda path: write_report(path, report))
+            trajectories: dict[str, Trajectory | None] = {name: result.run.trajectory for name, result in scored.items()}
+            trajectories["rtabmap-odometry"] = ours.odometry
+            for name, trajectory in trajectories.items():
+                if trajectory is not None:
+                    staged.write(out / f"{run.name}.{name}.txt", partial(write_tum, trajectory=trajectory))
+            staged.commit()
+        stamps = np.asarray(sequence.timestamps)
         ref_series = reference_series(run, stamps)
         our = our_series(events, len(stamps))
         summary = summarise(run, blocks, ours, our, ref_series, sequence, replays, report_path,
@@ -417,28 +328,30 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
                           "links": links}}
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.like_for_like", description=__doc__.split("\n\n")[0])
     parser.add_argument("runs", nargs="*", help="reference run folders (or parts of their names); default: all found")
     parser.add_argument("--reference", type=Path, default=REFERENCE)
     parser.add_argument("--tum", type=Path, default=TUM, help="folder holding the shared TUM excerpts")
     parser.add_argument("--synthetic", type=Path, help="folder holding the rendered synthetic scenes")
     parser.add_argument("--out", type=Path, default=Path("recordings/like_for_like"))
-    parser.add_argument("--param", action="append", default=[], help="KEY=VALUE on top of the reference's configuration")
+    lab.add_parameter_options(parser, "ours, on top of the reference's configuration")
     parser.add_argument("--diff", action="store_true", help="also print `viewslam diff` of ours against the original")
-    args = parser.parse_args()
-    extra = dict(item.split("=", 1) for item in args.param)
+    args = parser.parse_args(argv)
     runs = [run for run in reference_runs(args.reference)
             if not args.runs or any(wanted in run.name for wanted in args.runs)]
     if not args.synthetic:
         runs = [run for run in runs if not run.synthetic] if not args.runs else runs
+    if not runs:
+        raise InputError(f"{args.reference}: no reference run" + (f" named like {', '.join(args.runs)}" if args.runs else ""))
     for run in runs:
-        summary = compare(run, frames_folder(run, args.tum, args.synthetic), args.out, extra)
+        summary = compare(run, frames_folder(run, args.tum, args.synthetic), args.out, args)
         if args.diff:
             report = args.out / f"{run.name}.json"
             print_comparison(compare_reports(report, report, (REFERENCE_NAME, "rtabmap")))
         (args.out / f"{run.name}.summary.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    lab.main_of(main)

@@ -1,6 +1,6 @@
 """viewslam's rtabmap beside the real RTAB-Map 0.23.8, run here on the very same frames.
 
-    .venv/bin/python benchmarks/oracle.py --oracle ../shared/oracles/rtabmap-0.23.8 \\
+    python -m benchmarks.oracle --oracle ../shared/oracles/rtabmap-0.23.8 \\
         --scene 360_kidnap --seeds 0 1 2 --runs 3 --rules ros tool --out recordings/oracle
 
 For each scene and seed the scene is rendered (``viewslam synth SCENE --resolution 640x480
@@ -9,7 +9,8 @@ intrinsics from the name) and the SHA-256 of every frame is listed; the original
 times under each loss rule (``tool``: its dataset tool, a new map on every lost frame; ``ros``:
 ``RTABMAP_NO_NEW_MAP=1``, a loss its odometry recovers from continues the map, as rtabmap_ros
 does), ours once under the same rule (``ros``: the defaults; ``tool``: viewslam/NewMapOnLoss),
-both at the defaults (``--mode default``) or with a node on every frame (``--mode perframe``).
+both at the defaults (``--mode default``) or with a node on every frame (``--mode perframe``);
+ours then takes ``--config`` and ``--param`` as ``viewslam record`` does, on top of the rule's.
 Before every run the frames are checked against the list: the comparison is refused if any
 differ. The original is not deterministic; each table gives its min–max over the runs.
 
@@ -28,35 +29,35 @@ docs/pipelines/rtabmap.md.
 import argparse
 import hashlib
 import json
+import math
 import os
 import re
 import subprocess
 import sys
 import tempfile
-from datetime import date
 from pathlib import Path
+from typing import Any
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
 import numpy as np
 
-from viewer_slam.dataset.sources import open_source
+from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.dataset.synth import generate_scenario
-from viewer_slam.evaluation import evaluate
+from viewer_slam.errors import InputError
 from viewer_slam.geometry.rtabmap_database import read_rtabmap_database
-from viewer_slam.pipelines.base import make_pipeline
-from viewer_slam.pipelines.events import FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
-from viewer_slam.pipelines.params import apply_overrides
-from viewer_slam.pipelines.rtabmap import RtabmapParams
-from viewer_slam.pipelines.run import drive
-from viewer_slam.runs.scoring import evaluate_run
+from viewer_slam.geometry.trajectory import Trajectory
+from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
+from viewer_slam.pipelines.params import parse_assignments
 
-ROOT = Path(__file__).resolve().parents[1]
-ORACLE = ROOT.parent / "shared" / "oracles" / "rtabmap-0.23.8"
-DOCS = ROOT / "docs" / "pipelines" / "rtabmap.md"
+from . import lab
+from .figures import REPO, invocation, stamp, write_block, written
+from .reference import PER_FRAME
+
+ORACLE = REPO.parent / "shared" / "oracles" / "rtabmap-0.23.8"
+DOCS = REPO / "docs" / "pipelines" / "rtabmap.md"
 TOOL = "rtabmap-rgbd_dataset"
 ORIGINAL = "RTAB-Map 0.23.8"
-PER_FRAME = {"Rtabmap/DetectionRate": "0", "RGBD/LinearUpdate": "0", "RGBD/AngularUpdate": "0"}
 RULE_PARAMS = {"ros": {}, "tool": {"viewslam/NewMapOnLoss": "true"}}
 RULE_ENV = {"ros": {"RTABMAP_NO_NEW_MAP": "1"}, "tool": {}}
 RULE_TEXT = {"ros": "ROS rule (a loss odometry recovers from continues the map)",
@@ -83,10 +84,11 @@ def frame_digests(folder: Path) -> dict[str, str]:
 
 
 def check_frames(folder: Path, listed: dict[str, str]) -> None:
+    """Refuse frames that differ from ``listed`` (path under the folder -> SHA-256)."""
     now = frame_digests(folder)
     differing = sorted(name for name in listed.keys() | now.keys() if listed.get(name) != now.get(name))
     if differing:
-        raise SystemExit(f"{folder}: {len(differing)} frames differ from the listed SHA-256 (first: {differing[0]}); "
+        raise InputError(f"{folder}: {len(differing)} frames differ from the listed SHA-256 (first: {differing[0]}); "
                          f"no comparison on different frames")
 
 
@@ -116,7 +118,7 @@ def run_original(oracle: Path, folder: Path, out: Path, rule: str, mode: str, sc
     """One run of the dataset tool; its database and console in ``out``."""
     out.mkdir(parents=True, exist_ok=True)
     if not (out / "rtabmap.db").is_file():
-        arguments = [arg for key, value in PER_FRAME.items() for arg in (f"--{key}", value)] if mode == "perframe" else []
+        arguments = [arg for key, value in PER_FRAME.items() for arg in (f"--{key}", str(value))] if mode == "perframe" else []
         environment = {**os.environ, **RULE_ENV[rule], "LD_LIBRARY_PATH": library_path(oracle, scratch)}
         with open(out / "console.log", "w") as console:
             subprocess.run([str(oracle / "bin" / TOOL), "--output", str(out), *arguments, folder.name],
@@ -158,13 +160,13 @@ def summarise_original(run: Path, sequence) -> dict:
 
 # -- ours ---------------------------------------------------------------------------------------
 
-def summarise_ours(folder: Path, rule: str, mode: str, extra: dict[str, str]) -> dict:
+def summarise_ours(folder: Path, rule: str, mode: str, options: argparse.Namespace) -> dict:
     sequence = open_source(folder)
-    overrides = {**RULE_PARAMS[rule], **(PER_FRAME if mode == "perframe" else {}), **extra}
-    params = apply_overrides(RtabmapParams(), overrides, "--param", text=True)
-    events: list = []
-    run = drive(make_pipeline("rtabmap", sequence.camera, params, 0), "rtabmap", sequence, sinks=[events.append])
-    evaluation, odometry = evaluate_run(sequence.groundtruth, run, sequence.timestamps)
+    preset: dict[str, Any] = {**RULE_PARAMS[rule], **(PER_FRAME if mode == "perframe" else {})}
+    events: list[Event] = []
+    scored = lab.run(sequence, lab.pipeline_spec("rtabmap", options, preset=preset), "rtabmap",
+                     sinks=[events.append])
+    run, evaluation = scored.run, scored.evaluation
     tracked = sorted((event for event in events if isinstance(event, FrameTracked)), key=lambda e: e.frame_index)
     session, session_of = 0, {}
     for event in sorted((e for e in events if isinstance(e, (KeyframeAdded, TrackingRecovered))),
@@ -186,8 +188,8 @@ def summarise_ours(folder: Path, rule: str, mode: str, extra: dict[str, str]) ->
         "loop_closures": sum(e.detection == "appearance" for e in closures),
         "proximity": sum(e.detection == "proximity" for e in closures),
         "nodes": int(nodes.sum()),
-        "node_ate": 100 * evaluation.node_ate.stats()["rmse"] if evaluation.node_ate is not None else None,
-        "frame_ate": 100 * evaluation.ate.stats()["rmse"] if evaluation.ate is not None else None,
+        "node_ate": 100 * evaluation.node_ate.stats()["rmse"] if evaluation and evaluation.node_ate else None,
+        "frame_ate": 100 * evaluation.ate.stats()["rmse"] if evaluation and evaluation.ate else None,
         "odometry_ate": ate_cm(sequence, run.odometry.subset(nodes)) if run.odometry is not None else None,
     }
 
@@ -211,9 +213,10 @@ def all_joined(maps: list[int], links: list[tuple[int, int]]) -> bool:
     return joined == set(maps)
 
 
-def ate_cm(sequence, trajectory) -> float | None:
-    scores = evaluate(sequence.groundtruth, trajectory).ate if len(trajectory) >= 3 else None
-    return 100 * scores.stats()["rmse"] if scores is not None else None
+def ate_cm(sequence: RgbdSequence, trajectory: Trajectory) -> float | None:
+    """ATE RMSE in cm; None for fewer than 3 poses or none paired with the groundtruth."""
+    rmse = lab.ate_rmse(sequence.groundtruth, trajectory) if len(trajectory) >= 3 else float("nan")
+    return None if math.isnan(rmse) else 100 * rmse
 
 
 def spread(values: list) -> str:
@@ -252,26 +255,8 @@ def table(title: str, ours: dict, originals: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def stamp(command: str) -> str:
-    """The command, the machine, the date and the commit a table came from."""
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), "unknown CPU")
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, check=False).stdout.strip() or "unknown commit"
-    return f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, viewslam at {commit}."
-
-
-def write_docs(scene: str, text: str) -> None:
-    begin, end = f"<!-- oracle: {scene} -->", f"<!-- /oracle: {scene} -->"
-    docs = DOCS.read_text()
-    if begin not in docs:
-        raise SystemExit(f"{DOCS}: no block {begin}")
-    head, rest = docs.split(begin, 1)
-    DOCS.write_text(f"{head}{begin}\n{text}\n{end}{rest.split(end, 1)[1]}")
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.oracle", description=__doc__.split("\n\n")[0])
     parser.add_argument("--oracle", type=Path, default=ORACLE, help="the RTAB-Map 0.23.8 build (bin/, lib/)")
     parser.add_argument("--scene", default="360_kidnap")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -279,14 +264,22 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3, help="runs of the original per seed, rule and mode")
     parser.add_argument("--rules", nargs="+", choices=sorted(RULE_PARAMS), default=["ros", "tool"])
     parser.add_argument("--mode", choices=["default", "perframe"], default="default")
-    parser.add_argument("--param", action="append", default=[], help="KEY=VALUE for ours, on top of the rule's")
+    lab.add_parameter_options(parser, "ours, on top of the rule's")
     parser.add_argument("--out", type=Path, default=Path("recordings/oracle"))
     parser.add_argument("--docs", action="store_true", help="write the tables into docs/pipelines/rtabmap.md")
     parser.add_argument("--block", help="the docs block to write (default: the scene's name)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
+    arguments = lab.arguments(argv)
     if not (args.oracle / "bin" / TOOL).is_file():
-        raise SystemExit(f"{args.oracle}: no bin/{TOOL}; give --oracle the RTAB-Map 0.23.8 folder")
-    extra = dict(item.split("=", 1) for item in args.param)
+        raise InputError(f"{args.oracle}: no bin/{TOOL}; give --oracle the RTAB-Map 0.23.8 folder")
+    block = args.block or args.scene
+    if args.docs:
+        try:
+            written(DOCS.read_text(), block, "oracle")
+        except ValueError as error:
+            raise InputError(f"{DOCS}: {error}") from None
+    lab.pipeline_spec("rtabmap", args)  # the parameters checked before the first render
+    extra = parse_assignments(args.param)
     sections = []
     with tempfile.TemporaryDirectory() as scratch:
         for seed in args.seeds:
@@ -294,7 +287,7 @@ def main() -> None:
             listed_path = folder.parent / f"{folder.name}.sha256"
             if not listed_path.is_file():
                 listed_path.write_text("".join(f"{digest}  {name}\n" for name, digest in frame_digests(folder).items()))
-            listed = dict(reversed(line.split("  ", 1)) for line in listed_path.read_text().splitlines())
+            listed = {name: digest for digest, name in (line.split("  ", 1) for line in listed_path.read_text().splitlines())}
             synced(args.oracle, folder)
             sequence = open_source(folder)
             for rule in args.rules:
@@ -306,7 +299,7 @@ def main() -> None:
                                        rule, args.mode, Path(scratch))
                     originals.append(summarise_original(run, sequence))
                 check_frames(folder, listed)
-                ours = summarise_ours(folder, rule, args.mode, extra)
+                ours = summarise_ours(folder, rule, args.mode, args)
                 result = {"scene": args.scene, "seed": seed, "mode": args.mode, "rule": rule, "ours": ours,
                           "original": originals, "frames_sha256": str(listed_path), "overrides": extra}
                 (args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}{'-' + args.block if args.block else ''}.json").write_text(
@@ -315,12 +308,13 @@ def main() -> None:
                 sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"
                                       + (f"; ours with {settings}" if settings else ""), ours, originals))
                 print(sections[-1] + "\n", flush=True)
-    command = "python benchmarks/oracle.py " + " ".join(arg for arg in sys.argv[1:] if arg != "--docs")
+    command = invocation(parser.prog, [arg for arg in arguments if arg != "--docs"])
     text = "\n\n".join(sections) + f"\n\n{stamp(command)}"
     (args.out / "tables.md").write_text(text + "\n")
     if args.docs:
-        write_docs(args.block or args.scene, text)
+        write_block(DOCS, block, text, "oracle")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    lab.main_of(main)

@@ -1,9 +1,11 @@
 """A peer baseline measured in the same run: Open3D's RGB-D odometry beside viewslam's pipelines.
 
-    python benchmarks/peer.py [--sequence SPEC] [--frames N] [--pipelines rgbdslam rtabmap] [--param KEY=VALUE]
+    python -m benchmarks.peer [--sequence SPEC] [--frames N] [--pipelines rgbdslam rtabmap]
+                              [--param KEY=VALUE ...] [--config FILE.toml]
 
 Open3D's frame-to-frame RGB-D odometry (the hybrid photometric and geometric term, its
-default) runs over exactly the frames each pipeline gets, recording off. Every figure comes
+default) runs over exactly the frames each pipeline gets, recording off; the pipelines run
+through the run service, as ``viewslam record`` runs them, with its parameters. Every figure comes
 with its ratio to Open3D's, and ratios measured in one run on one machine hold across
 machines where absolute frames per second do not. CPU frames per second use the process's
 CPU time, which other load on a shared machine does not inflate. Each pipeline's mean
@@ -17,7 +19,6 @@ suite, so never re-run there.
 
 import argparse
 import os
-import sys
 import time
 from pathlib import Path
 
@@ -25,29 +26,20 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 
 import numpy as np
 
-from viewer_slam.dataset.sources import open_source
-from viewer_slam.evaluation import evaluate
+from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.open3d_loader import import_open3d
-from viewer_slam.pipelines.base import pipeline_class
-from viewer_slam.pipelines.params import resolve_params
-from viewer_slam.pipelines.run import run_pipeline
 from viewer_slam.runs.report import versions
 
-REPO = Path(__file__).resolve().parents[1]
-DEFAULT_SEQUENCE = str(REPO.parent / "shared/data/tum/rgbd_dataset_freiburg1_rpy_200")
+from . import lab
+from .figures import REPO, TUM, invocation, stamp, write_block
+
+DEFAULT_SEQUENCE = str(TUM / "rgbd_dataset_freiburg1_rpy_200")
 DEFAULT_PIPELINES = ["rgbdslam", "rtabmap"]
 DEPTH_TRUNC_M = 4.0
 DOCUMENT = REPO / "docs" / "pipelines.md"
 # TUM folders whose figures docs/pipelines.md shows, by folder name, and their block.
 SEQUENCE_BLOCKS = {"rgbd_dataset_freiburg1_rpy_200": "peer-fr1-rpy-200", "rgbd_dataset_freiburg1_rpy": "peer-fr1-rpy-87"}
-sys.path.insert(0, str(REPO / "scripts"))
-from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
-
-
-def process_cpu_s() -> float:
-    times = os.times()
-    return times.user + times.system
 
 
 def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float, float]:
@@ -59,7 +51,7 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
                                                   camera.cx, camera.cy)
     jacobian, option = odometry.RGBDOdometryJacobianFromHybridTerm(), odometry.OdometryOption()
     stamps, poses, previous = [], [], None
-    wall, cpu = time.perf_counter(), process_cpu_s()
+    wall, cpu = time.perf_counter(), lab.process_cpu_s()
     for frame in sequence.frames(max_frames=max_frames):
         rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
             o3d.geometry.Image(np.ascontiguousarray(frame.rgb)), o3d.geometry.Image(frame.depth.astype(np.float32)),
@@ -74,19 +66,19 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
         stamps.append(frame.timestamp)
         poses.append(pose)
         previous = rgbd
-    return Trajectory(np.array(stamps), np.stack(poses)), time.perf_counter() - wall, process_cpu_s() - cpu
+    return Trajectory(np.array(stamps), np.stack(poses)), time.perf_counter() - wall, lab.process_cpu_s() - cpu
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.peer",
+                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=DEFAULT_PIPELINES)
-    parser.add_argument("--param", action="append", default=[],
-                        help="KEY=VALUE for the pipelines that have KEY, as `viewslam record --param`")
-    args = parser.parse_args()
+    lab.add_parameter_options(parser)
+    args = parser.parse_args(argv)
     load = os.getloadavg()[0]
-    params = resolve_params({name: pipeline_class(name).Params for name in args.pipelines}, args.param)
+    specs = lab.pipeline_specs(args.pipelines, args)
     sequence = open_source(args.sequence)
     frames = min(len(sequence), args.frames or len(sequence))
     print(f"sequence {sequence.name}: {frames} frames, {sequence.camera.width}x{sequence.camera.height}")
@@ -100,10 +92,10 @@ def main() -> None:
             f"{peer_cpu_fps:.1f} (1.00) |"]
     print("\n".join(rows))
     stages = []
-    for name in args.pipelines:
-        cpu = process_cpu_s()
-        run = run_pipeline(sequence, name, params[name], seed=0, max_frames=args.frames)
-        cpu_fps = run.frames / (process_cpu_s() - cpu)
+    for name, spec in specs.items():
+        cpu = lab.process_cpu_s()
+        run = lab.run(sequence, spec, name, max_frames=args.frames).run
+        cpu_fps = run.frames / (lab.process_cpu_s() - cpu)
         ate, odometry_ate = (_ate_cm(sequence, trajectory) for trajectory in (run.trajectory, run.odometry))
         rows.append(f"| {name} | {ate:.2f} cm | {odometry_ate:.2f} cm | {run.fps:.1f} ({run.fps / peer_fps:.2f}) | "
                     f"{cpu_fps:.1f} ({cpu_fps / peer_cpu_fps:.2f}) |")
@@ -111,27 +103,26 @@ def main() -> None:
         print(rows[-1], flush=True)
     print("\n".join(stages))
     block = SEQUENCE_BLOCKS.get(Path(args.sequence).resolve().name)
-    if block and args.frames is None and not args.param and args.pipelines == DEFAULT_PIPELINES:
-        write_block(block, load, rows, stages)
+    if block and args.frames is None and not args.param and not args.config and args.pipelines == DEFAULT_PIPELINES:
+        document(block, invocation(parser.prog, lab.arguments(argv)), load, rows, stages)
+    return 0
 
 
-def write_block(block: str, load: float, rows: list[str], stages: list[str]) -> None:
-    """The table and the stage times into docs/pipelines.md, stamped."""
+def document(block: str, command: str, load: float, rows: list[str], stages: list[str]) -> None:
+    """The table and the stage times into docs/pipelines.md, stamped with ``command``."""
     installed = versions()
-    command = " ".join([".venv/bin/python benchmarks/peer.py", *sys.argv[1:]])
     text = (f"{stamp(command)} Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after; "
             f"OpenCV {installed['opencv']}, GTSAM {installed['gtsam']}, Open3D {installed['open3d']}.\n\n"
             + "\n".join(rows)
             + "\n\nMean milliseconds per frame by stage, by the wall clock (the report's `timing`; stages "
             "that run on threads of their own overlap): " + "; ".join(stages) + ".")
-    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), block, text))
+    write_block(DOCUMENT, block, text)
 
 
-def _ate_cm(sequence, trajectory: Trajectory | None) -> float:
+def _ate_cm(sequence: RgbdSequence, trajectory: Trajectory | None) -> float:
     """ATE RMSE in cm, NaN for a run without a pose."""
-    evaluation = evaluate(sequence.groundtruth, trajectory) if trajectory is not None and len(trajectory) else None
-    return float("nan") if evaluation is None or evaluation.ate is None else 100 * evaluation.ate.stats()["rmse"]
+    return 100 * lab.ate_rmse(sequence.groundtruth, trajectory)
 
 
 if __name__ == "__main__":
-    main()
+    lab.main_of(main)

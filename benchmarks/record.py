@@ -1,18 +1,19 @@
 """What a recording costs: size per frame, time next to the pipelines', peak memory.
 
-    python benchmarks/record.py [--scenario 360_kidnap | --sequence TUM_FOLDER] [--frames 200]
+    python -m benchmarks.record [--scenario 360_kidnap | --sequence TUM_FOLDER] [--frames 200]
                                 [--repeats 3] [--memory-frames 2500]
 
 1. Size and time: records ``--frames`` frames of a synthetic scenario at 640x480 (or of a
    TUM folder) with both pipelines. Size is the .rrd's bytes per frame. Time is measured
    two ways: the CPU time spent inside the recorder's calls (events, images, evaluation
    series, on the recorder's own thread) as a share of the pipelines' own wall time, and the wall time of
-   `record` against the same pipelines run with no sink at all (this also charges Rerun's
-   background encoder and writer threads, and the run's diagnosis and evaluation). Both are
+   `record` against the same pipelines run with no sink at all, the frame loop alone (this
+   also charges Rerun's background encoder and writer threads, and the run's diagnosis and
+   evaluation). Both are
    run ``--repeats`` times, alternately, after a short run of each that loads what they load
    once; the figures are the median run's, with the range of the ratio over the repeats (the
    machine's other load moves single runs).
-2. Memory: both pipelines recorded over ``--memory-frames`` frames in a child process,
+2. Memory: both pipelines recorded over ``--memory-frames`` frames in a process of its own,
    which reports its peak RSS. Rendering thousands of synthetic frames takes longer than
    the measurement itself, so the long sequence plays the short one forwards, backwards,
    forwards... (continuous motion, time running on, groundtruth following the frames).
@@ -26,47 +27,48 @@ too costly for the test suite, so never re-run there.
 
 import argparse
 import json
+import multiprocessing
 import os
 import resource
-import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
+from unittest.mock import patch
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
-import numpy as np
-
-from viewer_slam.dataset.frame import Frame, select_frames
 from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
-from viewer_slam.dataset.tum import TumSequence
-from viewer_slam.geometry.trajectory import Trajectory
-from viewer_slam.pipelines.base import PIPELINE_MODULES, make_pipeline
+from viewer_slam.pipelines.base import PIPELINE_MODULES
 from viewer_slam.pipelines.run import run_pipeline
 from viewer_slam.record import session
 from viewer_slam.record.options import RecordOptions
 from viewer_slam.record.session import record, record_sequence
+from viewer_slam.runs.service import build_run
+
+from . import lab
+from .figures import REPO, invocation, stamp, write_block
+from .streams import PingPong
 
 RESOLUTION = (640, 480)
 WARM_UP_FRAMES = 10
 # TUM folders whose figures docs/recording.md shows, by folder name, and their block.
 SEQUENCE_BLOCKS = {"rgbd_dataset_freiburg1_rpy_200": "record-cost-fr1-rpy-200"}
-REPO = Path(__file__).resolve().parent.parent
 DOCUMENT = REPO / "docs" / "recording.md"
-sys.path.insert(0, str(REPO / "scripts"))
-from doc_figures import stamp, with_block  # noqa: E402  (a script beside this one, not a package)
 
 
 class Stopwatch:
     """Accumulates the CPU time of the calling thread spent in the functions it wraps."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.seconds = 0.0
 
-    def wrap(self, function):
-        def timed(*args, **kwargs):
+    def wrap(self, function: Callable[..., Any]) -> Callable[..., Any]:
+        def timed(*args: Any, **kwargs: Any) -> Any:
             start = time.thread_time()
             try:
                 return function(*args, **kwargs)
@@ -75,29 +77,26 @@ class Stopwatch:
         return timed
 
 
-def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict, float, float]:
+def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict[str, Any], float, float]:
     """Record with every recorder entry point timed; (report, recorder seconds, wall seconds)."""
     watch = Stopwatch()
-    recorder_class = session.PipelineRecorder
 
-    class TimedRecorder(recorder_class):
-        __call__ = watch.wrap(recorder_class.__call__)
-        begin_frame = watch.wrap(recorder_class.begin_frame)
+    class TimedRecorder(session.PipelineRecorder):
+        __call__ = watch.wrap(session.PipelineRecorder.__call__)
+        begin_frame = watch.wrap(session.PipelineRecorder.begin_frame)
 
-    originals = (session.PipelineRecorder, session.log_frame_image, session.log_evaluation)
-    session.PipelineRecorder = TimedRecorder
-    session.log_frame_image = watch.wrap(session.log_frame_image)
-    session.log_evaluation = watch.wrap(session.log_evaluation)
-    try:
+    with (patch.object(session, "PipelineRecorder", TimedRecorder),
+          patch.object(session, "log_frame_image", watch.wrap(session.log_frame_image)),
+          patch.object(session, "log_evaluation", watch.wrap(session.log_evaluation))):
         start = time.perf_counter()
         result = record(RecordOptions(sequence=str(folder), out=out, max_frames=frames, quiet=True))
         wall = time.perf_counter() - start
-    finally:
-        session.PipelineRecorder, session.log_frame_image, session.log_evaluation = originals
     return result.report, watch.seconds, wall
 
 
 def bare_pipelines(folder: Path, frames: int) -> float:
+    """Wall seconds of the pipelines' frame loops alone: no sink, no diagnosis, no scoring (the
+    run service's first step, which ``record`` runs with everything else around it)."""
     sequence = open_source(folder)
     start = time.perf_counter()
     for name in PIPELINE_MODULES:
@@ -132,47 +131,20 @@ def size_and_time(folder: Path, frames: int, repeats: int, scratch: Path) -> dic
     return {**median, "wall_ratios": [run["wall_ratio"] for run in runs]}
 
 
-class PingPong:
-    """``length`` frames of ``sequence`` played forwards, backwards, forwards, ... at its frame rate."""
-
-    def __init__(self, sequence: TumSequence, length: int):
-        period = 2 * len(sequence) - 2
-        step = np.arange(length)
-        phase = step % period
-        self._sequence = sequence
-        self._source = np.where(phase < len(sequence), phase, period - phase)
-        self.timestamps = sequence.timestamps[0] + step * np.median(np.diff(sequence.timestamps))
-        poses, _ = sequence.groundtruth_at(sequence.timestamps[self._source])
-        self.groundtruth = Trajectory(self.timestamps, poses)
-        self.name, self.path, self.camera = f"{sequence.name}-pingpong-{length}", sequence.path, sequence.camera
-
-    def __len__(self) -> int:
-        return len(self.timestamps)
-
-    @property
-    def duration_s(self) -> float:
-        return float(self.timestamps[-1] - self.timestamps[0])
-
-    def frames(self, max_frames=None, stride=1):
-        for index in select_frames(len(self), max_frames, stride):
-            source = self._sequence.frame(int(self._source[index]))
-            yield Frame(index, float(self.timestamps[index]), source.rgb, source.depth)
-
-
-def measure_memory(folder: Path, frames: int, out: Path) -> None:
-    """Child process: record both pipelines over the ping-pong sequence, print peak RSS in GiB."""
+def measure_memory(folder: Path, frames: int, out: Path) -> dict[str, Any]:
+    """In a process of its own: record both pipelines over the ping-pong sequence; peak RSS in GiB."""
     sequence = PingPong(open_source(folder), frames)
-    runs = {name: make_pipeline(name, sequence.camera) for name in PIPELINE_MODULES}
+    runs = {name: build_run(spec, sequence) for name, spec in lab.pipeline_specs(list(PIPELINE_MODULES)).items()}
     result = record_sequence(sequence, runs, out, RecordOptions(quiet=True))
-    print(json.dumps({"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
-                      "kib_per_frame": out.stat().st_size / 1024 / frames,
-                      "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}))
+    return {"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+            "kib_per_frame": out.stat().st_size / 1024 / frames,
+            "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}
 
 
-def peak_memory(folder: Path, frames: int, out: Path) -> dict:
-    command = [sys.executable, __file__, "--memory-child", str(folder), "--memory-frames", str(frames),
-               "--out", str(out)]
-    return json.loads(subprocess.run(command, check=True, capture_output=True, text=True).stdout)
+def peak_memory(folder: Path, frames: int, out: Path) -> dict[str, Any]:
+    """:func:`measure_memory` in a fresh process, whose peak RSS is the recording's alone."""
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as process:
+        return process.submit(measure_memory, folder, frames, out).result()
 
 
 def table(results: dict) -> str:
@@ -204,21 +176,15 @@ def table(results: dict) -> str:
     return "\n".join(line for row in rows for line in row) + f"\n\n{text}."
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.record", description=__doc__.splitlines()[0])
     source = parser.add_mutually_exclusive_group()
     source.add_argument("--scenario", default="360_kidnap")
     source.add_argument("--sequence", type=Path, help="a TUM folder instead of a synthetic scenario")
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3, help="record and no-sink runs, alternately")
     parser.add_argument("--memory-frames", type=int, default=2500)
-    parser.add_argument("--memory-child", type=Path, help=argparse.SUPPRESS)
-    parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
-    args = parser.parse_args()
-    if args.memory_child:
-        measure_memory(args.memory_child, args.memory_frames, args.out)
-        return
-
+    args = parser.parse_args(argv)
     load = os.getloadavg()[0]
     results = {"source": str(args.sequence) if args.sequence else args.scenario, "frames": args.frames}
     with tempfile.TemporaryDirectory() as scratch:
@@ -236,11 +202,12 @@ def main() -> None:
     block = SEQUENCE_BLOCKS.get(args.sequence.resolve().name) if args.sequence else (
         "record-cost" if args.scenario == "360_kidnap" else None)
     if block is None:
-        return
-    command = " ".join(["python benchmarks/record.py", *sys.argv[1:]])
+        return 0
+    command = invocation(parser.prog, lab.arguments(argv))
     loads = f"Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after."
-    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), block, f"{stamp(command)} {loads}\n\n{table(results)}"))
+    write_block(DOCUMENT, block, f"{stamp(command)} {loads}\n\n{table(results)}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    lab.main_of(main)

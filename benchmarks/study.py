@@ -1,7 +1,7 @@
 """Reproduce the study: the seven synthetic situations x both pipelines, into docs/benchmark.md.
 
-    .venv/bin/python benchmarks/study.py [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
-    .venv/bin/python benchmarks/study.py --redraw
+    python -m benchmarks.study [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
+    python -m benchmarks.study --redraw
 
 Generates the scenarios first, one process per job (rendering dominates a cold run), then
 runs ``viewslam benchmark`` on them, copies its charts to ``docs/images/`` and writes its
@@ -13,36 +13,36 @@ chart code, from the table the last run wrote into docs/benchmark.md (its number
 
 import argparse
 import shutil
-import sys
 from concurrent.futures import ProcessPoolExecutor
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from viewer_slam.atomic import StagedFiles
 from viewer_slam.benchmark.plots import plot_all
-from viewer_slam.cli import main
+from viewer_slam.cli import main as viewslam
 from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, cached_scenario
 
-REPO = Path(__file__).resolve().parent.parent
+from . import lab
+from .figures import REPO, invocation, stamp, write_block, written
+
 IMAGES = REPO / "docs" / "images"
 DOCUMENT = REPO / "docs" / "benchmark.md"
-sys.path.insert(0, str(REPO / "scripts"))
-from doc_figures import stamp, with_block, written  # noqa: E402  (a script beside this one, not a package)
 
 # The charted columns of the results table, by their titles there.
 CHARTED = {"ATE RMSE [m]": "ate_rmse", "RPE trans RMSE [m]": "rpe_trans_rmse", "RPE rot RMSE [deg]": "rpe_rot_rmse",
            "Time [s]": "time_s", "Coverage": "coverage", "Penalised ATE RMSE [m]": "penalized_ate_rmse"}
 
 
-def documented_rows(document: str) -> list[dict]:
+def documented_rows(document: str) -> list[dict[str, Any]]:
     """The study block's results table as chart rows; "-" is a score that does not exist."""
     table = [line for line in written(document, "study").splitlines() if line.startswith("| ")]  # not "|---|"
     header = [cell.strip() for cell in table[0].strip("|").split("|")]
     rows = []
     for line in table[1:]:
         cells = dict(zip(header, (cell.strip() for cell in line.strip("|").split("|"))))
-        row = {"sequence": cells["Sequence"], "pipeline": cells["Pipeline"], "status": cells["Status"]}
+        row: dict[str, Any] = {"sequence": cells["Sequence"], "pipeline": cells["Pipeline"], "status": cells["Status"]}
         for title, metric in CHARTED.items():
             text = cells[title].removesuffix("%").strip()
             row[metric] = None if text == "-" else float(text) / (100 if title == "Coverage" else 1)
@@ -58,8 +58,9 @@ def redraw() -> int:
     return 0
 
 
-def run(arguments: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    arguments = lab.arguments(argv)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.study", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=None, help="frames per scenario (default: each one's own)")
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--jobs", type=int, default=2)
@@ -73,7 +74,7 @@ def run(arguments: list[str]) -> int:
         for name, folder in zip(SCENARIOS, pool.map(generate, SCENARIOS)):
             print(f"{name}: {folder}", flush=True)
     size = ["--scenario-frames", str(options.frames)] if options.frames else []
-    code = main(["benchmark", *size, "--resolution", options.resolution, "--jobs", str(options.jobs),
+    code = viewslam(["benchmark", *size, "--resolution", options.resolution, "--jobs", str(options.jobs),
                  "--out", str(options.out)])
     IMAGES.mkdir(parents=True, exist_ok=True)
     for chart in sorted(options.out.glob("benchmark_*")):
@@ -81,10 +82,9 @@ def run(arguments: list[str]) -> int:
     report = (options.out / "report.md").read_text()
     table_and_findings = report[report.index("| Sequence |"):report.index("\n## Charts")].replace(
         "## Findings", "**Findings** (written by the benchmark):")
-    command = "python benchmarks/study.py " + " ".join(arguments)
-    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), "study", f"{stamp(command.strip())}\n\n{table_and_findings.strip()}"))
+    write_block(DOCUMENT, "study", f"{stamp(invocation(parser.prog, arguments))}\n\n{table_and_findings.strip()}")
     return code
 
 
 if __name__ == "__main__":
-    sys.exit(run(sys.argv[1:]))
+    lab.main_of(main)

@@ -1,6 +1,6 @@
 """Generation speed of the synthetic scenarios, and the contact sheet of docs/scenarios.md.
 
-    .venv/bin/python benchmarks/synth.py [--frames 150] [--resolution 640x480]
+    python -m benchmarks.synth [--frames 150] [--resolution 640x480]
         [--scenarios NAME ...] [--workers 2] [--sheet docs/images/scenarios_contact_sheet.png] [--no-speed]
         [--stages SCENARIO]
 
@@ -30,6 +30,8 @@ import numpy as np
 
 from viewer_slam.cli.options import parse_resolution
 from viewer_slam.dataset.synth import SCENARIOS, generate_scenario, preview_frames
+
+from . import lab
 
 
 def cpu_seconds() -> float:
@@ -140,8 +142,8 @@ def stage_profile(name: str, resolution, frames: int = 12) -> None:
     print(f"  {'total':28s} {1000 * sum(totals.values()) / frames:7.1f}")
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.synth", description=__doc__.split("\n")[0])
     parser.add_argument("--frames", type=int, default=150)
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--repeats", type=int, default=1)
@@ -150,7 +152,7 @@ def main() -> None:
     parser.add_argument("--sheet", type=Path, help="also write the contact sheet (PNG) of the scenarios")
     parser.add_argument("--no-speed", action="store_true", help="skip the speed measurement")
     parser.add_argument("--stages", metavar="SCENARIO", help="also time each stage of rendering SCENARIO's frames")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     resolution = parse_resolution(args.resolution)
     if not args.no_speed:
         measure_speed(args.scenarios, args.frames, resolution, args.repeats, args.workers)
@@ -159,7 +161,8 @@ def main() -> None:
     if args.sheet:
         contact_sheet(args.scenarios, args.sheet, resolution)
         print(f"contact sheet: {args.sheet}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    lab.main_of(main)

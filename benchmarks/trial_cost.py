@@ -1,7 +1,7 @@
 """The cost of one benchmark trial, into docs/benchmark.md (the figure block ``trial-cost``).
 
-    .venv/bin/python benchmarks/trial_cost.py [SEQUENCE ...] [--scenario-frames N] [--resolution WxH]
-                                              [--trials N] [--record]
+    python -m benchmarks.trial_cost [SEQUENCE ...] [--scenario-frames N] [--resolution WxH]
+                                    [--trials N] [--record]
 
 Runs the tasks `viewslam benchmark SEQUENCE --trials N` plans, one after another in this
 process, through the benchmark's own task function (no pool, no cache): each timed by wall
@@ -17,7 +17,6 @@ import pickle
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
@@ -25,15 +24,10 @@ from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.runner import execute_task
 from viewer_slam.cli.options import parse_resolution
 
-REPO = Path(__file__).resolve().parent.parent
+from . import lab
+from .figures import REPO, invocation, scratch, stamp, write_block
+
 DOCUMENT = REPO / "docs" / "benchmark.md"
-sys.path.insert(0, str(REPO / "scripts"))
-from doc_figures import scratch, stamp, with_block  # noqa: E402  (a script beside this one, not a package)
-
-
-def process_cpu_s() -> float:
-    times = os.times()
-    return times.user + times.system
 
 
 def measure(options: argparse.Namespace) -> list[dict]:
@@ -43,9 +37,9 @@ def measure(options: argparse.Namespace) -> list[dict]:
                        resolution=parse_resolution(options.resolution), trials=options.trials, recordings=recordings)
     measured = []
     for task in tasks:
-        wall, cpu = time.perf_counter(), process_cpu_s()
+        wall, cpu = time.perf_counter(), lab.process_cpu_s()
         result = execute_task(task)
-        wall, cpu = time.perf_counter() - wall, process_cpu_s() - cpu
+        wall, cpu = time.perf_counter() - wall, lab.process_cpu_s() - cpu
         if not result.ok:
             raise RuntimeError(f"{task.label}: {result.error}")
         measured.append({"sequence": task.name, "pipeline": task.pipeline, "trial": task.trial, "seed": task.seed,
@@ -68,8 +62,9 @@ def table(measured: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def run(arguments: list[str]) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    arguments = lab.arguments(argv)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.trial_cost", description=__doc__.splitlines()[0])
     parser.add_argument("sequences", nargs="*", default=["360_kidnap"])
     parser.add_argument("--scenario-frames", type=int, default=120)
     parser.add_argument("--resolution", default="640x480")
@@ -78,13 +73,12 @@ def run(arguments: list[str]) -> int:
     options = parser.parse_args(arguments)
     load = os.getloadavg()[0]
     measured = measure(options)
-    command = "python benchmarks/trial_cost.py " + " ".join(arguments)
-    text = (f"{stamp(command.strip())} Load average {load:.1f} at the start (other work shared the cores: "
+    text = (f"{stamp(invocation(parser.prog, arguments))} Load average {load:.1f} at the start (other work shared the cores: "
             f"compare CPU seconds, not wall).\n\n{table(measured)}")
-    DOCUMENT.write_text(with_block(DOCUMENT.read_text(), "trial-cost", text))
+    write_block(DOCUMENT, "trial-cost", text)
     print(text)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(run(sys.argv[1:]))
+    lab.main_of(main)

@@ -7,55 +7,31 @@ Each figure block of a document sits between two markers,
     <!-- /figures: NAME -->
 
 and is made by running, as a user would, the commands that the document shows beside it.
-`python scripts/doc_figures.py` re-runs every block and rewrites the documents;
+`python -m scripts.doc_figures` re-runs every block and rewrites the documents;
 `--check` writes nothing and exits 1 naming each block that no longer matches;
-names select blocks (`python scripts/doc_figures.py --check demo`). The tests run the
+names select blocks (`python -m scripts.doc_figures --check demo`). The tests run the
 same functions, so a figure that drifts from what its command prints fails the suite.
 Commands run with this interpreter's viewslam, in temporary folders, with the cache the
 environment names (`VIEWSLAM_CACHE`); the demo is recorded once for the blocks that read it.
 """
 
 import argparse
-import atexit
 import functools
 import json
-import os
 import re
-import shutil
 import subprocess
 import sys
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import date
 from pathlib import Path
 
 import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to one code path)
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
-TUM_RPY = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy"
+from benchmarks.figures import REPO, SHARED_DATA, TUM, scratch, with_block, written
 
-
-def stamp(command: str) -> str:
-    """Where a figure too costly for the test suite came from: the command, the machine, the
-    date, and the version and commit of viewslam that ran it."""
-    from viewer_slam import __version__
-
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), "unknown CPU")
-    commit = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, check=False).stdout.strip() or "unknown commit"
-    return (f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, "
-            f"viewslam {__version__} at {commit}.")
-
-
-def scratch() -> Path:
-    """A new temporary folder, removed when this process ends."""
-    folder = Path(tempfile.mkdtemp(prefix="viewslam-figures-"))
-    atexit.register(shutil.rmtree, folder, ignore_errors=True)
-    return folder
+TUM_RPY = TUM / "rgbd_dataset_freiburg1_rpy"
 
 
 def viewslam(*args: str, cwd: Path | None = None) -> str:
@@ -95,9 +71,13 @@ def segments() -> str:
     report = json.loads((demo_run() / "demo.json").read_text())
     sequence = open_source(Path(report["sequence"]["path"]))
     lines = []
+    if sequence.groundtruth is None:
+        raise RuntimeError(f"{sequence.path}: the demo has no groundtruth")
     for name in report["pipelines"]:
         trajectory = read_tum(demo_run() / f"demo.{name}.txt")
         evaluation = evaluate(sequence.groundtruth, trajectory, frame_period=sequence.frame_period)
+        if evaluation.ate is None or evaluation.segment_ate is None:
+            raise RuntimeError(f"demo.{name}.txt: no pose paired with the groundtruth")
         tracked = np.isin(np.round(sequence.timestamps, 6), np.round(trajectory.timestamps, 6))
         lost = _runs(np.flatnonzero(~tracked))
         first_loss = sequence.timestamps[lost[0][0]] if lost else np.inf
@@ -196,7 +176,7 @@ def diff_table(printed: str) -> str:
     return "\n".join(["```", *lines, "```"])
 
 
-STUDY_COPY = REPO.parent / "shared" / "data" / "study_kasar2018"
+STUDY_COPY = SHARED_DATA / "study_kasar2018"
 STUDY_SEQUENCES = ("fr2/360_kidnap", "fr3/long_office_household", "fr3/nostructure_notexture_near_withloop",
                    "fr3/sitting_static")
 
@@ -241,24 +221,6 @@ FIGURES = {
 }
 
 
-def _block(name: str) -> re.Pattern[str]:
-    return re.compile(rf"(<!-- figures: {name} -->\n)(.*?)(<!-- /figures: {name} -->)", re.DOTALL)
-
-
-def written(text: str, name: str) -> str:
-    """The block ``name`` as the document holds it."""
-    found = _block(name).search(text)
-    if found is None:
-        raise ValueError(f"no figure block {name!r}")
-    return found.group(2).removesuffix("\n")
-
-
-def with_block(text: str, name: str, content: str) -> str:
-    """The document with the block ``name`` replaced by ``content``."""
-    written(text, name)
-    return _block(name).sub(lambda found: found.group(1) + content + "\n" + found.group(3), text)
-
-
 def made(name: str) -> str:
     """The block ``name`` as its commands print it now."""
     return FIGURES[name].make()
@@ -269,11 +231,11 @@ def stale(documents: dict[str, str], figures: dict[str, str]) -> list[str]:
     return [name for name, content in figures.items() if written(documents[FIGURES[name].document], name) != content]
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m scripts.doc_figures", description=__doc__.split("\n\n")[0])
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"blocks to make: {', '.join(FIGURES)} (all by default)")
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a block differs")
-    options = parser.parse_args()
+    options = parser.parse_args(argv)
     unknown = set(options.names) - FIGURES.keys()
     if unknown:
         parser.error(f"no figure block {', '.join(sorted(unknown))}")

@@ -1,8 +1,8 @@
 """The reference runs, whose bytes every x86-64 machine with AVX2 must reproduce.
 
-    python scripts/reference_runs.py                  # record them; rewrite tests/reference_runs/
-    python scripts/reference_runs.py --check          # record them; exit 1 naming each difference
-    python scripts/reference_runs.py --check --emulate all   # once per CPU setting, each alone
+    python -m scripts.reference_runs                  # record them; rewrite tests/reference_runs/
+    python -m scripts.reference_runs --check          # record them; exit 1 naming each difference
+    python -m scripts.reference_runs --check --emulate all   # once per CPU setting, each alone
 
 The runs: `viewslam record` of the built-in demo (rendered anew, into a cache of the run's own)
 and of the 200-frame fr1/rpy excerpt, both pipelines, seed 0. `tests/reference_runs/` keeps
@@ -30,9 +30,10 @@ from pathlib import Path
 
 from viewer_slam.code_paths import cpu_flags
 
-REPO = Path(__file__).resolve().parents[1]
+from benchmarks.figures import REPO, TUM
+
 REFERENCE = REPO / "tests" / "reference_runs"
-TUM_RPY_200 = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy_200"
+TUM_RPY_200 = TUM / "rgbd_dataset_freiburg1_rpy_200"
 RUNS = ("demo", "rpy200")
 PIPELINES = ("rgbdslam", "rtabmap")
 AVX512 = ("avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl")
@@ -142,13 +143,13 @@ def write_reference(folder: Path, reference: Path = REFERENCE) -> None:
     (reference / "SHA256SUMS").write_text("".join(f"{digest}  {name}\n" for name, digest in digests(folder).items()))
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m scripts.reference_runs", description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a run differs")
     parser.add_argument("--emulate", default=None, metavar="SETTING",
                         help=f"'all', or one of: {', '.join(SETTINGS)}; {', '.join(MACHINES)}")
-    options = parser.parse_args()
-    settings = {"this machine's defaults": {}}
+    options = parser.parse_args(argv)
+    settings: dict[str, dict[str, str]] = {"this machine's defaults": {}}
     if options.emulate == "all":
         settings = runnable(SETTINGS)
     elif options.emulate:

@@ -1,6 +1,6 @@
 """Takes the viewer screenshots of docs/images/ from recordings made as a user would make them.
 
-    python scripts/viewer_screenshots.py [demo] [fr1_rpy_200] [diff] [study_kidnap]
+    python -m scripts.viewer_screenshots [demo] [fr1_rpy_200] [diff] [study_kidnap]
 
 Each recording is made by the commands listed in FIGURES (in a temporary folder, with this
 interpreter's viewslam), then opened by the Rerun viewer under Xvfb at 1920x1080 and
@@ -30,12 +30,13 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 import numpy as np
 from PIL import Image
 
-REPO = Path(__file__).resolve().parents[1]
+from benchmarks.figures import REPO, SHARED_DATA, TUM
+
 IMAGES = REPO / "docs" / "images"
 VIEWSLAM = Path(sys.executable).with_name("viewslam")
 RERUN = Path(sys.executable).with_name("rerun")
-RPY_200 = REPO.parent / "shared" / "data" / "tum" / "rgbd_dataset_freiburg1_rpy_200"
-KIDNAP = REPO.parent / "shared" / "data" / "study_kasar2018" / "freiburg2_360_kidnap"
+RPY_200 = TUM / "rgbd_dataset_freiburg1_rpy_200"
+KIDNAP = SHARED_DATA / "study_kasar2018" / "freiburg2_360_kidnap"
 SIZES = ("1920x1080", "1280x800")
 PER_FRAME = ("demo", "fr1_rpy_200")  # recordings of a sequence's frames: their size per frame is reported
 
@@ -94,10 +95,10 @@ def image_name(name: str, size: str) -> str:
     return f"{stem}.png" if size == SIZES[0] else f"{stem}_{size}.png"
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m scripts.viewer_screenshots", description=__doc__.splitlines()[0])
     parser.add_argument("names", nargs="*", help=f"figures to take (default: all): {', '.join(FIGURES)}")
-    names = parser.parse_args().names or list(FIGURES)
+    names = parser.parse_args(argv).names or list(FIGURES)
     if unknown := sorted(set(names) - set(FIGURES)):
         parser.error(f"unknown figure {', '.join(unknown)}; choose from {', '.join(FIGURES)}")
     if shutil.which("xvfb-run") is None:

@@ -15,7 +15,7 @@ import pytest
 from fixtures_eval import SHARED_DATA
 
 TUM_RPY_200 = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200"
-REFERENCE_RUNS = Path(__file__).resolve().parents[1] / "reference_runs"  # scripts/reference_runs.py writes it
+REFERENCE_RUNS = Path(__file__).resolve().parents[1] / "reference_runs"  # `python -m scripts.reference_runs` writes it
 ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
                                      "NUMBA_NUM_THREADS", "OPENCV_FOR_THREADS_NUM")}
 

@@ -1,17 +1,16 @@
 """The figures of README.md and docs/ that commands produce are what those commands print now:
-scripts/doc_figures.py re-runs them (the demo, the README's estimate example, the diff
+`python -m scripts.doc_figures` re-runs them (the demo, the README's estimate example, the diff
 example of docs/diagnosis.md), and a block that no longer matches fails here."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
 from fixtures_eval import TUM_RPY
 
+from benchmarks.figures import with_block, written
+from scripts import doc_figures
+
 REPO = Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("doc_figures", REPO / "scripts" / "doc_figures.py")
-doc_figures = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(doc_figures)
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")]
 
@@ -32,8 +31,8 @@ def test_every_figure_block_is_what_its_commands_print(figures, documents):
 
 def test_a_doctored_figure_is_found(figures, documents):
     readme = documents["README.md"]
-    block = doc_figures.written(readme, "demo")
+    block = written(readme, "demo")
     digit = next(i for i, character in enumerate(block) if character.isdigit())
     doctored = block[:digit] + str((int(block[digit]) + 1) % 10) + block[digit + 1:]
-    assert doc_figures.stale({**documents, "README.md": doc_figures.with_block(readme, "demo", doctored)},
+    assert doc_figures.stale({**documents, "README.md": with_block(readme, "demo", doctored)},
                              figures) == ["demo"]

@@ -1,23 +1,18 @@
 """The same bytes on every x86-64 machine with AVX2: the reference runs (the built-in demo and
 the 200-frame fr1/rpy excerpt, both pipelines) give the committed digests of
 tests/reference_runs/ here, and again under emulated machines whose libraries take other
-code paths (scripts/reference_runs.py). A machine that computes differently is named by the
+code paths (`python -m scripts.reference_runs`). A machine that computes differently is named by the
 first file and frame that differ."""
 
-import importlib.util
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 from viewer_slam.code_paths import guaranteed
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("reference_runs", REPO / "scripts" / "reference_runs.py")
-reference_runs = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(reference_runs)
+from scripts import reference_runs
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(not reference_runs.TUM_RPY_200.is_dir(),
                                                    reason="shared TUM excerpt not present beside the repository")]

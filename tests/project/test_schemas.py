@@ -1,18 +1,18 @@
 """The JSON Schemas of viewslam's outputs: real outputs validate, doctored ones do not, and
-docs/report-schema.md is what scripts/schema_docs.py generates from them.
+docs/report-schema.md is what `python -m scripts.schema_docs` generates from them.
 
 The outputs are real: `record` with both pipelines, `evaluate --json` and `benchmark` on a
 60-frame synthetic kidnap at 320x240 (rendered once per session, a few seconds each).
 """
 
 import copy
-import importlib.util
 import json
 from pathlib import Path
 
 import pytest
 from jsonschema import Draft202012Validator
 
+from scripts import schema_docs
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.schemas import load_schema, schema_names, validator
@@ -159,8 +159,5 @@ def test_a_doctored_benchmark_row_fails(benchmark_out, doctor):
 
 
 def test_the_schema_page_is_generated_from_the_schemas():
-    spec = importlib.util.spec_from_file_location("schema_docs", ROOT / "scripts" / "schema_docs.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    assert (ROOT / "docs" / "report-schema.md").read_text(encoding="utf-8") == module.page(), \
-        "docs/report-schema.md is out of date: run .venv/bin/python scripts/schema_docs.py"
+    assert (ROOT / "docs" / "report-schema.md").read_text(encoding="utf-8") == schema_docs.page(), \
+        "docs/report-schema.md is out of date: run python -m scripts.schema_docs"
