@@ -16,6 +16,7 @@ from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth.generate import cached_scenario
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import write_tum
+from viewer_slam.pipelines.base import make_pipeline
 from viewer_slam.pipelines.events import (
     FrameTracked,
     GraphEdge,
@@ -27,7 +28,6 @@ from viewer_slam.pipelines.events import (
 )
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
-from viewer_slam.pipelines.base import make_pipeline
 from viewer_slam.pipelines.run import drive, run_pipeline
 from viewer_slam.runs.report import pipeline_report
 
