@@ -12,7 +12,6 @@ PIPELINE_HELP = ("Pipeline to run: rgbdslam, rtabmap, both or a plugin pipeline 
                  "repeatable or comma-separated.")
 MAX_FRAMES_HELP = "Process at most the first N frames of each sequence (after --stride where there is one)."
 QUIET_HELP = "No progress display (results are still printed)."
-SEED_MAX = 2**32 - 1  # numpy seeds are unsigned 32-bit words
 SPAN_OPTION_RULE = "--span"
 
 

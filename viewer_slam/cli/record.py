@@ -5,8 +5,9 @@ from pathlib import Path
 import typer
 
 from ..geometry.trajectory_formats import TrajectoryFormat
+from ..seeds import SEED_MAX
 from .app import app
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP
 
 ESTIMATE_HELP = ("Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
                  "(TUM, KITTI poses on the sequence's frame stamps, EuRoC CSV, or an RTAB-Map database, whose maps, "
