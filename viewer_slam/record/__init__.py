@@ -5,3 +5,7 @@ This layer joins the run service (:mod:`viewer_slam.runs`) to the Rerun adapter
 (:mod:`viewer_slam.recording`): the options are checked, the outputs staged and the runs scored
 here, while everything written into the recording is the adapter's.
 """
+
+from ..commands import make_callable
+
+make_callable(__name__, f"{__name__}.command", "record")  # `viewer_slam.record(...)` runs the command: see commands.py

@@ -41,6 +41,7 @@ from ..recording.viewer import LiveViewer
 from ..runs.replay import EstimateReplay
 from ..runs.report import build_report, write_report
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
+from ..stopping import SafePoints
 from .console import RecordProgress
 from .inputs import BagTopics, open_input
 from .interrupt import StopRequest
@@ -165,7 +166,7 @@ def _blueprint(sequence: Sequence, runs: dict[str, Pipeline]) -> Any:
 
 
 def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], frames: FrameSelection, quiet: bool,
-                 stop: StopRequest) -> Recorded:
+                 stop: SafePoints) -> Recorded:
     """Drive every run in turn into ``stream``, one recorder each, until all ran, a stop is requested
     or one fails; what came before a failure is kept."""
     recorded = Recorded()
