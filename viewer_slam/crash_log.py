@@ -9,7 +9,7 @@ import traceback
 from pathlib import Path
 
 
-def crash_log_note(error: Exception) -> str:
+def crash_log_note(error: BaseException) -> str:
     """Write the full traceback to a log file; ``"; full traceback in PATH"`` (or nothing if unwritable)."""
     text = "".join(traceback.format_exception(error))
     name = f"viewslam-crash-{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}.log"

@@ -30,6 +30,7 @@ from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_fr
 from ..errors import InputError
 from ..geometry.trajectory import write_tum
 from ..pipelines.base import Pipeline
+from ..pipelines.run import Sink
 from ..recording.background import RecordingThread
 from ..recording.blueprint import default_blueprint
 from ..recording.loss_causes import log_loss_causes
@@ -180,18 +181,10 @@ def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], fra
                 break
             recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
                                         scene_extent, tracker_counts=_counts_features(runs[name]))
-
-            def on_frame(frame: Frame, recorder: PipelineRecorder = recorder, first: bool = position == 0) -> None:
-                background.submit(recorder.begin_frame, frame)
-                if first:  # one copy of each image serves every pipeline's view
-                    background.submit(log_frame_image, stream, frame)
-
             guarded = GuardedSequence(sequence)
             try:
-                scored = score_run(guarded, runs[name], name, max_frames=frames.max_frames, stride=frames.stride,
-                                   sinks=[background.sink(recorder), progress.sink(name)], frame_sinks=[on_frame],
-                                   should_stop=stop)
-                background.drain()  # the run's events are recorded before its evaluation
+                scored = _record_run(guarded, runs[name], name, recorder, background, progress.sink(name),
+                                     images=stream if position == 0 else None, frames=frames, stop=stop)
             except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
                 recorded.failure = _run_failure(name, error)
                 if not recorded.scored and not guarded.read:  # nothing to keep
@@ -208,6 +201,24 @@ def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], fra
             if recorded.failure is not None:
                 break
     return recorded
+
+
+def _record_run(sequence: GuardedSequence, run: Pipeline, name: str, recorder: PipelineRecorder,
+                background: RecordingThread, progress: Sink, *, images: Any, frames: FrameSelection,
+                stop: SafePoints) -> ScoredRun:
+    """Drive one run over the frames with ``recorder`` as a sink on the recording thread, and score
+    it once all its events are recorded; ``images`` is the stream that gets each frame's image (the
+    first run's only: one copy serves every run's view)."""
+
+    def on_frame(frame: Frame) -> None:
+        background.submit(recorder.begin_frame, frame)
+        if images is not None:
+            background.submit(log_frame_image, images, frame)
+
+    scored = score_run(sequence, run, name, max_frames=frames.max_frames, stride=frames.stride,
+                       sinks=[background.sink(recorder), progress], frame_sinks=[on_frame], should_stop=stop)
+    background.drain()  # the run's events are recorded before its evaluation
+    return scored
 
 
 def _run_failure(name: str, error: BaseException) -> Exception:

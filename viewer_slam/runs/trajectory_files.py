@@ -32,10 +32,9 @@ from ..evaluation.rpe import DeltaUnit
 from ..evaluation.statistics import ErrorSeries
 from ..geometry.rtabmap_database import RtabmapDatabase
 from ..geometry.trajectory import Trajectory, read_tum
-from ..geometry.trajectory_formats import TrajectoryFormat, detect_format, read_trajectory
+from ..geometry.trajectory_formats import TrajectoryFormat, detect_format, read_estimate, read_trajectory
 from ..pipelines.edges import EdgeClassifier
 from ..pipelines.run import PipelineRun
-from .replay import no_pose_reason, read_estimate
 from .report import pipeline_report, versions
 from .rtabmap_graph import NodeEdge, edges_by_node, graph_events
 
@@ -136,6 +135,8 @@ class ScoredFile:
 
     def losses(self, groundtruth: Trajectory) -> list[dict[str, Any]]:
         """The report's ``tracking_lost`` entries: one per lost interval, at the first groundtruth pose in it."""
+        from .replay import no_pose_reason  # the replay's parameters (pydantic) load only for a report
+
         coverage = self.evaluation.coverage
         start = coverage.span.start
         entries = []
