@@ -7,6 +7,7 @@ import typer
 from ..geometry.trajectory_formats import TrajectoryFormat
 from ..seeds import SEED_MAX
 from .app import app
+from .exits import EXIT_INTERRUPTED
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, parse_resolution
 
 MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadline (and inf none at all)
@@ -69,4 +70,4 @@ def benchmark(
     if result.interrupted:
         summary += f"; interrupted with {result.planned - done} not run"
     typer.echo(f"{summary}; wrote {', '.join(str(path) for path in result.written)}")
-    return 130 if result.interrupted else 1 if result.failed else 0
+    return EXIT_INTERRUPTED if result.interrupted else 1 if result.failed else 0

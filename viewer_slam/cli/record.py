@@ -7,14 +7,13 @@ import typer
 from ..geometry.trajectory_formats import TrajectoryFormat
 from ..seeds import SEED_MAX
 from .app import app
+from .exits import EXIT_INTERRUPTED
 from .options import MAX_FRAMES_HELP, PIPELINE_HELP
 
 ESTIMATE_HELP = ("Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
                  "(TUM, KITTI poses on the sequence's frame stamps, EuRoC CSV, or an RTAB-Map database, whose maps, "
                  "loop closures and statistics come along); repeatable. With estimates, "
                  "no built-in pipeline runs unless --pipeline names some.")
-
-EXIT_INTERRUPTED = 130
 
 
 @app.command("record")
