@@ -41,6 +41,7 @@ def test_the_worked_example_runs_and_scores_as_the_record_does(tmp_path, monkeyp
     assert int(match.group(2)) == report["ate"]["n"] == 20  # every frame of the 20 has a pose pair
     assert float(match.group(1)) == pytest.approx(report["ate"]["rmse"], abs=5e-5)  # printed to 4 decimals
     scored_file = namespace["run"].evaluation.ate.stats()["rmse"]
-    assert scored_file == pytest.approx(report["ate"]["rmse"], rel=1e-12)  # one scoring path, one number
+    # the record scored its poses in memory, evaluate the file that holds them as text (six decimals)
+    assert scored_file == pytest.approx(report["ate"]["rmse"], rel=1e-5)
     assert report["ate"]["rmse"] < 0.25  # a tracked office round (0.086 m when written), not a lost one
     assert all((tmp_path / name).is_file() for name in ("office.rrd", "office.rgbdslam.txt", "office/groundtruth.txt"))
