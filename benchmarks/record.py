@@ -46,8 +46,8 @@ from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.base import PIPELINE_MODULES
 from viewer_slam.pipelines.run import run_pipeline
 from viewer_slam.record import session
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record, record_sequence
+from viewer_slam.record.command import record
+from viewer_slam.record.session import record_sequence
 from viewer_slam.runs.service import build_run
 
 from . import lab
@@ -89,7 +89,7 @@ def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict[str, Any
           patch.object(session, "log_frame_image", watch.wrap(session.log_frame_image)),
           patch.object(session, "log_evaluation", watch.wrap(session.log_evaluation))):
         start = time.perf_counter()
-        result = record(RecordOptions(sequence=str(folder), out=out, max_frames=frames, quiet=True))
+        result = record(str(folder), out=out, max_frames=frames, quiet=True)
         wall = time.perf_counter() - start
     return result.report, watch.seconds, wall
 
@@ -135,7 +135,7 @@ def measure_memory(folder: Path, frames: int, out: Path) -> dict[str, Any]:
     """In a process of its own: record both pipelines over the ping-pong sequence; peak RSS in GiB."""
     sequence = PingPong(open_source(folder), frames)
     runs = {name: build_run(spec, sequence) for name, spec in lab.pipeline_specs(list(PIPELINE_MODULES)).items()}
-    result = record_sequence(sequence, runs, out, RecordOptions(quiet=True))
+    result = record_sequence(sequence, runs, out, quiet=True)
     return {"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
             "kib_per_frame": out.stat().st_size / 1024 / frames,
             "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}

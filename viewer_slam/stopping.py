@@ -118,3 +118,16 @@ def at_safe_points(announce: Announce | None = None) -> Iterator[SafePoints]:
 @contextmanager
 def _nothing() -> Iterator[None]:
     yield
+
+
+def raised_by_a_stop(error: BaseException) -> bool:
+    """Whether ``error`` wraps a Ctrl-C or stop signal: a compiled extension that is interrupted while
+    it loads re-raises the signal's exception as ``ImportError: initialization failed`` (pybind11)."""
+    seen: set[int] = set()
+    link: BaseException | None = error
+    while link is not None and id(link) not in seen:
+        if isinstance(link, (Interrupted, KeyboardInterrupt)):
+            return True
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return False

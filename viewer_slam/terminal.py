@@ -4,6 +4,7 @@ cut, as wide as their content, whatever the terminal or pipe, and text that any 
 import codecs
 import errno
 import os
+import sys
 import unicodedata
 from typing import TextIO
 
@@ -12,6 +13,7 @@ from rich.measure import Measurement
 from rich.table import Table
 
 UNLIMITED = 10_000
+STDOUT_FD = 1
 ASCII_ERRORS = "viewslam-ascii"
 """The error handler that writes what a stream cannot encode as its nearest ASCII."""
 _ASCII = {"—": "-", "–": "-", "−": "-", "…": "...", "·": "-", "°": " deg", "±": "+/-", "×": "x", "→": "->",
@@ -65,3 +67,35 @@ def print_table(table: Table, console: Console | None = None) -> None:
         console.print(table, crop=False)
     finally:
         console.width = terminal_width
+
+
+class ClosedStdout:
+    """Stands in for a stdout the command was started without (``>&-``): a write fails as it would on
+    the closed descriptor, so output that cannot go anywhere is an error, not silently dropped."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, os.strerror(errno.EBADF))
+
+    def flush(self) -> None:
+        pass
+
+    def fileno(self) -> int:
+        return STDOUT_FD
+
+    def isatty(self) -> bool:
+        return False
+
+
+def guard_closed_stdout() -> None:
+    """With descriptor 1 closed, hold it with /dev/null, so that no file the command opens gets it
+    (and receives what a library prints), and make Python's own writes to stdout fail."""
+    if sys.stdout is not None:
+        return
+    os.dup2(os.open(os.devnull, os.O_WRONLY), STDOUT_FD)
+    sys.stdout = ClosedStdout()
+
+
+def drop_stdout() -> None:
+    """Point stdout at /dev/null, so that what is still buffered does not fail again at exit."""
+    if sys.stdout is not None:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())

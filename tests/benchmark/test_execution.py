@@ -11,8 +11,7 @@ from viewer_slam.benchmark.executors import LocalExecutor, run_tasks
 from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
 from viewer_slam.benchmark.suite import deliver_files, run_benchmark
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record
+from viewer_slam.record.command import record
 from viewer_slam.runs.report import write_report
 
 pytestmark = pytest.mark.usefixtures("fake_pipeline")
@@ -144,8 +143,8 @@ def test_an_estimate_task_is_cached_under_its_file_s_bytes(folder, tmp_path):
 def test_record_and_a_benchmark_task_score_the_same_run_alike(folder, tmp_path):
     """One run service: `record` with the parameters as text and a task with them as a validated
     object give the same report block (timing aside) and the same trajectory file."""
-    recorded = record(RecordOptions(sequence=str(folder), pipeline="fake", out=tmp_path / "run.rrd", max_frames=20,
-                                    params=["lost_from=8", "lost_until=14"], quiet=True))
+    recorded = record(str(folder), pipeline="fake", out=tmp_path / "run.rrd", max_frames=20,
+                      params=["lost_from=8", "lost_until=14"], quiet=True)
     task_result = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", max_frames=20,
                                              params=FakeParams(lost_from=8, lost_until=14)))
     assert task_result.ok, task_result.error

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from bag_writer import BagWriter, write_tum_bag
+from bag_writer import BagWriter, write_poses, write_tum_bag
 from fixtures_eval import TUM_RPY, tum_excerpt
 from scipy.spatial.transform import Rotation
 
@@ -17,7 +17,7 @@ from viewer_slam.dataset.rosbag import BagSequence, open_bag
 from viewer_slam.dataset.sources import open_source
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
-from viewer_slam.geometry.se3 import make_pose, pose_to_tq
+from viewer_slam.geometry.se3 import make_pose
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 
 FRAMES = 6
@@ -173,20 +173,6 @@ def test_a_pose_topic_with_no_pose_is_one_line_naming_the_message(tmp_path, pose
     synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
     with pytest.raises(InputError, match=rf"^{path}: /mocap/pose at 9.000000 s: {re.escape(problem)}$"):
         open_bag(path, groundtruth_topic="/mocap/pose")
-
-
-def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, step_ns: int = 10**8) -> None:
-    """``poses`` as PoseStamped messages on ``topic``, ``step_ns`` apart from ``start_ns``."""
-    types = bag.types
-    for k, pose in enumerate(poses):
-        (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
-        stamp = start_ns + k * step_ns
-        message = types["geometry_msgs/msg/PoseStamped"](
-            header=bag.header(stamp, "map"),
-            pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
-                                                 orientation=types["geometry_msgs/msg/Quaternion"](
-                                                     x=qx, y=qy, z=qz, w=qw)))
-        bag.add(topic, "geometry_msgs/msg/PoseStamped", stamp, message)
 
 
 @pytest.mark.parametrize("ros", [1, 2])

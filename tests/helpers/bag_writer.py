@@ -130,3 +130,17 @@ def write_tum_bag(folder: Path, path: Path, ros: int = 1) -> Path:
                 bag.transform(ns, "/world", "/kinect", pose @ invert(KINECT_TO_OPTICAL))
                 bag.transform(ns, "/kinect", OPTICAL_FRAME, KINECT_TO_OPTICAL)
     return path
+
+
+def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, step_ns: int = 10**8) -> None:
+    """``poses`` as PoseStamped messages on ``topic``, ``step_ns`` apart from ``start_ns``."""
+    types = bag.types
+    for k, pose in enumerate(poses):
+        (x, y, z), (qx, qy, qz, qw) = pose_to_tq(pose)
+        stamp = start_ns + k * step_ns
+        message = types["geometry_msgs/msg/PoseStamped"](
+            header=bag.header(stamp, "map"),
+            pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+                                                 orientation=types["geometry_msgs/msg/Quaternion"](
+                                                     x=qx, y=qy, z=qz, w=qw)))
+        bag.add(topic, "geometry_msgs/msg/PoseStamped", stamp, message)

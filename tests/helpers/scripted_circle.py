@@ -36,8 +36,7 @@ from viewer_slam.pipelines.events import (
     TrajectoryFinal,
 )
 from viewer_slam.pipelines.params import PipelineParams
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record
+from viewer_slam.record.command import record
 
 CAMERA = Camera(fx=50.0, fy=50.0, cx=31.5, cy=23.5, width=64, height=48)
 FRAMES = 40
@@ -163,5 +162,5 @@ def recorded(tum_folder, tmp_path_factory):
     out = tmp_path_factory.mktemp("out") / "circle.rrd"
     with pytest.MonkeyPatch.context() as monkeypatch:
         serve_scripted_pipeline(monkeypatch)
-        result = record(RecordOptions(sequence=str(tum_folder), out=out, quiet=True))
+        result = record(str(tum_folder), out=out, quiet=True)
     return result

@@ -477,8 +477,7 @@ def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(ex
 def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatch, tmp_path):
     from viewer_slam.dataset import sources
     from viewer_slam.errors import InputError
-    from viewer_slam.record import session
-    from viewer_slam.record.options import RecordOptions
+    from viewer_slam.record.command import record
 
     asked = []
 
@@ -489,8 +488,7 @@ def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatc
     monkeypatch.setattr(sources, "resolve_sequence", resolve)
     for stride, quiet in ((1, True), (3, False)):
         with pytest.raises(InputError, match="stop here"):
-            session.record(RecordOptions(sequence="360_kidnap", max_frames=4, stride=stride, quiet=quiet,
-                                         out=tmp_path / "x.rrd"))
+            record("360_kidnap", max_frames=4, stride=stride, quiet=quiet, out=tmp_path / "x.rrd")
     assert asked == [("360_kidnap", 4, False), ("360_kidnap", 10, True)]  # frames 0, 3, 6, 9
 
 

@@ -38,8 +38,7 @@ from viewer_slam.cli.view import free_port
 from viewer_slam.geometry.se3 import make_pose, transform_points
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.events import FrameTracked, MapUpdated
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record
+from viewer_slam.record.command import record
 from viewer_slam.recording import blueprint
 from viewer_slam.recording.recorder import lost_colour
 
@@ -94,7 +93,7 @@ def recording(tmp_path_factory) -> Path:
             module.PIPELINE = pipeline
             monkeypatch.setitem(sys.modules, module_name, module)
             monkeypatch.setitem(base.PIPELINE_MODULES, name, module_name)
-        return record(RecordOptions(sequence=str(sequence), out=folder / "circle.rrd", quiet=True)).recording
+        return record(str(sequence), out=folder / "circle.rrd", quiet=True).recording
 
 
 def rgb(path: Path) -> np.ndarray:

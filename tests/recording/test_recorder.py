@@ -27,9 +27,8 @@ from scripted_circle import (
 from viewer_slam.cli import main
 from viewer_slam.geometry.se3 import invert
 from viewer_slam.geometry.trajectory import read_tum
+from viewer_slam.record.command import record
 from viewer_slam.record.console import print_summary
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record
 from viewer_slam.recording.budget import SnapshotBudget
 from viewer_slam.recording.fit import CONTINUATION, LOG_LINE_CHARS
 from viewer_slam.recording.images import depth_png
@@ -203,8 +202,8 @@ def test_report_and_trajectories_are_written_beside_the_recording(recorded, tum_
 def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tum_folder, tmp_path):
     out = tmp_path / "stopped.rrd"
     handler = signal.getsignal(signal.SIGINT)
-    result = record(RecordOptions(sequence=str(tum_folder), out=out, quiet=True,
-                                  params=["Scripted/InterruptAt=25"]))
+    result = record(str(tum_folder), out=out, quiet=True,
+                    params=["Scripted/InterruptAt=25"])
     assert result.interrupted and result.report["interrupted"] is True
     assert list(result.report["pipelines"]) == ["rgbdslam"]  # the second pipeline never started
     assert len(read_tum(result.trajectories["rgbdslam"])) == 26 - len(LOST)

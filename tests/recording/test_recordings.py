@@ -23,8 +23,7 @@ from viewer_slam import palette
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.edges import LOOP_MIN_AGE_S, LOOP_MIN_NODE_GAP
-from viewer_slam.record.options import RecordOptions
-from viewer_slam.record.session import record
+from viewer_slam.record.command import record
 from viewer_slam.recording import layout
 from viewer_slam.recording.recorder import MAP_BYTES_PER_FRAME, MAP_POINT_BYTES
 from viewer_slam.recording.viewer import free_port
@@ -75,8 +74,8 @@ def recordings(request, cache, out, desk, fr1_rpy) -> dict[str, Path]:
     scripted = write_tum_folder(out / "scripted")
     with pytest.MonkeyPatch.context() as monkeypatch:
         serve_scripted_pipeline(monkeypatch)
-        interrupted = record(RecordOptions(sequence=str(scripted), out=out / "interrupted.rrd", quiet=True,
-                                           params=["Scripted/InterruptAt=25"]))
+        interrupted = record(str(scripted), out=out / "interrupted.rrd", quiet=True,
+                             params=["Scripted/InterruptAt=25"])
     assert interrupted.interrupted
     return {"fr1_rpy": fr1_rpy, "kidnap": record_cli(kidnap, out / "kidnap.rrd"), "interrupted": interrupted.recording,
             "rtabmap_alone": record_cli(desk, out / "rtabmap.rrd", "--pipeline", "rtabmap")}

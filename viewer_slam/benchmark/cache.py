@@ -12,9 +12,9 @@ import json
 from functools import cache
 from pathlib import Path
 
-from .. import __version__
 from ..cache import cache_dir
 from ..pipelines.base import pipeline_class
+from ..version import __version__
 from .runner import BenchmarkTask, TaskResult, task_seed
 
 # Files whose bytes define a TUM sequence; images are represented by their names and sizes.

@@ -14,13 +14,13 @@ from itertools import combinations
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
 from ..atomic import StagedFiles
 from ..comparison.compare import SUMMARY
 from ..comparison.output import markdown_comparison
 from ..comparison.results import RUNS_FOLDER, BenchmarkResults, compare_results, load_results, runs_report_path
 from ..errors import InputError
 from ..runs.report import versions, write_report
+from ..version import __version__
 from .plots import CHARTS, plot_all
 from .runner import TaskResult, recording_path
 from .tables import has_trials, result_row, result_rows, write_csv, write_json

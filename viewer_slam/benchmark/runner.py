@@ -210,14 +210,13 @@ def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
 def _record(task: BenchmarkTask, folder: Path) -> tuple[ScoredRun, dict[str, bytes]]:
     """The task's run over ``folder`` recorded as `viewslam record` records it, into a scratch folder of
     this worker; with the bytes of the recording and of the report and trajectory beside it, by file name."""
-    from ..record.options import RecordOptions  # Rerun is loaded only by tasks that record
+    from ..record.options import FrameSelection  # Rerun is loaded only by tasks that record
     from ..record.session import record_runs
 
     assert task.recording is not None  # only a task that records is recorded
     with tempfile.TemporaryDirectory(prefix="viewslam-task-") as scratch:
-        options = RecordOptions(sequence=str(folder), out=Path(scratch) / task.recording.name,
-                                max_frames=task.max_frames, seed=task.seed, quiet=True)
-        recorded = record_runs(options, {task.pipeline: task.run})
+        recorded = record_runs(str(folder), {task.pipeline: task.run}, Path(scratch) / task.recording.name,
+                               frames=FrameSelection(task.max_frames))
         files = {path.name: path.read_bytes() for path in recorded.written}
     return recorded.scored[task.pipeline], files
 

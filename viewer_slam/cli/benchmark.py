@@ -4,10 +4,11 @@ from pathlib import Path
 
 import typer
 
-from ..errors import InputError
 from ..geometry.trajectory_formats import TrajectoryFormat
+from ..seeds import SEED_MAX
 from .app import app
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, SEED_MAX, parse_resolution
+from .exits import EXIT_INTERRUPTED
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, parse_resolution
 
 MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadline (and inf none at all)
 
@@ -55,54 +56,18 @@ def benchmark(
     Exits with 1 when a task failed (the others still complete and are reported), 130 when
     interrupted (the finished tasks are written).
     """
-    from ..atomic import check_writable, exclusive, refuse_inputs_as_outputs
-    from ..benchmark.cache import ResultCache
-    from ..benchmark.executors import make_executor
-    from ..benchmark.plan import plan_tasks
-    from ..benchmark.report import OUTPUT_FILES, RECORDINGS_FOLDER, planned_outputs, write_outputs
-    from ..benchmark.suite import run_benchmark
+    from ..benchmark.command import benchmark as run
     from ..benchmark.tables import print_results
-    from ..comparison.results import check_planned_sequences, load_results
-    from ..dataset.sources import open_source
-    from ..runs.report import sequence_block
-    from ..runs.selection import select_runs
 
-    runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
-    if seed + trials - 1 > SEED_MAX:
-        raise InputError(f"--trials {trials} with --seed {seed}: the last trial's seed {seed + trials - 1} is beyond "
-                         f"{SEED_MAX}")
-    chosen = pipelines + pipeline
-    names, estimates = select_runs(",".join(chosen) if chosen else None, estimate)
-    other = load_results(compare) if compare is not None else None
-    if out.exists() and not out.is_dir():
-        raise InputError.at(out, "is a file; --out takes a folder")
-    for name in OUTPUT_FILES:
-        check_writable(out / name)
-    with exclusive([out]):
-        tasks = plan_tasks(sequences or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
-                           resolution=parse_resolution(resolution), assignments=param, config=config, seed=seed,
-                           timeout_s=timeout, recordings=out / RECORDINGS_FOLDER if record else None,
-                           estimates=estimates, estimate_format=format, trials=trials, progress=not quiet)
-        refuse_inputs_as_outputs(planned_outputs(out, tasks),
-                                 {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
-                                     if task.estimate is not None},
-                                  **({config: f"--config {config}"} if config is not None else {})})
-        if not quiet:
-            for task in tasks:
-                if task.estimate is not None:
-                    typer.echo(f"estimate {task.pipeline}: {task.estimate} read as {task.estimate_format} "
-                               f"({'given' if format else 'detected'})", err=True)
-        if other is not None:
-            folders = {task.name: task.sequence for task in tasks}
-            check_planned_sequences(other, {name: sequence_block(open_source(folder))
-                                            for name, folder in folders.items()})
-        outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
-        paths = write_outputs(outcome.results, out, compare_with=other, recorded=record)
-    print_results(outcome.results)
-    failed = sum(not result.ok for result in outcome.results)
-    done = len(outcome.results)
-    summary = f"{done - failed} of {done} task{'s' if done != 1 else ''} ok"
-    if outcome.interrupted:
-        summary += f"; interrupted with {len(tasks) - done} not run"
-    typer.echo(f"{summary}; wrote {', '.join(str(path) for path in paths)}")
-    return 130 if outcome.interrupted else 1 if failed else 0
+    result = run(sequences or (), pipeline=pipelines + pipeline or None, max_frames=max_frames,
+                 scenario_frames=scenario_frames, resolution=parse_resolution(resolution), jobs=jobs,
+                 executor=executor, ray_address=ray_address, out=out, record=record, params=param, config=config,
+                 seed=seed, trials=trials, timeout=timeout, cache=cache, estimates=estimate, format=format,
+                 compare=compare, quiet=quiet)
+    print_results(list(result.results))
+    done = len(result.results)
+    summary = f"{done - result.failed} of {done} task{'s' if done != 1 else ''} ok"
+    if result.interrupted:
+        summary += f"; interrupted with {result.planned - done} not run"
+    typer.echo(f"{summary}; wrote {', '.join(str(path) for path in result.written)}")
+    return EXIT_INTERRUPTED if result.interrupted else 1 if result.failed else 0

@@ -4,9 +4,7 @@ from pathlib import Path
 
 import typer
 
-from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..errors import InputError
-from ..runs.report import write_report
 from .app import app
 
 
@@ -22,23 +20,13 @@ def diff_command(
 ) -> int:
     """Compare two runs frame by frame: errors, frames only one tracked, losses, parameters, scores."""
     pair = _run_pair(runs)
-    if out is not None and out.suffix != ".rrd":
-        raise InputError.at(out, "the recording must have the .rrd extension")
-    outputs = {path: option for path, option in ((out, "--out"), (json_path, "--json")) if path is not None}
-    refuse_inputs_as_outputs(outputs, {a: f"A {a}", b: f"B {b}"})
-    for target in outputs:
-        check_writable(target)
-    from ..comparison import compare_reports, comparison_to_dict, print_comparison  # OpenCV loads only now
+    from ..comparison import print_comparison  # OpenCV loads only now
+    from ..record.diff import diff
 
-    comparison = compare_reports(a, b, pair)
-    print_comparison(comparison)
-    if json_path is not None:
-        _write_json(json_path, comparison_to_dict(comparison))
-    if out is not None:
-        from ..recording.diff_recording import write_diff_recording  # Rerun loads only for a recording
-
-        write_diff_recording(comparison, out)
-        print(f"wrote {out}")
+    result = diff(a, b, runs=pair, json=json_path, out=out)
+    print_comparison(result.comparison)
+    for target in result.written:
+        print(f"wrote {target}")
     return 0
 
 
@@ -49,10 +37,3 @@ def _run_pair(runs: str | None) -> tuple[str, str] | None:
     if not colon or not name_a or not name_b:
         raise InputError(f"--runs: expected A_RUN:B_RUN (e.g. rgbdslam:rtabmap), got {runs!r}")
     return name_a, name_b
-
-
-def _write_json(path: Path, data: dict) -> None:
-    with StagedFiles() as staged:
-        staged.write(path, lambda staged_path: write_report(staged_path, data))
-        staged.commit()
-    print(f"wrote {path}")

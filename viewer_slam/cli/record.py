@@ -5,15 +5,15 @@ from pathlib import Path
 import typer
 
 from ..geometry.trajectory_formats import TrajectoryFormat
+from ..seeds import SEED_MAX
 from .app import app
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, SEED_MAX
+from .exits import EXIT_INTERRUPTED
+from .options import MAX_FRAMES_HELP, PIPELINE_HELP
 
 ESTIMATE_HELP = ("Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
                  "(TUM, KITTI poses on the sequence's frame stamps, EuRoC CSV, or an RTAB-Map database, whose maps, "
                  "loop closures and statistics come along); repeatable. With estimates, "
                  "no built-in pipeline runs unless --pipeline names some.")
-
-EXIT_INTERRUPTED = 130
 
 
 @app.command("record")
@@ -50,16 +50,14 @@ def record_command(
     """Run SLAM pipelines over SEQUENCE (a TUM folder, scenario, TUM name or ROS bag) into a Rerun
     recording, with a report and trajectories; --estimate adds other systems' trajectories as runs.
     --groundtruth FILE with no SEQUENCE records the --estimate files alone against it."""
+    from ..record.command import record
     from ..record.console import print_summary
-    from ..record.options import RecordOptions
-    from ..record.session import record
+    from ..record.inputs import BagTopics
 
-    bag = {"rgb_topic": rgb_topic, "depth_topic": depth_topic, "camera_info_topic": camera_info_topic,
-           "groundtruth": groundtruth, "groundtruth_topic": groundtruth_topic}
-    result = record(RecordOptions(sequence=sequence, pipeline=",".join(pipeline) if pipeline else None, out=out,
-                                  max_frames=max_frames, stride=stride, params=param, config=config, seed=seed,
-                                  quiet=quiet, spawn=spawn, connect=connect, estimates=estimate, format=format, bag=bag))
+    result = record(sequence, pipeline=pipeline or None, estimates=estimate, format=format, out=out,
+                    max_frames=max_frames, stride=stride, params=param, config=config, seed=seed, quiet=quiet,
+                    spawn=spawn, connect=connect, groundtruth=groundtruth,
+                    bag=BagTopics(rgb_topic, depth_topic, camera_info_topic, groundtruth_topic))
     if not quiet:
         print_summary(result.report, result.written)
     return EXIT_INTERRUPTED if result.interrupted else 0
-

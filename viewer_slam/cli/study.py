@@ -5,7 +5,6 @@ from pathlib import Path
 
 import typer
 
-from ..errors import InputError
 from .app import app
 from .options import QUIET_HELP
 
@@ -25,52 +24,22 @@ def study(
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Fetch the study's runs (SHA-256 checked), score them as the study did and with coverage, and report."""
-    from ..study.fetch import check_mirror, fetch, study_cache
-    from ..study.manifest import CHARTS, SEQUENCES, known_sequence, sequence_files
+    from ..study.command import cached_sequences, study_sequences
+    from ..study.command import study as run
 
-    selected = []
-    for name in sequences or [sequence.name for sequence in SEQUENCES]:
-        sequence = known_sequence(name)
-        if sequence is None:
-            raise InputError(f"{name}: not one of the study's sequences; "
-                             f"{', '.join(s.alias for s in SEQUENCES)}")
-        selected.append(sequence)
-    cache = study_cache()
     if list_only:
-        for sequence in SEQUENCES:
-            cached = all((cache / path).is_file() for path in sequence_files(sequence))
+        study_sequences(sequences or ())  # a name the study does not know is refused all the same
+        for sequence, cached in cached_sequences():
             typer.echo(f"{sequence.alias:<42} {sequence.folder:<36} {'cached' if cached else ''}".rstrip())
         return
-    base = check_mirror(mirror)
-    out.mkdir(parents=True, exist_ok=True) if not out.exists() else None
-    if not out.is_dir():
-        raise InputError.at(out, "is not a folder; --out takes a folder")
-    files = {}
-    for path in list(CHARTS) + [path for sequence in selected for path in sequence_files(sequence)]:
-        files[path] = fetch(path, base, cache, progress=not quiet)
-
-    from ..study.replay import replay
-    from ..study.report import write_all
-
-    runs, found = replay(files, selected)
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
-    written = write_all(out, runs, found, base, command)
-    if record:
-        from ..geometry.trajectory_formats import TrajectoryFormat
-        from ..record.files import record_trajectory_files
-        from ..study.manifest import SYSTEMS, groundtruth_path, poses_path
-
-        for sequence in selected:
-            recorded = record_trajectory_files(
-                files[groundtruth_path(sequence)][0],
-                [(system.name, files[poses_path(sequence, system)][0]) for system in SYSTEMS],
-                out / f"{sequence.name}.rrd", format=TrajectoryFormat.TUM, name=sequence.name)
-            written.extend(recorded.written)
+    result = run(sequences or (), out=out, mirror=mirror, record=record, quiet=quiet,
+                 command=command)
     from ..study.report import table
 
-    typer.echo(table(runs))
-    typer.echo(f"{len(found)} discrepancies between the published figures and the runs:")
-    for entry in found:
+    typer.echo(table(list(result.runs)))
+    typer.echo(f"{len(result.discrepancies)} discrepancies between the published figures and the runs:")
+    for entry in result.discrepancies:
         typer.echo(f"  {entry['text']}")
-    for output in written:
+    for output in result.written:
         typer.echo(f"wrote {output}", err=True)

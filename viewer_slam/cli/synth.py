@@ -5,8 +5,9 @@ from pathlib import Path
 import typer
 
 from ..dataset.synth.catalog import MAX_FRAMES
+from ..seeds import SEED_MAX
 from .app import app
-from .options import QUIET_HELP, SEED_MAX, parse_resolution
+from .options import QUIET_HELP, parse_resolution
 
 
 @app.command()
@@ -22,10 +23,9 @@ def synth(
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
     """Render a synthetic scenario (rgb/, depth/, rgb.txt, depth.txt, groundtruth.txt, camera.json)."""
-    from ..dataset.synth import generate_scenario, read_info
+    from ..dataset.synth.command import synth as render
 
-    folder = generate_scenario(scenario, out, frames=frames, resolution=parse_resolution(resolution), seed=seed,
-                               camera=camera, force=force, progress=not quiet)
-    info = read_info(folder)
-    typer.echo(f"{folder}: {info['frames']} frames of {info['scenario']} at "
-               f"{info['resolution'][0]}x{info['resolution'][1]} ({info['notes']})")
+    result = render(scenario, out, frames=frames, resolution=parse_resolution(resolution), seed=seed, camera=camera,
+                    force=force, quiet=quiet)
+    typer.echo(f"{result.folder}: {result.frames} frames of {result.scenario} at "
+               f"{result.resolution[0]}x{result.resolution[1]} ({result.notes})")

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import InputError
-from .rtabmap_database import is_sqlite, read_rtabmap_database
+from .rtabmap_database import RtabmapDatabase, is_sqlite, read_rtabmap_database
 from .se3 import make_pose, pose_from_tq
 from .trajectory import Trajectory, parse_numbers, pose_problem, read_text, read_tum
 
@@ -74,6 +74,17 @@ def read_trajectory(path: Path, format: str | None = None,
     if kind is TrajectoryFormat.KITTI:
         return _read_kitti(path, text, timestamps), kind
     return _read_euroc(path, text), kind
+
+
+def read_estimate(path: Path, format: str | None = None, timestamps: np.ndarray | None = None,
+                  ) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
+    """An estimate file (``format``, else detected), the format it was read as and, for an RTAB-Map
+    database, the database itself: its nodes, links and statistics say more than its poses."""
+    if reads_as_rtabmap(path, format):
+        database = read_rtabmap_database(path)
+        return database.trajectory(), TrajectoryFormat.RTABMAP, database
+    trajectory, detected = read_trajectory(path, format, timestamps)
+    return trajectory, detected, None
 
 
 def reads_as_rtabmap(path: Path, format: str | None = None) -> bool:

@@ -15,49 +15,13 @@ from ..geometry.trajectory_formats import TrajectoryFormat
 from ..recording.blueprint import files_blueprint
 from ..recording.rrd_file import RecordingFile
 from ..recording.trajectory_files import log_files
-from ..recording.viewer import LiveViewer, live_viewer
-from ..runs.replay import named_estimates
+from ..recording.viewer import LiveViewer
 from ..runs.report import write_report
-from ..runs.trajectory_files import score_files
-from .options import BAG_FLAGS, RecordOptions, RecordResult
+from ..runs.trajectory_files import read_groundtruth, score_files
+from .options import RecordResult
 from .outputs import check_outputs, earlier_trajectories, report_paths
 
 FILES_ONLY = "a recording of trajectory files alone (--groundtruth without SEQUENCE)"
-
-
-def is_files_only(options: RecordOptions) -> bool:
-    """``--groundtruth`` with no SEQUENCE: trajectory files alone (with a SEQUENCE it is a bag's groundtruth)."""
-    return options.sequence is None and options.bag.get("groundtruth") is not None
-
-
-def check_files_options(options: RecordOptions) -> None:
-    """Refuse, in one line naming the option, what a recording of trajectory files alone cannot use."""
-    if options.pipeline is not None:
-        raise InputError(f"--pipeline: {FILES_ONLY} has no images to run a pipeline on; give SEQUENCE to run one")
-    if not options.estimates:
-        raise InputError(f"--groundtruth {options.bag['groundtruth']}: {FILES_ONLY} needs at least one "
-                         f"--estimate NAME=FILE")
-    frame_options = {"--max-frames": options.max_frames is not None, "--stride": options.stride != 1,
-                     "--param": bool(options.params), "--config": options.config is not None}
-    for flag, given in frame_options.items():
-        if given:
-            raise InputError(f"{flag}: applies to a sequence's frames and pipelines; {FILES_ONLY} has neither")
-    for key, value in options.bag.items():
-        if key != "groundtruth" and value is not None:
-            raise InputError(f"{BAG_FLAGS[key]}: only for a ROS bag given as SEQUENCE")
-
-
-def record_files(options: RecordOptions) -> RecordResult:
-    """`viewslam record --groundtruth FILE --estimate NAME=FILE ...`: the options checked, then recorded.
-
-    ``--out`` defaults to ``recordings/<groundtruth file name without extension>.rrd``.
-    """
-    check_files_options(options)
-    groundtruth = Path(options.bag["groundtruth"])
-    out = options.out if options.out is not None else Path("recordings") / f"{groundtruth.stem}.rrd"
-    return record_trajectory_files(groundtruth, named_estimates(options.estimates, []), Path(out),
-                                   format=options.format, quiet=options.quiet,
-                                   viewer=live_viewer(options.spawn, options.connect, Path(out)))
 
 
 def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
@@ -77,7 +41,10 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
               **{Path(file): f"--estimate {run}={file}" for run, file in estimates}}
     check_outputs(out, names, inputs)
     with exclusive([out]):
-        scored = score_files(groundtruth, estimates, format, name)
+        if Path(groundtruth).is_dir():
+            raise InputError.at(groundtruth, "is a folder; --groundtruth takes a trajectory file (a sequence folder "
+                                             "is SEQUENCE)")
+        scored = score_files(read_groundtruth(groundtruth), estimates, format, name=name)
         if not quiet:
             how = "given" if format else "detected"
             for run in scored.runs:

@@ -1,44 +1,21 @@
-"""The `viewslam record` command line as data, and what a record gives back."""
+"""What `viewslam record` is given beside the runs (the frames to read) and what it gives back."""
 
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..geometry.trajectory_formats import TrajectoryFormat
 from ..runs.service import ScoredRun
 
-# open_bag's keywords and the flags that set them.
-BAG_FLAGS = {"rgb_topic": "--rgb-topic", "depth_topic": "--depth-topic", "camera_info_topic": "--camera-info-topic",
-             "groundtruth": "--groundtruth", "groundtruth_topic": "--groundtruth-topic"}
-BagOptions = dict[str, Any]
 
+@dataclass(frozen=True)
+class FrameSelection:
+    """The frames a record reads: every ``stride``-th, at most ``max_frames`` of them (None: all)."""
 
-@dataclass
-class RecordOptions:
-    """The `viewslam record` command line, as data. ``sequence=None`` is the built-in demo.
-
-    ``pipeline=None`` runs both built-in pipelines, or none when there are ``estimates``
-    (``NAME=FILE`` each, read in ``format`` or a detected one). The bag options apply to a
-    ROS bag only (see :func:`~viewer_slam.dataset.rosbag.open_bag`).
-    """
-
-    sequence: str | None = None
-    pipeline: str | None = None
-    out: Path | None = None
     max_frames: int | None = None
     stride: int = 1
-    params: list[str] = field(default_factory=list)
-    config: Path | None = None
-    seed: int = 0
-    quiet: bool = False
-    spawn: bool = False
-    connect: str | None = None
-    estimates: list[str] = field(default_factory=list)
-    format: TrajectoryFormat | None = None
-    bag: BagOptions = field(default_factory=dict)
 
 
-@dataclass
+@dataclass(frozen=True)
 class RecordResult:
     """What a record wrote (``written``, the files that exist) and the report it wrote; ``scored`` holds
     each run's scores for a caller that goes on with them (a benchmark task).
@@ -53,4 +30,5 @@ class RecordResult:
 
     @property
     def interrupted(self) -> bool:
-        return self.report["interrupted"]
+        """Whether a stop request (Ctrl-C) or a failure mid-run cut the record short."""
+        return bool(self.report["interrupted"])

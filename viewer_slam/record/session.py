@@ -19,15 +19,18 @@ any, stays) and the report says so.
 
 import sys
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from .. import palette
 from ..atomic import StagedFiles, exclusive
 from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_frames
 from ..errors import InputError
-from ..geometry.trajectory import Trajectory, write_tum
+from ..geometry.trajectory import write_tum
 from ..pipelines.base import Pipeline
+from ..pipelines.run import Sink
 from ..recording.background import RecordingThread
 from ..recording.blueprint import default_blueprint
 from ..recording.loss_causes import log_loss_causes
@@ -35,17 +38,16 @@ from ..recording.recorder import PipelineRecorder, log_frame_image, log_world
 from ..recording.rrd_file import RecordingFile
 from ..recording.sizes import extent
 from ..recording.timelines import log_evaluation
-from ..recording.viewer import LiveViewer, live_viewer
+from ..recording.viewer import LiveViewer
 from ..runs.replay import EstimateReplay
 from ..runs.report import build_report, write_report
-from ..runs.selection import run_specs, select_runs
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
+from ..stopping import SafePoints
 from .console import RecordProgress
-from .files import is_files_only, record_files
-from .inputs import open_input
+from .inputs import BagTopics, open_input
 from .interrupt import StopRequest
-from .options import RecordOptions, RecordResult
-from .outputs import check_outputs, earlier_trajectories, output_path, report_paths
+from .options import FrameSelection, RecordResult
+from .outputs import check_outputs, earlier_trajectories, report_paths
 
 
 class GuardedSequence(TimedFrames):
@@ -72,139 +74,194 @@ class GuardedSequence(TimedFrames):
             self.error = error
 
 
-def record(options: RecordOptions) -> RecordResult:
-    """Check the options, then record every selected run (see the module docstring); ``--groundtruth``
-    without a sequence records trajectory files alone (:mod:`.files`)."""
+def record_runs(sequence: str | None, specs: dict[str, RunSpec], out: Path, *, frames: FrameSelection = FrameSelection(),
+                quiet: bool = True, bag: BagTopics = BagTopics(), groundtruth: Path | None = None,
+                config: Path | None = None, viewer: LiveViewer | None = None) -> RecordResult:
+    """Record the runs ``specs`` over ``sequence`` (None: the demo; ``bag`` and ``groundtruth`` for a
+    ROS bag) into ``out``, also shown live by ``viewer``.
 
-    if is_files_only(options):
-        return record_files(options)
-    pipelines, estimates = select_runs(options.pipeline, options.estimates)
-    return record_runs(options, run_specs(pipelines, estimates, assignments=options.params, config=options.config,
-                                          seed=options.seed, format=options.format))
-
-
-def record_runs(options: RecordOptions, specs: dict[str, RunSpec]) -> RecordResult:
-    """Record the runs ``specs`` over ``options.sequence``; the options' own run selection is not read.
-
-    The outputs are checked before the sequence is opened, and every run is built (an estimate
-    file read) before the first frame.
+    The outputs are checked before the sequence is opened (never replacing the estimate files,
+    the ``config`` file the parameters came from, or the sequence), and every run is built (an
+    estimate file read) before the first frame.
     """
-    out = output_path(options.sequence, options.out)
-    viewer = live_viewer(options.spawn, options.connect, out)
+    check_outputs(out, list(specs), _inputs(sequence, specs, config))
+    with exclusive([out]):
+        opened = open_input(sequence, bag, groundtruth, first=frames_read(frames.max_frames, frames.stride),
+                            progress=not quiet)
+        runs = {name: build_run(spec, opened, max_frames=frames.max_frames, stride=frames.stride)
+                for name, spec in specs.items()}
+        if not quiet:
+            _say_estimate_formats(specs, runs)
+        return record_sequence(opened, runs, out, frames=frames, quiet=quiet, viewer=viewer)
+
+
+def _inputs(sequence: str | None, specs: dict[str, RunSpec], config: Path | None) -> dict[Path, str]:
+    """The files the record reads, which no output may replace (path -> how it was given)."""
     inputs = {Path(spec.file): f"--estimate {name}={spec.file}" for name, spec in specs.items()
               if isinstance(spec, EstimateSpec)}
-    if options.config is not None:
-        inputs[Path(options.config)] = f"--config {options.config}"
-    if options.sequence is not None and Path(options.sequence).exists():
-        inputs[Path(options.sequence)] = f"the sequence {options.sequence}"
-    check_outputs(out, list(specs), inputs)
-    with exclusive([out]):
-        sequence = open_input(options.sequence, options.bag, first=frames_read(options.max_frames, options.stride),
-                              progress=not options.quiet)
-        runs = {name: build_run(spec, sequence, max_frames=options.max_frames, stride=options.stride)
-                for name, spec in specs.items()}
-        if not options.quiet:
-            how = "given" if options.format else "detected"
-            for name, run in runs.items():
-                if isinstance(run, EstimateReplay):
-                    print(f"estimate {name}: {run.params.file} read as {run.params.format} ({how})",
-                          file=sys.stderr)
-        return record_sequence(sequence, runs, out, options, viewer)
+    if config is not None:
+        inputs[Path(config)] = f"--config {config}"
+    if sequence is not None and Path(sequence).exists():
+        inputs[Path(sequence)] = f"the sequence {sequence}"
+    return inputs
 
 
-def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, options: RecordOptions,
+def _say_estimate_formats(specs: dict[str, RunSpec], runs: dict[str, Pipeline]) -> None:
+    """On stderr, the format each estimate file was read as, and whether it was given or detected."""
+    for name, run in runs.items():
+        spec = specs[name]
+        if isinstance(run, EstimateReplay) and isinstance(spec, EstimateSpec):
+            how = "given" if spec.format else "detected"
+            print(f"estimate {name}: {run.params.file} read as {run.params.format} ({how})", file=sys.stderr)
+
+
+@dataclass
+class Recorded:
+    """What the runs of a record gave: the scores of every run that ran (in order), whether one was
+    cut short, and the failure that ended them early (None if none did)."""
+
+    scored: dict[str, ScoredRun] = field(default_factory=dict)
+    interrupted: bool = False
+    failure: Exception | None = None
+
+
+def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, *,
+                    frames: FrameSelection = FrameSelection(), quiet: bool = True,
                     viewer: LiveViewer | None = None) -> RecordResult:
-    """Record the ``runs`` (name -> pipeline or estimate replay), in order, over ``sequence``.
+    """Record the ``runs`` (name -> pipeline or estimate replay), in order, over the ``frames`` of
+    ``sequence`` into ``out`` (trusted: checked by the caller); ``viewer`` is also shown the
+    recording live.
 
-    Uses ``options`` for the frame selection, seed and progress; ``out`` is trusted; ``viewer``
-    is also shown the recording live.
     Every file is written under a temporary name and renamed into place at the end (also
     after a stop request or a failure mid-run), so a run that fails before its first frame
     leaves the previous outputs as they were.
     """
-    pipelines = list(runs)
-    report_path, trajectory_paths = report_paths(out, pipelines)
-    blocks: dict[str, dict] = {}
-    scored_runs: dict[str, ScoredRun] = {}
-    trajectories: dict[str, Trajectory] = {}
-    interrupted = False
-    failure: Exception | None = None
-    groundtruth = sequence.groundtruth
-    counted = [name for name in pipelines if _counts_features(runs[name])]
-    blueprint = default_blueprint(pipelines, None if groundtruth is None else groundtruth.poses, counted)
-    scene_extent = None if groundtruth is None else extent(groundtruth.positions)
-    total = len(select_frames(len(sequence), options.max_frames, options.stride))
+    report_path, trajectory_paths = report_paths(out, list(runs))
     earlier = earlier_trajectories(out)
     with StagedFiles() as staged, StopRequest().installed() as stop:
-        recording = RecordingFile(staged.path(out), out, blueprint, viewer)
-        stream = recording.stream
+        recording = RecordingFile(staged.path(out), out, _blueprint(sequence, runs), viewer)
         try:
-            with RecordProgress(total, quiet=options.quiet) as progress, RecordingThread() as background:
-                log_world(stream, groundtruth)
-                for position, name in enumerate(pipelines):
-                    if stop.requested:
-                        break
-                    recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
-                                                scene_extent, tracker_counts=name in counted)
-
-                    def on_frame(frame: Frame, recorder=recorder, first=position == 0) -> None:
-                        background.submit(recorder.begin_frame, frame)
-                        if first:  # one copy of each image serves every pipeline's view
-                            background.submit(log_frame_image, stream, frame)
-
-                    guarded = GuardedSequence(sequence)
-                    try:
-                        scored = score_run(guarded, runs[name], name, max_frames=options.max_frames,
-                                           stride=options.stride, sinks=[background.sink(recorder), progress.sink(name)],
-                                           frame_sinks=[on_frame], should_stop=stop)
-                        background.drain()  # the run's events are recorded before its evaluation
-                    except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
-                        if isinstance(error, SystemExit):  # a plugin that exits: that pipeline's failure
-                            error = InputError(f"pipeline {name} called sys.exit({error.code!r})")
-                        if not blocks and not guarded.read:
-                            raise error
-                        failure = error
-                        break
-                    run = scored.run
-                    failure = guarded.error
-                    if failure is not None and not run.frames:
-                        raise failure  # not one frame was read: there is nothing to keep
-                    interrupted = interrupted or run.interrupted or failure is not None
-                    log_loss_causes(stream, name, run.tracking_lost, scored.signals)
-                    if scored.evaluation is not None:
-                        log_evaluation(stream, name, scored.evaluation, scored.frame_indices, scored.frame_timestamps)
-                    blocks[name] = scored.report
-                    scored_runs[name] = scored
-                    trajectories[name] = run.trajectory
-                    if failure is not None:
-                        break
+            recorded = _record_runs(recording.stream, sequence, runs, frames, quiet, stop)
         finally:
             recording.close()
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
-        for name, trajectory in trajectories.items():  # written once a failed recording made room
-            staged.write(trajectory_paths[name], partial(write_tum, trajectory=trajectory))
-        report = build_report(sequence, blocks, interrupted or failure is not None or len(blocks) < len(pipelines))
-        errors = [str(failure) if failure is not None else None,
+        errors = [str(recorded.failure) if recorded.failure is not None else None,
                   f"{out}: {recording.error}" if recording.error is not None else None]
-        report["failed"] = any(errors)
-        if report["failed"]:
-            report["error"] = "; ".join(error for error in errors if error)
-        staged.write(report_path, lambda path: write_report(path, report))
+        report = _stage_results(staged, sequence, recorded, list(runs), trajectory_paths, report_path, errors)
         staged.commit()
-    for path in set(earlier) - {trajectory_paths[name] for name in trajectories}:
+    kept = {trajectory_paths[name] for name in recorded.scored}
+    for path in set(earlier) - kept:
         path.unlink(missing_ok=True)  # the earlier run's, which the report now in place does not list
     written = [path for path in (out, report_path, *trajectory_paths.values()) if path.exists()]
-    if recording.error is not None:
-        raise InputError(f"{out}: recording not written: {recording.error}; the report and trajectories "
+    _raise_failure(out, report_path, recording.error, recorded.failure)
+    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in recorded.scored}, report,
+                        written, recorded.scored)
+
+
+def _blueprint(sequence: Sequence, runs: dict[str, Pipeline]) -> Any:
+    """The layout the recording opens with: every run's views, the groundtruth's path framing the 3D view."""
+    groundtruth = sequence.groundtruth
+    return default_blueprint(list(runs), None if groundtruth is None else groundtruth.poses,
+                             [name for name, run in runs.items() if _counts_features(run)])
+
+
+def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], frames: FrameSelection, quiet: bool,
+                 stop: SafePoints) -> Recorded:
+    """Drive every run in turn into ``stream``, one recorder each, until all ran, a stop is requested
+    or one fails; what came before a failure is kept."""
+    recorded = Recorded()
+    groundtruth = sequence.groundtruth
+    scene_extent = None if groundtruth is None else extent(groundtruth.positions)
+    total = len(select_frames(len(sequence), frames.max_frames, frames.stride))
+    with RecordProgress(total, quiet=quiet) as progress, RecordingThread() as background:
+        log_world(stream, groundtruth)
+        for position, name in enumerate(runs):
+            if stop.requested:
+                break
+            recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
+                                        scene_extent, tracker_counts=_counts_features(runs[name]))
+            guarded = GuardedSequence(sequence)
+            try:
+                scored = _record_run(guarded, runs[name], name, recorder, background, progress.sink(name),
+                                     images=stream if position == 0 else None, frames=frames, stop=stop)
+            except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
+                recorded.failure = _run_failure(name, error)
+                if not recorded.scored and not guarded.read:  # nothing to keep
+                    if recorded.failure is error:
+                        raise
+                    raise recorded.failure from error
+                break
+            recorded.failure = guarded.error
+            if recorded.failure is not None and not scored.run.frames:
+                raise recorded.failure  # not one frame was read: there is nothing to keep
+            recorded.interrupted = recorded.interrupted or scored.run.interrupted or recorded.failure is not None
+            _log_scores(stream, name, scored)
+            recorded.scored[name] = scored
+            if recorded.failure is not None:
+                break
+    return recorded
+
+
+def _record_run(sequence: GuardedSequence, run: Pipeline, name: str, recorder: PipelineRecorder,
+                background: RecordingThread, progress: Sink, *, images: Any, frames: FrameSelection,
+                stop: SafePoints) -> ScoredRun:
+    """Drive one run over the frames with ``recorder`` as a sink on the recording thread, and score
+    it once all its events are recorded; ``images`` is the stream that gets each frame's image (the
+    first run's only: one copy serves every run's view)."""
+
+    def on_frame(frame: Frame) -> None:
+        background.submit(recorder.begin_frame, frame)
+        if images is not None:
+            background.submit(log_frame_image, images, frame)
+
+    scored = score_run(sequence, run, name, max_frames=frames.max_frames, stride=frames.stride,
+                       sinks=[background.sink(recorder), progress], frame_sinks=[on_frame], should_stop=stop)
+    background.drain()  # the run's events are recorded before its evaluation
+    return scored
+
+
+def _run_failure(name: str, error: BaseException) -> Exception:
+    """A run's unexpected error as the failure that ends the record; a plugin that exits fails its pipeline."""
+    if isinstance(error, SystemExit):
+        return InputError(f"pipeline {name} called sys.exit({error.code!r})")
+    assert isinstance(error, Exception)
+    return error
+
+
+def _log_scores(stream: Any, name: str, scored: ScoredRun) -> None:
+    """The run's loss causes and, with groundtruth, its error timelines, into the recording."""
+    log_loss_causes(stream, name, scored.run.tracking_lost, scored.signals)
+    if scored.evaluation is not None:
+        log_evaluation(stream, name, scored.evaluation, scored.frame_indices, scored.frame_timestamps)
+
+
+def _stage_results(staged: StagedFiles, sequence: Sequence, recorded: Recorded, names: list[str],
+                   trajectory_paths: dict[str, Path], report_path: Path, errors: list[str | None]) -> dict[str, Any]:
+    """Stage every finished run's trajectory and the report (which says whether the record was cut
+    short or failed, and why); the report."""
+    for name, scored in recorded.scored.items():  # written once a failed recording made room
+        staged.write(trajectory_paths[name], partial(write_tum, trajectory=scored.run.trajectory))
+    blocks = {name: scored.report for name, scored in recorded.scored.items()}
+    report = build_report(sequence, blocks, recorded.interrupted or recorded.failure is not None
+                          or len(blocks) < len(names))
+    report["failed"] = any(errors)
+    if report["failed"]:
+        report["error"] = "; ".join(error for error in errors if error)
+    staged.write(report_path, lambda path: write_report(path, report))
+    return report
+
+
+def _raise_failure(out: Path, report_path: Path, recording_error: str | None, failure: Exception | None) -> None:
+    """Raise what ended the record early, saying what was kept of it."""
+    if recording_error is not None:
+        raise InputError(f"{out}: recording not written: {recording_error}; the report and trajectories "
                          f"are in {report_path.parent}")
     if isinstance(failure, InputError):
         raise InputError(f"{failure}; the frames before it are recorded in {out}, with the report and "
                          f"trajectories beside it")
     if failure is not None:
         raise failure
-    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in blocks}, report, written,
-                        scored_runs)
 
 
 def _counts_features(run: Pipeline) -> bool:

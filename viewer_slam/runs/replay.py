@@ -29,9 +29,7 @@ from ..errors import InputError
 from ..evaluation.coverage import coverage, median_period
 from ..geometry.association import associate
 from ..geometry.camera import Camera
-from ..geometry.rtabmap_database import RtabmapDatabase, read_rtabmap_database
-from ..geometry.trajectory import Trajectory
-from ..geometry.trajectory_formats import TrajectoryFormat, read_trajectory, reads_as_rtabmap
+from ..geometry.trajectory_formats import read_estimate
 from ..pipelines.base import RUN_NAME, Pipeline
 from ..pipelines.edges import EdgeClassifier
 from ..pipelines.events import (
@@ -53,17 +51,6 @@ class EstimateParams(PipelineParams):
 
     file: str = Field("", description="the trajectory file")
     format: str = Field("", description="its format ('': detected)")
-
-
-def read_estimate(path: Path, format: str | None = None, timestamps: np.ndarray | None = None,
-                  ) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
-    """An estimate file (``format``, else detected), the format it was read as and, for an RTAB-Map
-    database, the database itself: its nodes, links and statistics say more than its poses."""
-    if reads_as_rtabmap(path, format):
-        database = read_rtabmap_database(path)
-        return database.trajectory(), TrajectoryFormat.RTABMAP, database
-    trajectory, detected = read_trajectory(path, format, timestamps)
-    return trajectory, detected, None
 
 
 def no_pose_reason(file: Path, gap_s: float) -> str:

@@ -10,13 +10,14 @@ that prints as another sequence's figure is one placed under another sequence's 
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..evaluation import evaluate
 from ..evaluation.evaluation import RpeMode
-from ..geometry.trajectory import read_tum
+from ..geometry.trajectory_formats import TrajectoryFormat
+from ..runs.trajectory_files import ScoringOptions, read_estimate_file, read_groundtruth, score_estimate
 from .manifest import CHARTS, SEQUENCES, SYSTEMS, StudySequence, groundtruth_path, log_path, poses_path
 from .published import Printed, parse_chart, parse_log
 
 FIGURES = ("ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse_deg")
+STUDY_SCORING = ScoringOptions(rpe_mode=RpeMode.TUM)  # RPE as the study's evaluate_rpe.py ran
 FIGURE_NAMES = {"ate_rmse": "ATE RMSE", "rpe_trans_rmse": "RPE translation RMSE",
                 "rpe_rot_rmse_deg": "RPE rotation RMSE", "time_s": "processing time"}
 
@@ -40,9 +41,10 @@ class Run:
 
 
 def score_run(groundtruth_file: Path, poses_file: Path) -> dict:
-    """The study's figures and the coverage-aware ones of one run (bare files: TUM's own association)."""
-    groundtruth, estimate = read_tum(groundtruth_file), read_tum(poses_file)
-    evaluation = evaluate(groundtruth, estimate, rpe_mode=RpeMode.TUM)
+    """The study's figures and the coverage-aware ones of one run (bare files: TUM's own association),
+    scored as ``viewslam evaluate --rpe-mode tum`` scores the files."""
+    estimate = read_estimate_file(poses_file, TrajectoryFormat.TUM)
+    evaluation = score_estimate(read_groundtruth(groundtruth_file), estimate, STUDY_SCORING)
     span = evaluation.coverage.span
     lost = evaluation.coverage.lost_intervals
     stopped = evaluation.coverage.stopped_at
@@ -54,7 +56,7 @@ def score_run(groundtruth_file: Path, poses_file: Path) -> dict:
         "rpe_trans_rmse": trans and trans["rmse"], "rpe_rot_rmse_deg": rot and rot["rmse"],
         "rpe_pairs": trans and trans["n"], "rpe_mode": RpeMode.TUM,
         "coverage": evaluation.coverage.ratio, "penalized_ate_rmse": penalized and penalized["rmse"],
-        "poses": len(estimate), "lost_intervals": [[start, end] for start, end in lost],
+        "poses": len(estimate.trajectory), "lost_intervals": [[start, end] for start, end in lost],
         "span": [span.start, span.end], "duration_s": span.end - span.start,
         "stopped_at_s": None if stopped is None else stopped - span.start,
     }
