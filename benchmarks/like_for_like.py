@@ -47,7 +47,7 @@ from viewer_slam.geometry.association import associate
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import Event, FrameTracked, GraphEdge, KeyframeAdded, TrackingRecovered
 from viewer_slam.pipelines.params import parse_assignments
-from viewer_slam.runs.report import build_report, write_report
+from viewer_slam.runs.run_report import build_report, write_report
 from viewer_slam.runs.service import EstimateSpec
 
 from . import lab

@@ -29,7 +29,7 @@ import numpy as np
 from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.open3d_loader import import_open3d
-from viewer_slam.runs.report import versions
+from viewer_slam.runs.run_report import versions
 
 from . import lab
 from .figures import REPO, TUM, invocation, stamp, write_block

@@ -12,7 +12,7 @@ from viewer_slam.benchmark.plan import plan_tasks
 from viewer_slam.benchmark.runner import BenchmarkTask, execute_task
 from viewer_slam.benchmark.suite import deliver_files, run_benchmark
 from viewer_slam.record.command import record
-from viewer_slam.runs.report import write_report
+from viewer_slam.runs.run_report import write_report
 
 pytestmark = pytest.mark.usefixtures("fake_pipeline")
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from benchmark_fake_pipeline import MODULE, FakeParams, write_tum_folder
 
+from viewer_slam.benchmark.benchmark_outputs import findings, write_outputs
 from viewer_slam.benchmark.plots import CHARTS
-from viewer_slam.benchmark.report import findings, write_outputs
 from viewer_slam.benchmark.runner import BenchmarkTask, TaskResult, execute_task
 from viewer_slam.benchmark.tables import COLUMNS
 from viewer_slam.cli import main

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from viewer_slam.cli import main
-from viewer_slam.recording.viewer import viewer_binary
+from viewer_slam.rerun_adapter.viewer import viewer_binary
 
 VIEWSLAM = Path(sys.executable).with_name("viewslam")
 
@@ -42,7 +42,7 @@ def test_view_of_a_missing_file_is_bad_input(tmp_path, capsys):
 def shell_viewer(folder: Path, monkeypatch, script: str) -> Path:
     """A stand-in for the bundled viewer: ``script`` (shell) run with the viewer's arguments,
     which it also writes to the returned file."""
-    import viewer_slam.recording.viewer as viewer
+    import viewer_slam.rerun_adapter.viewer as viewer
 
     called = folder / "called-with"
     binary = folder / "shell-rerun"
@@ -63,7 +63,7 @@ def test_view_opens_the_recording_in_the_bundled_viewer(recording, tmp_path, mon
 
 
 def test_a_viewer_that_fails_later_is_one_line_with_its_reason(recording, tmp_path, monkeypatch, capfd):
-    import viewer_slam.recording.viewer as viewer
+    import viewer_slam.rerun_adapter.viewer as viewer
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(viewer, "VIEWER_START_S", 0.0)
@@ -146,7 +146,7 @@ def tiny_run(tmp_path, monkeypatch):
 
 
 def fake_viewer(tmp_path: Path, monkeypatch, body: str) -> Path:
-    import viewer_slam.recording.viewer as viewer
+    import viewer_slam.rerun_adapter.viewer as viewer
 
     script = tmp_path / "rerun"
     script.write_text(FAKE_VIEWER.format(python=sys.executable, body=body))
@@ -177,7 +177,7 @@ def test_record_spawn_of_a_viewer_that_exits_at_once_is_one_line_and_loses_nothi
 
 
 def refusing_port() -> int:
-    from viewer_slam.recording.viewer import free_port
+    from viewer_slam.rerun_adapter.viewer import free_port
 
     return free_port()
 
@@ -201,7 +201,7 @@ def silent_listener():
 ], ids=["no-port", "port-0", "port-not-a-number", "http-scheme", "not-the-proxy", "refused", "silent"])
 def test_record_connect_to_no_viewer_is_one_line_and_loses_nothing(address, problem, tiny_run, silent_listener,
                                                                   monkeypatch, capsys):
-    import viewer_slam.recording.viewer as viewer
+    import viewer_slam.rerun_adapter.viewer as viewer
 
     monkeypatch.setattr(viewer, "CONNECT_TIMEOUT_S", 0.5)
     sequence, out = tiny_run

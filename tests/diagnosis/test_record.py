@@ -8,8 +8,8 @@ from rerun.chunk import RrdReader
 
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth.generate import cached_scenario
-from viewer_slam.recording import layout
-from viewer_slam.recording.fit import CONTINUATION
+from viewer_slam.rerun_adapter import layout
+from viewer_slam.rerun_adapter.fit import CONTINUATION
 
 pytestmark = pytest.mark.slow
 
@@ -69,7 +69,7 @@ def test_a_sink_that_stalls_never_holds_the_causes_back(tmp_path):
     import rerun as rr
 
     from viewer_slam.diagnosis import Cause, FrameSignals
-    from viewer_slam.recording import loss_causes
+    from viewer_slam.rerun_adapter import loss_causes
 
     stream = rr.RecordingStream("viewslam-test")
     stream.save(tmp_path / "causes.rrd")

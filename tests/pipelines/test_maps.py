@@ -3,7 +3,7 @@ import numpy as np
 from viewer_slam.geometry.se3 import transform_points
 from viewer_slam.pipelines.events import MapUpdated
 from viewer_slam.pipelines.maps import rebuilt_map
-from viewer_slam.recording.voxel_map import VoxelMap
+from viewer_slam.rerun_adapter.voxel_map import VoxelMap
 
 
 def clouds(count: int, points: int = 50) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:

@@ -29,7 +29,7 @@ from viewer_slam.pipelines.events import (
 from viewer_slam.pipelines.params import apply_overrides
 from viewer_slam.pipelines.rtabmap import RtabmapParams
 from viewer_slam.pipelines.run import drive, run_pipeline
-from viewer_slam.runs.report import pipeline_report
+from viewer_slam.runs.run_report import pipeline_report
 
 pytestmark = pytest.mark.slow
 FRAMES = 300

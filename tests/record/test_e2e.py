@@ -19,7 +19,7 @@ from rerun.chunk import RrdReader
 from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.geometry.trajectory import read_tum
-from viewer_slam.recording import layout
+from viewer_slam.rerun_adapter import layout
 
 pytestmark = pytest.mark.slow
 

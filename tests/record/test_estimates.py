@@ -27,7 +27,7 @@ from viewer_slam.dataset.sources import open_source
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.geometry.trajectory import Trajectory, read_tum, write_tum
 from viewer_slam.record.outputs import output_path
-from viewer_slam.recording import layout
+from viewer_slam.rerun_adapter import layout
 
 pytestmark = pytest.mark.slow
 

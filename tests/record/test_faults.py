@@ -89,7 +89,7 @@ def test_a_full_disk_is_exit_2_the_report_says_so_and_the_earlier_recording_stay
 STALLING_WRITER = """
 import sys, numpy as np, rerun as rr, rerun.blueprint as rrb
 from pathlib import Path
-from viewer_slam.recording.rrd_file import RecordingFile
+from viewer_slam.rerun_adapter.rrd_file import RecordingFile
 path = Path(sys.argv[1])
 recording = RecordingFile(path, path, rrb.Blueprint(rrb.Spatial3DView(origin="/")))
 for frame in range(30):  # 3.6 MB, far more than the disk holds
@@ -205,7 +205,7 @@ def test_a_third_stop_signal_aborts_and_leaves_the_earlier_outputs(excerpt, tmp_
 
 
 def test_ctrl_c_during_start_up_is_one_line_and_exit_130(excerpt, tmp_path, monkeypatch, capsys):
-    import viewer_slam.runs.selection as selection
+    import viewer_slam.runs.run_specs as selection
 
     def interrupted(*arguments, **options):
         signal.raise_signal(signal.SIGINT)  # Ctrl-C while the options are being checked
@@ -226,7 +226,7 @@ def test_ctrl_c_while_importing_is_one_line_and_exit_130(excerpt, tmp_path):
 
 
 def test_ctrl_c_inside_a_compiled_extensions_import_is_one_line_and_exit_130(tmp_path, monkeypatch, capsys):
-    import viewer_slam.runs.selection as selection
+    import viewer_slam.runs.run_specs as selection
     from viewer_slam.errors import Interrupted
 
     def extension_interrupted_while_loading(*arguments, **options):

@@ -25,7 +25,7 @@ from viewer_slam.cli import main
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.se3 import pose_to_tq
 from viewer_slam.geometry.trajectory import read_tum, write_tum
-from viewer_slam.recording import layout
+from viewer_slam.rerun_adapter import layout
 from viewer_slam.schemas import validator
 
 KIDNAP = SHARED_DATA / "study_kasar2018" / "freiburg2_360_kidnap"

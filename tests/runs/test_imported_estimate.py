@@ -12,7 +12,7 @@ from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
 from viewer_slam.pipelines.run import drive
 from viewer_slam.runs.replay import estimate_replay, parse_estimate
-from viewer_slam.runs.report import pipeline_report
+from viewer_slam.runs.run_report import pipeline_report
 from viewer_slam.runs.scoring import evaluate_run
 
 FRAMES = 30

@@ -12,7 +12,7 @@ from viewer_slam.dataset.sources import open_source
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.run import PipelineRun
-from viewer_slam.runs.report import build_report, pipeline_report, write_report
+from viewer_slam.runs.run_report import build_report, pipeline_report, write_report
 from viewer_slam.runs.scoring import evaluate_run
 
 PIPELINE_KEYS = {"source", "frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",

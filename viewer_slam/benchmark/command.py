@@ -11,13 +11,13 @@ from ..comparison.results import check_planned_sequences, load_results
 from ..dataset.sources import open_source
 from ..errors import InputError
 from ..geometry.trajectory_formats import TrajectoryFormat
-from ..runs.report import sequence_block
-from ..runs.selection import select_runs
+from ..runs.run_report import sequence_block
+from ..runs.run_specs import select_runs
 from ..seeds import SEED_MAX
+from .benchmark_outputs import OUTPUT_FILES, RECORDINGS_FOLDER, planned_outputs, write_outputs
 from .cache import ResultCache
 from .executors import make_executor
 from .plan import plan_tasks
-from .report import OUTPUT_FILES, RECORDINGS_FOLDER, planned_outputs, write_outputs
 from .runner import TaskResult
 from .suite import run_benchmark
 

@@ -25,7 +25,7 @@ from ..dataset.catalog import resolve_sequence
 from ..dataset.sources import RgbdSequence, open_source
 from ..geometry.trajectory import format_tum
 from ..pipelines import base
-from ..runs.report import sequence_block
+from ..runs.run_report import sequence_block
 from ..runs.service import EstimateSpec, PipelineSpec, RunSpec, ScoredRun, build_run, score_run
 
 

@@ -61,7 +61,7 @@ def _run(argv: list[str] | None) -> int:
 def entry_point() -> None:
     code = main()
     stopping.ignore()  # the command has ended: a stop signal now must not kill the exit that reports it
-    recording = sys.modules.get("viewer_slam.recording.rrd_file")
+    recording = sys.modules.get("viewer_slam.rerun_adapter.rrd_file")
     if recording is not None:  # a recording whose sink stalled: leave without waiting for it, with this code
         recording.leave_if_abandoned(code)
     sys.exit(code)

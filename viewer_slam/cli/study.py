@@ -35,7 +35,7 @@ def study(
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
     result = run(sequences or (), out=out, mirror=mirror, record=record, quiet=quiet,
                  command=command)
-    from ..study.report import table
+    from ..study.study_outputs import table
 
     typer.echo(table(list(result.runs)))
     typer.echo(f"{len(result.discrepancies)} discrepancies between the published figures and the runs:")

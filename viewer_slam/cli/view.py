@@ -6,7 +6,7 @@ from pathlib import Path
 import typer
 
 from ..errors import InputError
-from ..recording.viewer import LOCALHOST, free_port, has_display, no_display_problem, open_window, viewer_binary
+from ..rerun_adapter.viewer import LOCALHOST, free_port, has_display, no_display_problem, open_window, viewer_binary
 from .app import app
 
 
@@ -26,7 +26,7 @@ def view_command(
     """Open RECORDING in the Rerun viewer that ships with rerun-sdk."""
     if not recording.is_file():
         raise InputError.at(recording, "no such recording" if not recording.exists() else "not a file")
-    from ..recording.rrd_file import has_footer  # Rerun's reader: only once there is a file to read
+    from ..rerun_adapter.rrd_file import has_footer  # Rerun's reader: only once there is a file to read
 
     if not has_footer(recording):
         raise InputError.at(recording, "not a complete Rerun recording (empty, truncated, or another kind of "

@@ -2,7 +2,7 @@
 the report and trajectories beside it; and `viewslam diff`, two recorded runs compared into one.
 
 This layer joins the run service (:mod:`viewer_slam.runs`) and the comparison
-(:mod:`viewer_slam.comparison`) to the Rerun adapter (:mod:`viewer_slam.recording`): the options are checked, the outputs staged and the runs scored
+(:mod:`viewer_slam.comparison`) to the Rerun adapter (:mod:`viewer_slam.rerun_adapter`): the options are checked, the outputs staged and the runs scored
 here, while everything written into the recording is the adapter's.
 """
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 from ..errors import InputError
 from ..geometry.trajectory_formats import TrajectoryFormat
-from ..recording.viewer import live_viewer
+from ..rerun_adapter.viewer import live_viewer
 from ..runs.replay import named_estimates
-from ..runs.selection import run_specs, select_runs
+from ..runs.run_specs import run_specs, select_runs
 from .files import FILES_ONLY, record_trajectory_files
 from .inputs import BagTopics
 from .options import FrameSelection, RecordResult

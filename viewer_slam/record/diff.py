@@ -7,7 +7,7 @@ from pathlib import Path
 from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..comparison import Comparison, compare_reports, comparison_to_dict
 from ..errors import InputError
-from ..runs.report import write_report
+from ..runs.run_report import write_report
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ def diff(a: Path, b: Path, *, runs: tuple[str, str] | None = None, json: Path | 
             staged.write(json, lambda staged_path: write_report(staged_path, data))
             staged.commit()
     if out is not None:
-        from ..recording.diff_recording import write_diff_recording  # Rerun loads only for a recording
+        from ..rerun_adapter.diff_recording import write_diff_recording  # Rerun loads only for a recording
 
         write_diff_recording(comparison, out)
     return DiffResult(comparison, tuple(path for path in (json, out) if path is not None))

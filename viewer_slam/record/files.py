@@ -1,6 +1,6 @@
 """`viewslam record --groundtruth FILE --estimate NAME=FILE ...`: trajectory files alone, scored as
 ``viewslam evaluate`` scores them (:mod:`viewer_slam.runs.trajectory_files`) and recorded as
-:mod:`viewer_slam.recording.trajectory_files` lays them out, the report and trajectories beside
+:mod:`viewer_slam.rerun_adapter.files_only` lays them out, the report and trajectories beside
 the recording as ``record`` writes them.
 """
 
@@ -12,11 +12,11 @@ from ..atomic import StagedFiles, exclusive
 from ..errors import InputError
 from ..geometry.trajectory import write_tum
 from ..geometry.trajectory_formats import TrajectoryFormat
-from ..recording.blueprint import files_blueprint
-from ..recording.rrd_file import RecordingFile
-from ..recording.trajectory_files import log_files
-from ..recording.viewer import LiveViewer
-from ..runs.report import write_report
+from ..rerun_adapter.blueprint import files_blueprint
+from ..rerun_adapter.files_only import log_files
+from ..rerun_adapter.rrd_file import RecordingFile
+from ..rerun_adapter.viewer import LiveViewer
+from ..runs.run_report import write_report
 from ..runs.trajectory_files import read_groundtruth, score_files
 from .options import RecordResult
 from .outputs import check_outputs, earlier_trajectories, report_paths

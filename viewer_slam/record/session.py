@@ -31,16 +31,16 @@ from ..errors import InputError
 from ..geometry.trajectory import write_tum
 from ..pipelines.base import Pipeline
 from ..pipelines.run import Sink
-from ..recording.background import RecordingThread
-from ..recording.blueprint import default_blueprint
-from ..recording.loss_causes import log_loss_causes
-from ..recording.recorder import PipelineRecorder, log_frame_image, log_world
-from ..recording.rrd_file import RecordingFile
-from ..recording.sizes import extent
-from ..recording.timelines import log_evaluation
-from ..recording.viewer import LiveViewer
+from ..rerun_adapter.background import RecordingThread
+from ..rerun_adapter.blueprint import default_blueprint
+from ..rerun_adapter.loss_causes import log_loss_causes
+from ..rerun_adapter.recorder import PipelineRecorder, log_frame_image, log_world
+from ..rerun_adapter.rrd_file import RecordingFile
+from ..rerun_adapter.sizes import extent
+from ..rerun_adapter.timelines import log_evaluation
+from ..rerun_adapter.viewer import LiveViewer
 from ..runs.replay import EstimateReplay
-from ..runs.report import build_report, write_report
+from ..runs.run_report import build_report, write_report
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
 from ..stopping import SafePoints
 from .console import RecordProgress

@@ -15,7 +15,7 @@ from ..atomic import StagedFiles, check_writable, refuse_inputs_as_outputs
 from ..errors import InputError
 from ..evaluation.evaluation import RpeMode
 from ..evaluation.rpe import DeltaUnit
-from .report import write_report
+from .run_report import write_report
 from .trajectory_files import (
     Groundtruth,
     ScoredFile,

@@ -22,7 +22,7 @@ from ..pipelines.base import Pipeline, make_pipeline
 from ..pipelines.events import Event, FrameTracked
 from ..pipelines.run import PipelineRun, Sink, drive
 from .replay import estimate_replay
-from .report import pipeline_report
+from .run_report import pipeline_report
 from .scoring import evaluate_run
 
 

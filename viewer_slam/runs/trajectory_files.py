@@ -35,8 +35,8 @@ from ..geometry.trajectory import Trajectory, read_tum
 from ..geometry.trajectory_formats import TrajectoryFormat, detect_format, read_estimate, read_trajectory
 from ..pipelines.edges import EdgeClassifier
 from ..pipelines.run import PipelineRun
-from .report import pipeline_report, versions
 from .rtabmap_graph import NodeEdge, edges_by_node, graph_events
+from .run_report import pipeline_report, versions
 
 SEQUENCE_RULE = "sequence frames"
 BAG_FORMAT = "bag"  # an estimate read from a ROS bag's pose topic

@@ -52,7 +52,7 @@ def study(sequences: Sequence[str] = (), *, out: Path = Path("study-results"), m
         files[path] = fetch(path, base, cache, progress=not quiet)
 
     from .replay import replay  # the scoring loads only once the files are here
-    from .report import write_all
+    from .study_outputs import write_all
 
     runs, found = replay(files, selected)
     written = write_all(out, runs, found, base, command)

@@ -3,7 +3,7 @@ import time
 
 import pytest
 
-from viewer_slam.recording.background import RecordingThread
+from viewer_slam.rerun_adapter.background import RecordingThread
 
 
 def test_calls_run_in_order_on_one_thread_other_than_the_callers():

@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from viewer_slam.evaluation import evaluate
 from viewer_slam.geometry.se3 import make_pose
 from viewer_slam.geometry.trajectory import Trajectory
-from viewer_slam.recording.timelines import log_evaluation
+from viewer_slam.rerun_adapter.timelines import log_evaluation
 
 
 def logged(path, entity: str) -> dict[int, float]:

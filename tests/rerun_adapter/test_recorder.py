@@ -29,11 +29,11 @@ from viewer_slam.geometry.se3 import invert
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.record.command import record
 from viewer_slam.record.console import print_summary
-from viewer_slam.recording.budget import SnapshotBudget
-from viewer_slam.recording.fit import CONTINUATION, LOG_LINE_CHARS
-from viewer_slam.recording.images import depth_png
-from viewer_slam.recording.timelines import coverage_so_far, frames_at, gap_starts
-from viewer_slam.recording.voxel_map import VoxelMap
+from viewer_slam.rerun_adapter.budget import SnapshotBudget
+from viewer_slam.rerun_adapter.fit import CONTINUATION, LOG_LINE_CHARS
+from viewer_slam.rerun_adapter.images import depth_png
+from viewer_slam.rerun_adapter.timelines import coverage_so_far, frames_at, gap_starts
+from viewer_slam.rerun_adapter.voxel_map import VoxelMap
 
 RERUN = Path(sys.executable).with_name("rerun")
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from viewer_slam.recording.budget import SnapshotBudget
-from viewer_slam.recording.sizes import (
+from viewer_slam.rerun_adapter.budget import SnapshotBudget
+from viewer_slam.rerun_adapter.sizes import (
     FRUSTUM_RANGE_M,
     FRUSTUM_SHARE,
     KEYFRAME_SHARE,

@@ -16,8 +16,8 @@ from viewer_slam.pipelines.events import (
     TrackingStatus,
     TrajectoryFinal,
 )
-from viewer_slam.recording.recorder import PipelineRecorder
-from viewer_slam.recording.sizes import scene_sizes
+from viewer_slam.rerun_adapter.recorder import PipelineRecorder
+from viewer_slam.rerun_adapter.sizes import scene_sizes
 
 CAMERA = Camera(fx=50.0, fy=50.0, cx=31.5, cy=23.5, width=64, height=48)
 

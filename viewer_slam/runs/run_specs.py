@@ -7,7 +7,7 @@ from pathlib import Path
 from ..geometry.trajectory_formats import TrajectoryFormat
 from ..pipelines.base import pipeline_class
 from ..pipelines.params import resolve_params
-from ..pipelines.selection import BOTH, select_pipelines
+from ..pipelines.pipeline_option import BOTH, select_pipelines
 from .replay import named_estimates
 from .service import EstimateSpec, PipelineSpec, RunSpec
 

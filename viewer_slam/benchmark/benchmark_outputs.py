@@ -19,7 +19,7 @@ from ..comparison.compare import SUMMARY
 from ..comparison.output import markdown_comparison
 from ..comparison.results import RUNS_FOLDER, BenchmarkResults, compare_results, load_results, runs_report_path
 from ..errors import InputError
-from ..runs.report import versions, write_report
+from ..runs.run_report import versions, write_report
 from ..version import __version__
 from .plots import CHARTS, plot_all
 from .runner import TaskResult, recording_path

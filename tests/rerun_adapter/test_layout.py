@@ -39,8 +39,8 @@ from viewer_slam.geometry.se3 import make_pose, transform_points
 from viewer_slam.pipelines import base
 from viewer_slam.pipelines.events import FrameTracked, MapUpdated
 from viewer_slam.record.command import record
-from viewer_slam.recording import blueprint
-from viewer_slam.recording.recorder import lost_colour
+from viewer_slam.rerun_adapter import blueprint
+from viewer_slam.rerun_adapter.recorder import lost_colour
 
 RERUN = Path(sys.executable).with_name("rerun")
 VIEWSLAM = Path(sys.executable).with_name("viewslam")

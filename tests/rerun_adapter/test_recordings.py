@@ -24,9 +24,9 @@ from viewer_slam.cli import main
 from viewer_slam.dataset.synth import cached_scenario
 from viewer_slam.pipelines.edges import LOOP_MIN_AGE_S, LOOP_MIN_NODE_GAP
 from viewer_slam.record.command import record
-from viewer_slam.recording import layout
-from viewer_slam.recording.recorder import MAP_BYTES_PER_FRAME, MAP_POINT_BYTES
-from viewer_slam.recording.viewer import free_port
+from viewer_slam.rerun_adapter import layout
+from viewer_slam.rerun_adapter.recorder import MAP_BYTES_PER_FRAME, MAP_POINT_BYTES
+from viewer_slam.rerun_adapter.viewer import free_port
 
 pytestmark = pytest.mark.slow
 

@@ -4,8 +4,8 @@ import numpy as np
 
 from viewer_slam.pipelines.edges import EdgeKind
 from viewer_slam.pipelines.events import GraphEdge
-from viewer_slam.recording import blueprint
-from viewer_slam.recording.fit import (
+from viewer_slam.rerun_adapter import blueprint
+from viewer_slam.rerun_adapter.fit import (
     CONTINUATION,
     LEFT_SHARE,
     LOG_LINE_CHARS,
@@ -14,7 +14,7 @@ from viewer_slam.recording.fit import (
     log_rows,
     title_chars,
 )
-from viewer_slam.recording.recorder import loop_closure_line
+from viewer_slam.rerun_adapter.recorder import loop_closure_line
 
 PIPELINES = ["rgbdslam", "rtabmap"]
 
