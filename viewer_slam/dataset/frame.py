@@ -1,6 +1,7 @@
 """One RGB-D frame as the pipelines see it, and the sequence interface that yields frames."""
 
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -45,6 +46,19 @@ def frames_read(max_frames: int | None = None, stride: int = 1) -> int | None:
     """How many leading frames of a sequence :func:`select_frames` reaches into (None: all of them),
     so a synthetic scenario need be rendered that far only."""
     return None if max_frames is None else (max_frames - 1) * stride + 1
+
+
+@contextmanager
+def closing_frames(frames: Iterator[Frame]) -> Iterator[Iterator[Frame]]:
+    """``frames`` closed when the block ends, by an explicit call: a generator left to the garbage
+    collector is closed where an exception it raises (a third stop signal landing while its
+    reader thread is joined) is only printed, never raised."""
+    try:
+        yield frames
+    finally:
+        close = getattr(frames, "close", None)
+        if close is not None:
+            close()
 
 
 class Sequence(Protocol):

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset.frame import Frame, Sequence
+from ..dataset.frame import Frame, Sequence, closing_frames
 from ..geometry.trajectory import Trajectory
 from .base import Pipeline, make_pipeline
 from .edges import EdgeKind
@@ -99,19 +99,20 @@ def run_pipeline(
 def _shown_ahead(frames: Iterator[Frame], pipeline: Pipeline) -> Iterator[Frame]:
     """``frames`` in order, each shown to ``pipeline.prefetch`` one frame before it is yielded.
     A Ctrl-C while the next frame is read still yields the frame already read, then raises."""
-    current = next(frames, None)
-    if current is not None:
-        pipeline.prefetch(current)
-    while current is not None:
-        try:
-            upcoming = next(frames, None)
-        except KeyboardInterrupt:
+    with closing_frames(frames):
+        current = next(frames, None)
+        if current is not None:
+            pipeline.prefetch(current)
+        while current is not None:
+            try:
+                upcoming = next(frames, None)
+            except KeyboardInterrupt:
+                yield current
+                raise
+            if upcoming is not None:
+                pipeline.prefetch(upcoming)
             yield current
-            raise
-        if upcoming is not None:
-            pipeline.prefetch(upcoming)
-        yield current
-        current = upcoming
+            current = upcoming
 
 
 def drive(
@@ -145,16 +146,17 @@ def drive(
                 sink(event)
 
     start = time.perf_counter()
-    try:
-        for frame in _shown_ahead(sequence.frames(max_frames=max_frames, stride=stride), pipeline):
-            for frame_sink in frame_sinks:
-                frame_sink(frame)
-            emit(pipeline.process(frame))
-            if should_stop():
-                run.interrupted = True
-                break
-    except KeyboardInterrupt:
-        run.interrupted = True
+    with closing_frames(_shown_ahead(sequence.frames(max_frames=max_frames, stride=stride), pipeline)) as frames:
+        try:
+            for frame in frames:
+                for frame_sink in frame_sinks:
+                    frame_sink(frame)
+                emit(pipeline.process(frame))
+                if should_stop():
+                    run.interrupted = True
+                    break
+        except KeyboardInterrupt:
+            run.interrupted = True
     emit(pipeline.finish())
     run.total_s = time.perf_counter() - start
     return run

@@ -26,7 +26,7 @@ from typing import Any
 
 from .. import palette
 from ..atomic import StagedFiles, exclusive
-from ..dataset.frame import Frame, Sequence, TimedFrames, frames_read, select_frames
+from ..dataset.frame import Frame, Sequence, TimedFrames, closing_frames, frames_read, select_frames
 from ..errors import InputError
 from ..geometry.trajectory import write_tum
 from ..pipelines.base import Pipeline
@@ -67,9 +67,10 @@ class GuardedSequence(TimedFrames):
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
         try:
-            for frame in self._sequence.frames(max_frames=max_frames, stride=stride):
-                self.read += 1
-                yield frame
+            with closing_frames(self._sequence.frames(max_frames=max_frames, stride=stride)) as frames:
+                for frame in frames:
+                    self.read += 1
+                    yield frame
         except InputError as error:
             self.error = error
 
