@@ -1,11 +1,11 @@
-"""Reproduce the study: the seven synthetic situations x both pipelines, into docs/benchmark.md.
+"""The seven synthetic situations of the study x both pipelines, into docs/benchmark.md.
 
-    python -m benchmarks.study [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
-    python -m benchmarks.study --redraw
+    python -m benchmarks.situations [--frames N] [--resolution WxH] [--jobs N] [--out DIR]
+    python -m benchmarks.situations --redraw
 
 Generates the scenarios first, one process per job (rendering dominates a cold run), then
 runs ``viewslam benchmark`` on them, copies its charts to ``docs/images/`` and writes its
-results table and findings into docs/benchmark.md (the figure block ``study``), stamped with
+results table and findings into docs/benchmark.md (the figure block ``situations``), stamped with
 the command, the machine and the date: too costly for the test suite, so never re-run there.
 ``--redraw`` runs nothing: it draws the charts of ``docs/images/`` again, with the current
 chart code, from the table the last run wrote into docs/benchmark.md (its numbers as printed).
@@ -36,8 +36,8 @@ CHARTED = {"ATE RMSE [m]": "ate_rmse", "RPE trans RMSE [m]": "rpe_trans_rmse", "
 
 
 def documented_rows(document: str) -> list[dict[str, Any]]:
-    """The study block's results table as chart rows; "-" is a score that does not exist."""
-    table = [line for line in written(document, "study").splitlines() if line.startswith("| ")]  # not "|---|"
+    """The situations block's results table as chart rows; "-" is a score that does not exist."""
+    table = [line for line in written(document, "situations").splitlines() if line.startswith("| ")]  # not "|---|"
     header = [cell.strip() for cell in table[0].strip("|").split("|")]
     rows = []
     for line in table[1:]:
@@ -60,11 +60,11 @@ def redraw() -> int:
 
 def main(argv: list[str] | None = None) -> int:
     arguments = lab.arguments(argv)
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.study", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.situations", description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=None, help="frames per scenario (default: each one's own)")
     parser.add_argument("--resolution", default="640x480")
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--out", type=Path, default=Path("benchmark-results/study"))
+    parser.add_argument("--out", type=Path, default=Path("benchmark-results/situations"))
     parser.add_argument("--redraw", action="store_true", help="only draw the charts again from docs/benchmark.md")
     options = parser.parse_args(arguments)
     if options.redraw:
@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     report = (options.out / "report.md").read_text()
     table_and_findings = report[report.index("| Sequence |"):report.index("\n## Charts")].replace(
         "## Findings", "**Findings** (written by the benchmark):")
-    write_block(DOCUMENT, "study", f"{stamp(invocation(parser.prog, arguments))}\n\n{table_and_findings.strip()}")
+    write_block(DOCUMENT, "situations", f"{stamp(invocation(parser.prog, arguments))}\n\n{table_and_findings.strip()}")
     return 0
 
 
