@@ -47,7 +47,7 @@ def _run(argv: list[str] | None) -> int:
     try:  # everything, imports included, runs inside: Ctrl-C at any moment is one line
         import typer  # noqa: F401  (loaded first: exit_code looks its exceptions up)
 
-        from . import benchmark, datasets, diff, evaluate, pipelines, record, study, synth, view  # noqa: F401  (register commands)
+        from . import benchmark, diff, download, evaluate, pipelines, record, sequences, study, synth, view  # noqa: F401  (register commands)
         from .app import app
 
         result = app(args=argv, prog_name="viewslam", standalone_mode=False)
