@@ -157,6 +157,24 @@ def test_depth_factor_comes_from_the_camera(tmp_path):
     assert float(frame.depth[0, 0]) == 5.0
 
 
+@pytest.mark.parametrize("depth_factor", [5000.0, 1000.0, 5208.0, 1.0])
+def test_every_16_bit_depth_reads_as_dividing_by_the_factor_gives_it(tmp_path, depth_factor):
+    """Depth images are converted by a table: to the bit what dividing and rounding to
+    float32 gives, for every value a PNG can hold."""
+    every = np.arange(1 << 16, dtype=np.uint16).reshape(256, 256)
+    folder = tmp_path / "seq"
+    (folder / "rgb").mkdir(parents=True)
+    (folder / "depth").mkdir()
+    cv2.imwrite(str(folder / "rgb" / "0.png"), np.zeros((256, 256, 3), np.uint8))
+    cv2.imwrite(str(folder / "depth" / "0.png"), every)
+    (folder / "rgb.txt").write_text("0.0 rgb/0.png\n")
+    (folder / "depth.txt").write_text("0.0 depth/0.png\n")
+    Camera(200.0, 200.0, 128.0, 128.0, 256, 256, depth_factor=depth_factor).save(folder / "camera.json")
+    depth = open_tum(folder).frame(0).depth
+    expected = (every / depth_factor).astype(np.float32)
+    assert depth.dtype == np.float32 and np.array_equal(depth.view(np.uint32), expected.view(np.uint32))
+
+
 def test_a_folder_without_rgb_and_depth_lists_is_not_a_sequence(tmp_path):
     (tmp_path / "rgb.txt").write_text("1.0 rgb/1.png\n")
     with pytest.raises(InputError, match=r"not a TUM RGB-D sequence \(no depth.txt\)"):

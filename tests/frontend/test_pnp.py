@@ -3,9 +3,10 @@ flagged, OpenCV's generator and iteration rule, repeatable whatever the global g
 
 import cv2
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.frontend.pnp import OpenCvRng, iterations_needed, solve_pnp_ransac
+from viewer_slam.frontend.pnp import Lens, distinct_samples, iterations_needed, reprojection_errors, solve_pnp_ransac
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
 
 K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
@@ -36,12 +37,44 @@ def test_too_few_agreeing_points_give_no_pose():
 
 
 def test_the_samples_are_drawn_as_opencvs_generator_draws_them():
-    """cv::RNG((uint64)-1), RTAB-Map's copy's generator: OpenCV's own draws the same numbers."""
+    """cv::RNG((uint64)-1), RTAB-Map's copy's generator: OpenCV's own draws the same numbers, six
+    distinct ones per sample, a repeated draw drawn again."""
     cv2.setRNGSeed(-1)
-    drawn = np.zeros((1, 50), np.int32)
-    cv2.randu(drawn, 0, 200)
-    rng = OpenCvRng()
-    assert [rng.uniform(0, 200) for _ in range(50)] == drawn.ravel().tolist()
+    drawn = np.zeros((1, 400), np.int32)
+    cv2.randu(drawn, 0, 10)
+    expected, chosen = [], []
+    for value in drawn.ravel().tolist():
+        if value not in chosen:
+            chosen.append(value)
+        if len(chosen) == 6:
+            expected.append(chosen)
+            chosen = []
+    assert len(expected) >= 20 and 6 * len(expected) < 300  # among 10 values, many draws were repeats
+    assert distinct_samples(10, len(expected)).tolist() == expected
+
+
+@pytest.mark.parametrize("distortion", [None, (0.2624, -0.9531, -0.0054, 0.0026, 1.1633), (0.1, -0.2, 0.001, 0.002),
+                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004),
+                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4),
+                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4,
+                                         0.01, -0.02)])
+def test_reprojection_errors_are_opencvs_to_the_bit(distortion):
+    """The errors RANSAC compares with its threshold: cv2.projectPoints's pixels rounded to
+    float32, their offsets in float32, the distances rounded to float32, for every lens model
+    OpenCV has (4, 5, 8, 12 and 14 coefficients), points behind the camera and on its plane too."""
+    rng = np.random.default_rng(0)
+    lens = None if distortion is None else np.array(distortion)
+    for _ in range(50):
+        objects = np.c_[rng.uniform(-3, 3, (300, 2)), rng.uniform(-1, 6, 300)].astype(np.float32)
+        objects[:3, 2] = 0.0
+        pixels = rng.uniform(-100, 740, (300, 2)).astype(np.float32)
+        rvec, tvec = rng.normal(0, 0.3, (3, 1)), rng.normal(0, 0.5, (3, 1))
+        projected = cv2.projectPoints(objects, rvec, tvec, K, lens)[0].reshape(-1, 2).astype(np.float32)
+        offset = (pixels - projected).astype(np.float64)
+        expected = np.sqrt(offset[:, 0] ** 2 + offset[:, 1] ** 2).astype(np.float32)
+        found = reprojection_errors(objects, pixels, Lens.of(K, lens), rvec, tvec)
+        assert found.dtype == np.float32
+        assert np.array_equal(found.view(np.uint32), expected.view(np.uint32))
 
 
 def test_iterations_shrink_as_ransac_update_num_iters_says():

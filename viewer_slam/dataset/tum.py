@@ -15,6 +15,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -72,7 +73,7 @@ class TumSequence(TimedFrames):
         if raw_depth.dtype != np.uint16 or raw_depth.ndim != 2:
             raise InputError.at(depth_path, f"depth image must be single-channel 16-bit, "
                                 f"found {raw_depth.dtype} with shape {raw_depth.shape}")
-        depth = (raw_depth / self.camera.depth_factor).astype(np.float32)
+        depth = metres_per_unit(self.camera.depth_factor)[raw_depth]
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
@@ -124,6 +125,14 @@ class TumSequence(TimedFrames):
             raise InputError.at(path, "not a readable image")
         size(image.shape[1], image.shape[0])
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if colour else image
+
+
+@cache
+def metres_per_unit(depth_factor: float) -> np.ndarray:
+    """Every 16-bit depth value in metres, float32, as ``(value / depth_factor).astype(np.float32)``
+    gives it: a depth image is converted by one look-up per pixel, without the float64 image
+    that dividing it would make."""
+    return (np.arange(1 << 16) / depth_factor).astype(np.float32)
 
 
 def _image_bytes(path: Path) -> bytes:

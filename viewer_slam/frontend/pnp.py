@@ -19,6 +19,10 @@ follows that copy step by step:
   inliers counted again within Vis/PnPReprojError (the plain distance now) and the next
   threshold ``min(Vis/PnPReprojError, 3 σ)`` of their errors, until the set no longer
   changes or falls under the minimum; it returns the refined pose with RANSAC's inliers.
+
+The hypotheses are OpenCV's EPnP; the draws and each hypothesis' reprojection errors are
+compiled (numba), the same to the bit as ``cv::RNG`` and ``cv::projectPoints`` give them, so
+that a registration costs little more than its EPnP solutions.
 """
 
 import math
@@ -27,13 +31,16 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..compiled import jit
 from ..geometry.se3 import invert, make_pose
 
 RANSAC_CONFIDENCE = 0.99
 SAMPLE_SIZE = 6                            # cv3::solvePnPRansac's EPnP sample
-RNG_MULTIPLIER = 4164903690                # cv::RNG's multiply-with-carry (CV_RNG_COEFF)
-RNG_SEED = (1 << 64) - 1                   # RNG((uint64)-1)
-_LOW_32 = (1 << 32) - 1
+RNG_MULTIPLIER = np.uint64(4164903690)     # cv::RNG's multiply-with-carry (CV_RNG_COEFF)
+RNG_SEED = np.uint64((1 << 64) - 1)        # RNG((uint64)-1)
+LOW_32 = np.uint64((1 << 32) - 1)
+HIGH_SHIFT = np.uint64(32)
+DISTORTION_COEFFICIENTS = 14               # OpenCV's longest model: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 tau_x tau_y
 
 
 @dataclass
@@ -48,18 +55,29 @@ class PnpResult:
         return int(self.inliers.sum())
 
 
-class OpenCvRng:
-    """``cv::RNG``: a 64-bit multiply-with-carry generator; ``uniform(a, b)`` draws in [a, b)."""
+@jit
+def distinct_samples(count, hypotheses):
+    """``getSubset`` for each of ``hypotheses`` iterations in turn: SAMPLE_SIZE distinct indices
+    into ``count`` correspondences, drawn by ``cv::RNG((uint64)-1)``, a repeated draw drawn again.
 
-    def __init__(self, state: int = RNG_SEED):
-        self.state = state
-
-    def next(self) -> int:
-        self.state = ((self.state & _LOW_32) * RNG_MULTIPLIER + (self.state >> 32)) & ((1 << 64) - 1)
-        return self.state & _LOW_32
-
-    def uniform(self, low: int, high: int) -> int:
-        return low if low == high else low + self.next() % (high - low)
+    ``cv::RNG`` is a 64-bit multiply-with-carry generator whose ``uniform(0, count)`` is its next
+    state's low 32 bits modulo ``count``; the samples do not depend on the hypotheses' outcome,
+    so every iteration's is drawn up front.
+    """
+    samples = np.empty((hypotheses, SAMPLE_SIZE), dtype=np.int64)
+    state, modulus = RNG_SEED, np.uint64(count)
+    for hypothesis in range(hypotheses):
+        chosen = 0
+        while chosen < SAMPLE_SIZE:
+            state = (state & LOW_32) * RNG_MULTIPLIER + (state >> HIGH_SHIFT)
+            index = np.int64((state & LOW_32) % modulus)
+            repeated = False
+            for k in range(chosen):
+                repeated |= samples[hypothesis, k] == index
+            if not repeated:
+                samples[hypothesis, chosen] = index
+                chosen += 1
+    return samples
 
 
 def iterations_needed(confidence: float, outlier_ratio: float, sample_size: int, most: int) -> int:
@@ -73,39 +91,108 @@ def iterations_needed(confidence: float, outlier_ratio: float, sample_size: int,
     return most if denominator >= 0 or -numerator >= most * -denominator else int(round(numerator / denominator))
 
 
-def distinct_sample(rng: OpenCvRng, count: int) -> np.ndarray:
-    """``getSubset``: SAMPLE_SIZE distinct indices, a repeated draw drawn again."""
-    chosen: list[int] = []
-    while len(chosen) < SAMPLE_SIZE:
-        index = rng.uniform(0, count)
-        if index not in chosen:
-            chosen.append(index)
-    return np.array(chosen)
+@dataclass(frozen=True)
+class Lens:
+    """A camera as ``cv::projectPoints`` reads it: the intrinsics, the distortion coefficients
+    padded to OpenCV's fourteen, and the tilted-sensor matrix they imply."""
+
+    intrinsics: np.ndarray
+    coefficients: np.ndarray
+    tilt: np.ndarray
+
+    @classmethod
+    def of(cls, K: np.ndarray, distortion: np.ndarray | None) -> "Lens":
+        coefficients = np.zeros(DISTORTION_COEFFICIENTS)
+        if distortion is not None:
+            coefficients[:len(distortion)] = distortion
+        tilted = distortion is not None and len(distortion) == DISTORTION_COEFFICIENTS
+        return cls(np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]], dtype=np.float64), coefficients,
+                   _tilt_matrix(coefficients[12], coefficients[13]) if tilted else np.eye(3))
 
 
-def refine(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, lens: np.ndarray | None, rvec: np.ndarray,
-           tvec: np.ndarray, inliers: np.ndarray, distance: float, iterations: int,
+def _tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
+    """``computeTiltProjectionMatrix``, its products summed in OpenCV's order (``Matx``'s)."""
+    cos_x, sin_x, cos_y, sin_y = math.cos(tau_x), math.sin(tau_x), math.cos(tau_y), math.sin(tau_y)
+    rotation_x = np.array([[1, 0, 0], [0, cos_x, sin_x], [0, -sin_x, cos_x]], dtype=np.float64)
+    rotation_y = np.array([[cos_y, 0, -sin_y], [0, 1, 0], [sin_y, 0, cos_y]], dtype=np.float64)
+    rotation = _matx_product(rotation_y, rotation_x)
+    projection = np.array([[rotation[2, 2], 0, -rotation[0, 2]], [0, rotation[2, 2], -rotation[1, 2]], [0, 0, 1]],
+                          dtype=np.float64)
+    return _matx_product(projection, rotation)
+
+
+def _matx_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    product = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            total = 0.0
+            for k in range(3):
+                total += float(a[i, k]) * float(b[k, j])
+            product[i, j] = total
+    return product
+
+
+@jit
+def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, tilt):
+    """``cvProjectPoints2Internal`` for each point, operation for operation in float64, its
+    pixel rounded to float32 (the caller's points are float32), then the distance to the
+    observed pixel as RTAB-Map's copy takes it: the offset in float32, the distance in
+    float64 rounded to float32."""
+    fx, fy, cx, cy = intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]
+    errors = np.empty(objects.shape[0], dtype=np.float32)
+    for n in range(objects.shape[0]):
+        X, Y, Z = np.float64(objects[n, 0]), np.float64(objects[n, 1]), np.float64(objects[n, 2])
+        x = rotation[0, 0] * X + rotation[0, 1] * Y + rotation[0, 2] * Z + translation[0]
+        y = rotation[1, 0] * X + rotation[1, 1] * Y + rotation[1, 2] * Z + translation[1]
+        z = rotation[2, 0] * X + rotation[2, 1] * Y + rotation[2, 2] * Z + translation[2]
+        z = 1.0 / z if z != 0.0 else 1.0
+        x *= z
+        y *= z
+        r2 = x * x + y * y
+        r4 = r2 * r2
+        r6 = r4 * r2
+        a1 = 2 * x * y
+        a2 = r2 + 2 * x * x
+        a3 = r2 + 2 * y * y
+        cdist = 1 + k[0] * r2 + k[1] * r4 + k[4] * r6
+        icdist2 = 1.0 / (1 + k[5] * r2 + k[6] * r4 + k[7] * r6)
+        xd0 = x * cdist * icdist2 + k[2] * a1 + k[3] * a2 + k[8] * r2 + k[9] * r4
+        yd0 = y * cdist * icdist2 + k[2] * a3 + k[3] * a1 + k[10] * r2 + k[11] * r4
+        # the tilt matrix times (xd0, yd0, 1), summed as Matx sums: from 0, in column order
+        tilted_x = 0.0 + tilt[0, 0] * xd0 + tilt[0, 1] * yd0 + tilt[0, 2] * 1.0
+        tilted_y = 0.0 + tilt[1, 0] * xd0 + tilt[1, 1] * yd0 + tilt[1, 2] * 1.0
+        tilted_z = 0.0 + tilt[2, 0] * xd0 + tilt[2, 1] * yd0 + tilt[2, 2] * 1.0
+        inverse = 1.0 / tilted_z if tilted_z != 0.0 else 1.0
+        u = np.float32((inverse * tilted_x) * fx + cx)
+        v = np.float32((inverse * tilted_y) * fy + cy)
+        du, dv = np.float64(pixels[n, 0] - u), np.float64(pixels[n, 1] - v)
+        errors[n] = np.float32(np.sqrt(du * du + dv * dv))
+    return errors
+
+
+def reprojection_errors(objects: np.ndarray, pixels: np.ndarray, lens: Lens, rvec: np.ndarray,
+                        tvec: np.ndarray) -> np.ndarray:
+    """Each correspondence's reprojection distance in pixels, float32, the same to the bit as
+    ``cv2.projectPoints`` and RTAB-Map's copy compute it (float32 ``objects`` and ``pixels``)."""
+    return _reprojection_errors(objects, pixels, cv2.Rodrigues(rvec)[0], np.asarray(tvec, dtype=np.float64).ravel(),
+                                lens.intrinsics, lens.coefficients, lens.tilt)
+
+
+def refine(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, distortion: np.ndarray | None, lens: Lens,
+           rvec: np.ndarray, tvec: np.ndarray, inliers: np.ndarray, distance: float, iterations: int,
            min_inliers: int) -> tuple[np.ndarray, np.ndarray]:
     """``util3d::solvePnPRansac``'s refinement of RANSAC's pose (module docstring)."""
     current, threshold = inliers, np.float32(distance)
     for _ in range(iterations):
-        _, rvec, tvec = cv2.solvePnP(objects[current], pixels[current], K, lens, rvec, tvec, True,
+        _, rvec, tvec = cv2.solvePnP(objects[current], pixels[current], K, distortion, rvec, tvec, True,
                                      cv2.SOLVEPNP_ITERATIVE)
-        errors = reprojection_errors(objects, pixels, K, lens, rvec, tvec)
+        errors = reprojection_errors(objects, pixels, lens, rvec, tvec)
         counted = np.flatnonzero(errors <= threshold)
         if len(counted) < min_inliers or np.array_equal(counted, current):
             break
         threshold = np.float32(min(distance, 3.0 * math.sqrt(float(np.var(errors[counted])))))
         current = counted
     return rvec, tvec
-
-
-def reprojection_errors(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, lens: np.ndarray | None,
-                        rvec: np.ndarray, tvec: np.ndarray) -> np.ndarray:
-    """Each correspondence's reprojection distance in pixels, in float32 as the copy computes it."""
-    projected = cv2.projectPoints(objects, rvec, tvec, K, lens)[0].reshape(-1, 2).astype(np.float32)
-    offset = (pixels - projected).astype(np.float64)
-    return np.sqrt(offset[:, 0] ** 2 + offset[:, 1] ** 2).astype(np.float32)
 
 
 def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
@@ -127,21 +214,23 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
         return None
     objects = np.ascontiguousarray(object_points, dtype=np.float32)
     pixels = np.ascontiguousarray(image_points, dtype=np.float32)
-    lens = np.asarray(distortion, dtype=np.float64) if distortion is not None and any(distortion) else None
+    coefficients = np.asarray(distortion, dtype=np.float64) if distortion is not None and any(distortion) else None
+    lens = Lens.of(K, coefficients)
     threshold = np.float32(reprojection_error)
-    rng = OpenCvRng()
     best: tuple[np.ndarray, np.ndarray] | None = None
     best_mask, best_count, budget, iteration = np.zeros(count, bool), 0, max(iterations, 1), 0
+    samples = distinct_samples(count, budget)
     while iteration < budget:
+        sample = samples[iteration]
         iteration += 1
-        sample = distinct_sample(rng, count)
         try:
-            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, lens, flags=cv2.SOLVEPNP_EPNP)
+            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, coefficients,
+                                              flags=cv2.SOLVEPNP_EPNP)
         except cv2.error:
             continue                                 # a degenerate sample: no model, as runKernel's 0
         if not solved:
             continue
-        mask = reprojection_errors(objects, pixels, K, lens, rvec, tvec) <= threshold
+        mask = reprojection_errors(objects, pixels, lens, rvec, tvec) <= threshold
         agreeing = int(mask.sum())
         if agreeing > max(best_count, SAMPLE_SIZE - 1):
             best, best_mask, best_count = (rvec, tvec), mask, agreeing
@@ -150,7 +239,7 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
         return None
     rvec, tvec = best
     if refine_iterations > 0:
-        rvec, tvec = refine(objects, pixels, K, lens, rvec, tvec, np.flatnonzero(best_mask),
+        rvec, tvec = refine(objects, pixels, K, coefficients, lens, rvec, tvec, np.flatnonzero(best_mask),
                             refine_distance if refine_distance is not None else reprojection_error,
                             refine_iterations, max(min_inliers, 4))
     return PnpResult(invert(make_pose(cv2.Rodrigues(rvec)[0], np.asarray(tvec).ravel())), best_mask)
