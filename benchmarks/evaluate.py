@@ -37,22 +37,30 @@ def trajectories(count: int, seed: int) -> tuple[Trajectory, Trajectory]:
     positions = np.cumsum(rng.normal(scale=0.01, size=(count, 3)), axis=0)
     noise = Rotation.from_rotvec(rng.normal(scale=0.005, size=(count, 3))).as_matrix()
     groundtruth = Trajectory(stamps, make_pose(rotations, positions))
-    estimate = Trajectory(stamps + rng.uniform(-0.004, 0.004, count),
-                          make_pose(rotations @ noise, positions + rng.normal(scale=0.005, size=(count, 3))))
+    estimate = Trajectory(
+        stamps + rng.uniform(-0.004, 0.004, count),
+        make_pose(rotations @ noise, positions + rng.normal(scale=0.005, size=(count, 3))),
+    )
     return groundtruth, estimate
 
 
 def ours(groundtruth: Trajectory, estimate: Trajectory) -> dict[str, float]:
     evaluation = evaluate(groundtruth, estimate, delta=1, delta_unit=DeltaUnit.FRAMES)
-    return {"pairs": len(evaluation.pairs[0]), "ate": lab.rmse(evaluation.ate),
-            "rpe_trans": lab.rmse(evaluation.rpe_trans), "rpe_rot": lab.rmse(evaluation.rpe_rot)}
+    return {
+        "pairs": len(evaluation.pairs[0]),
+        "ate": lab.rmse(evaluation.ate),
+        "rpe_trans": lab.rmse(evaluation.rpe_trans),
+        "rpe_rot": lab.rmse(evaluation.rpe_rot),
+    }
 
 
 def evos(reference: PoseTrajectory3D, estimate: PoseTrajectory3D) -> dict[str, float]:
     reference, estimate = sync.associate_trajectories(reference, estimate, max_diff=0.02)
     result = {"pairs": reference.num_poses}
-    for name, relation in (("rpe_trans", metrics.PoseRelation.translation_part),
-                           ("rpe_rot", metrics.PoseRelation.rotation_angle_deg)):
+    for name, relation in (
+        ("rpe_trans", metrics.PoseRelation.translation_part),
+        ("rpe_rot", metrics.PoseRelation.rotation_angle_deg),
+    ):
         rpe = metrics.RPE(relation, delta=1, delta_unit=metrics.Unit.frames, all_pairs=True)
         rpe.process_data((reference, estimate))
         result[name] = rpe.get_statistic(metrics.StatisticsType.rmse)
@@ -94,8 +102,10 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("ate", "rpe_trans", "rpe_rot"):
         relative = abs(our_numbers[name] - evo_numbers[name]) / abs(evo_numbers[name])
         equal &= relative <= 1e-9
-        print(f"{name:9s} viewslam {our_numbers[name]:.12f}  evo {evo_numbers[name]:.12f}  "
-              f"relative difference {relative:.1e}")
+        print(
+            f"{name:9s} viewslam {our_numbers[name]:.12f}  evo {evo_numbers[name]:.12f}  "
+            f"relative difference {relative:.1e}"
+        )
     print(f"pairs     viewslam {our_numbers['pairs']}  evo {evo_numbers['pairs']}")
     print("numbers equal" if equal else "NUMBERS DIFFER")
     return 0 if equal else 1

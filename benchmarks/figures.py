@@ -33,12 +33,24 @@ def stamp(command: str) -> str:
     date, and the version and commit of viewslam that ran it."""
     from viewer_slam import __version__
 
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), "unknown CPU")
-    commit = subprocess.run(["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True, check=False).stdout.strip() or "unknown commit"
-    return (f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, "
-            f"viewslam {__version__} at {commit}.")
+    cpu = next(
+        (
+            line.split(":", 1)[1].strip()
+            for line in Path("/proc/cpuinfo").read_text().splitlines()
+            if line.startswith("model name")
+        ),
+        "unknown CPU",
+    )
+    commit = (
+        subprocess.run(
+            ["git", "-C", str(REPO), "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=False
+        ).stdout.strip()
+        or "unknown commit"
+    )
+    return (
+        f"Made by `{command}` on {cpu} ({os.cpu_count()} cores), {date.today().isoformat()}, "
+        f"viewslam {__version__} at {commit}."
+    )
 
 
 def scratch() -> Path:

@@ -65,17 +65,30 @@ def most_near_any_pose(camera, points: np.ndarray, pose: np.ndarray, corners: np
 def best_consensus(camera, object_points: np.ndarray, image_points: np.ndarray, threshold: float) -> int:
     """The inliers of the best of RANSAC_ITERATIONS AP3P hypotheses among the matches, without
     the refit on them that the odometry makes."""
-    ok, _, _, inliers = cv2.solvePnPRansac(object_points.astype(np.float64), image_points.astype(np.float64),
-                                           camera.K, None, iterationsCount=RANSAC_ITERATIONS,
-                                           reprojectionError=threshold, confidence=0.99999, flags=cv2.SOLVEPNP_AP3P)
+    ok, _, _, inliers = cv2.solvePnPRansac(
+        object_points.astype(np.float64),
+        image_points.astype(np.float64),
+        camera.K,
+        None,
+        iterationsCount=RANSAC_ITERATIONS,
+        reprojectionError=threshold,
+        confidence=0.99999,
+        flags=cv2.SOLVEPNP_AP3P,
+    )
     return len(inliers) if ok and inliers is not None else 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.first_registration",
-                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--run", default="rgbd_dataset_freiburg1_rpy_200-perframe",
-                        help="reference run folder under --reference (a TUM sequence's)")
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.first_registration",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--run",
+        default="rgbd_dataset_freiburg1_rpy_200-perframe",
+        help="reference run folder under --reference (a TUM sequence's)",
+    )
     parser.add_argument("--reference", type=Path, default=REFERENCE)
     parser.add_argument("--tum", type=Path, default=TUM)
     parser.add_argument("--frame", type=int, default=1, help="the registration to look at (frame index, >= 1)")
@@ -111,20 +124,26 @@ def main(argv: list[str] | None = None) -> int:
 
     matched = map_points[result.map_index], features.keypoints[result.feature_index]
     print(f"{args.run}, frame {args.frame} ({frame.timestamp:.6f}), local map of {len(map_points)} points")
-    print(f"  ours: {len(features)} features, {result.matches} matches, {result.inliers} inliers "
-          f"(Vis/PnPReprojError {params.pnp_reprojection_error:g}: within {params.pnp_inlier_distance:g} px); "
-          f"RANSAC alone, {RANSAC_ITERATIONS} hypotheses: {best_consensus(camera, *matched, params.pnp_inlier_distance)}")
+    print(
+        f"  ours: {len(features)} features, {result.matches} matches, {result.inliers} inliers "
+        f"(Vis/PnPReprojError {params.pnp_reprojection_error:g}: within {params.pnp_inlier_distance:g} px); "
+        f"RANSAC alone, {RANSAC_ITERATIONS} hypotheses: {best_consensus(camera, *matched, params.pnp_inlier_distance)}"
+    )
     if node is not None:
-        print(f"  the original: {number(node['odom_features']):.0f} features, "
-              f"{number(node['odom_inliers']):.0f} inliers, local map {number(node['odom_local_map_size']):.0f}")
+        print(
+            f"  the original: {number(node['odom_features']):.0f} features, "
+            f"{number(node['odom_inliers']):.0f} inliers, local map {number(node['odom_local_map_size']):.0f}"
+        )
     radii = " / ".join(f"{radius:g}" for radius in RADII_PX)
     for name, pose in (("the original's pose", their_pose), ("our pose", result.pose)):
         near = " / ".join(str(count) for count in corners_near(camera, map_points, pose, features.keypoints))
         moved = np.linalg.norm(pose[:3, 3]) * 100
         print(f"  under {name} ({moved:.1f} cm from frame 0): map points with a corner within {radii} px: {near}")
     most = most_near_any_pose(camera, map_points, their_pose, features.keypoints, params.pnp_inlier_distance)
-    print(f"  any pose near the original's: at most {most} map points with a corner within "
-          f"{params.pnp_inlier_distance:g} px")
+    print(
+        f"  any pose near the original's: at most {most} map points with a corner within "
+        f"{params.pnp_inlier_distance:g} px"
+    )
     return 0
 
 

@@ -31,16 +31,26 @@ EXIT_BAD_INPUT = 2
 
 def add_parameter_options(parser: argparse.ArgumentParser, applies_to: str = "the pipelines that have KEY") -> None:
     """``--param KEY=VALUE`` (repeatable) and ``--config FILE``, as ``viewslam record`` takes them."""
-    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
-                        help=f"a parameter for {applies_to}, as `viewslam record --param` "
-                             "(repeatable; on top of --config)")
-    parser.add_argument("--config", type=Path, metavar="FILE.toml",
-                        help="parameters from a TOML file, as `viewslam record --config`")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help=f"a parameter for {applies_to}, as `viewslam record --param` (repeatable; on top of --config)",
+    )
+    parser.add_argument(
+        "--config", type=Path, metavar="FILE.toml", help="parameters from a TOML file, as `viewslam record --config`"
+    )
 
 
-def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace | None = None, *,
-                   preset: Mapping[str, Any] | None = None, last: Mapping[str, Any] | None = None,
-                   seed: int = 0) -> dict[str, PipelineSpec]:
+def pipeline_specs(
+    pipelines: Sequence[str],
+    options: argparse.Namespace | None = None,
+    *,
+    preset: Mapping[str, Any] | None = None,
+    last: Mapping[str, Any] | None = None,
+    seed: int = 0,
+) -> dict[str, PipelineSpec]:
     """Each of ``pipelines`` with its parameters validated: the defaults, ``--config``, then
     ``preset`` (a configuration the script replays), ``--param``, and ``last`` (what the script
     itself varies), each as ``--param`` values; without ``options``, no ``--config`` and no ``--param``."""
@@ -50,9 +60,14 @@ def pipeline_specs(pipelines: Sequence[str], options: argparse.Namespace | None 
     return {name: PipelineSpec(name, params[name], seed) for name in pipelines}
 
 
-def pipeline_spec(pipeline: str, options: argparse.Namespace | None = None, *,
-                  preset: Mapping[str, Any] | None = None, last: Mapping[str, Any] | None = None,
-                  seed: int = 0) -> PipelineSpec:
+def pipeline_spec(
+    pipeline: str,
+    options: argparse.Namespace | None = None,
+    *,
+    preset: Mapping[str, Any] | None = None,
+    last: Mapping[str, Any] | None = None,
+    seed: int = 0,
+) -> PipelineSpec:
     """One pipeline's run description (see :func:`pipeline_specs`)."""
     return pipeline_specs([pipeline], options, preset=preset, last=last, seed=seed)[pipeline]
 
@@ -61,12 +76,14 @@ def _assignments(values: Mapping[str, Any] | None) -> list[str]:
     return [f"{key}={value}" for key, value in (values or {}).items()]
 
 
-def run(sequence: FrameSequence, spec: RunSpec, name: str, *, max_frames: int | None = None,
-        sinks: Iterable[Sink] = ()) -> ScoredRun:
+def run(
+    sequence: FrameSequence, spec: RunSpec, name: str, *, max_frames: int | None = None, sinks: Iterable[Sink] = ()
+) -> ScoredRun:
     """The run ``spec`` describes (a pipeline, or an estimate file replayed), called ``name``,
     driven over ``sequence``'s first ``max_frames`` frames by the run service and scored."""
-    return score_run(sequence, build_run(spec, sequence, max_frames=max_frames), name, max_frames=max_frames,
-                     sinks=sinks)
+    return score_run(
+        sequence, build_run(spec, sequence, max_frames=max_frames), name, max_frames=max_frames, sinks=sinks
+    )
 
 
 def rmse(series: ErrorSeries | None) -> float:

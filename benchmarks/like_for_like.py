@@ -76,13 +76,16 @@ REFERENCE_FILES = {REFERENCE_NAME: "poses_tum.txt", f"{REFERENCE_NAME}-odometry"
 
 # -- the reference's per-frame internals -----------------------------------------------------
 
+
 def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndarray]:
     """Per processed frame (NaN where the original has no node): its statistics."""
     nodes = read_nodes(run)
     frame_of_stamp = {round(s, 4): i for i, s in enumerate(stamps)}
     frame_of_node = {}
-    series = {key: np.full(len(stamps), np.nan) for key in
-              ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity")}
+    series = {
+        key: np.full(len(stamps), np.nan)
+        for key in ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity")
+    }
     for node in nodes:
         frame = frame_of_stamp.get(round(float(node["stamp"]), 4))
         if frame is None:
@@ -109,8 +112,19 @@ def reference_series(run: ReferenceRun, stamps: np.ndarray) -> dict[str, np.ndar
 
 
 def our_series(events, count: int) -> dict[str, np.ndarray]:
-    series = {key: np.full(count, np.nan) for key in
-              ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity", "node")}
+    series = {
+        key: np.full(count, np.nan)
+        for key in (
+            "inliers",
+            "features",
+            "local_map",
+            "key_frame",
+            "loop_accepted",
+            "loop_rejected",
+            "proximity",
+            "node",
+        )
+    }
     for event in events:
         if isinstance(event, FrameTracked) and event.frame_index < count:
             i = event.frame_index
@@ -139,13 +153,17 @@ def divergence(name: str, ours: np.ndarray, reference: np.ndarray) -> str:
     frames = np.flatnonzero(both)
     difference = ours[both] - reference[both]
     binary = name in ("key_frame", "loop_accepted", "loop_rejected", "proximity")
-    off = (difference != 0) if binary else (np.abs(difference) > np.maximum(2, COUNT_TOLERANCE * np.abs(reference[both])))
+    off = (
+        (difference != 0) if binary else (np.abs(difference) > np.maximum(2, COUNT_TOLERANCE * np.abs(reference[both])))
+    )
     first = f"{frames[np.argmax(off)]}" if off.any() else "none"
     most = frames[np.argmax(np.abs(difference))]
     agree = f"{1 - off.mean():.0%}"
-    return (f"| {name} | {np.nansum(ours[both]):.0f} / {np.nansum(reference[both]):.0f} "
-            f"| {np.median(ours[both]):.0f} / {np.median(reference[both]):.0f} | {agree} | {first} "
-            f"| {most} ({ours[most]:.0f} vs {reference[most]:.0f}) |")
+    return (
+        f"| {name} | {np.nansum(ours[both]):.0f} / {np.nansum(reference[both]):.0f} "
+        f"| {np.median(ours[both]):.0f} / {np.median(reference[both]):.0f} | {agree} | {first} "
+        f"| {most} ({ours[most]:.0f} vs {reference[most]:.0f}) |"
+    )
 
 
 def frame_to_frame(trajectory, sequence) -> str:
@@ -184,12 +202,15 @@ def pose_divergence(our_trajectory, reference_trajectory, sequence, label: str) 
     worse = [(frame.get(round(t, 4)), a - b) for t, a, b in pairs]
     first = next((f for f, d in worse if d > 0.02), None)
     most = max(worse, key=lambda item: abs(item[1]))
-    return (f"{label}: ATE {ours.stats()['rmse'] * 100:.2f} cm (ours) vs {theirs.stats()['rmse'] * 100:.2f} cm "
-            f"({REFERENCE_NAME}) over {len(pairs)} common frames; ours first worse by > 2 cm at frame {first}, "
-            f"most apart at frame {most[0]} ({most[1] * 100:+.1f} cm)")
+    return (
+        f"{label}: ATE {ours.stats()['rmse'] * 100:.2f} cm (ours) vs {theirs.stats()['rmse'] * 100:.2f} cm "
+        f"({REFERENCE_NAME}) over {len(pairs)} common frames; ours first worse by > 2 cm at frame {first}, "
+        f"most apart at frame {most[0]} ({most[1] * 100:+.1f} cm)"
+    )
 
 
 # -- one comparison ----------------------------------------------------------------------------
+
 
 def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namespace) -> dict:
     listed, equal, differing_images = same_frames(run, frames)
@@ -198,23 +219,28 @@ def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namesp
         sequence = open_source(camera_view(frames, reference_camera(open_source(frames).camera), Path(views)))
         events: list[Event] = []
         scored = {"rtabmap": lab.run(sequence, spec, "rtabmap", sinks=[events.append])}
-        scored.update({name: lab.run(sequence, EstimateSpec(run.folder / file), name)
-                       for name, file in REFERENCE_FILES.items()})
+        scored.update(
+            {name: lab.run(sequence, EstimateSpec(run.folder / file), name) for name, file in REFERENCE_FILES.items()}
+        )
         ours = scored["rtabmap"].run
         replays = {name: scored[name].run for name in REFERENCE_FILES}
         blocks = {name: result.report for name, result in scored.items()}
         report_path = out / f"{run.name}.json"
         report = build_report(sequence, blocks, interrupted=False)
         report["sequence"]["path"] = str(frames)
-        report["like_for_like"] = {"reference": str(run.folder), "mode": run.mode,
-                                   "overrides": {**run.overrides, **parse_assignments(options.param)},
-                                   "camera": sequence.camera.to_json(),
-                                   "frames_checked": {"listed": listed, "equal": equal,
-                                                      "images_differing": differing_images}}
+        report["like_for_like"] = {
+            "reference": str(run.folder),
+            "mode": run.mode,
+            "overrides": {**run.overrides, **parse_assignments(options.param)},
+            "camera": sequence.camera.to_json(),
+            "frames_checked": {"listed": listed, "equal": equal, "images_differing": differing_images},
+        }
         out.mkdir(parents=True, exist_ok=True)
         with StagedFiles() as staged:
             staged.write(report_path, lambda path: write_report(path, report))
-            trajectories: dict[str, Trajectory | None] = {name: result.run.trajectory for name, result in scored.items()}
+            trajectories: dict[str, Trajectory | None] = {
+                name: result.run.trajectory for name, result in scored.items()
+            }
             trajectories["rtabmap-odometry"] = ours.odometry
             for name, trajectory in trajectories.items():
                 if trajectory is not None:
@@ -223,8 +249,18 @@ def compare(run: ReferenceRun, frames: Path, out: Path, options: argparse.Namesp
         stamps = np.asarray(sequence.timestamps)
         ref_series = reference_series(run, stamps)
         our = our_series(events, len(stamps))
-        summary = summarise(run, blocks, ours, our, ref_series, sequence, replays, report_path,
-                            (listed, equal, differing_images), events)
+        summary = summarise(
+            run,
+            blocks,
+            ours,
+            our,
+            ref_series,
+            sequence,
+            replays,
+            report_path,
+            (listed, equal, differing_images),
+            events,
+        )
     return summary
 
 
@@ -267,8 +303,11 @@ def resumption_errors(odometry, sequence, before: int, frames: list[int]) -> str
 
 def resumptions(rows: list[dict]) -> list[tuple[int, int]]:
     """(frame, inliers) where the original's odometry registers again after lost frames."""
-    return [(int(row["frame"]), int(float(row["inliers"]))) for before, row in zip(rows, rows[1:])
-            if before["odom_lost"] == "1" and row["odom_lost"] == "0"]
+    return [
+        (int(row["frame"]), int(float(row["inliers"])))
+        for before, row in zip(rows, rows[1:])
+        if before["odom_lost"] == "1" and row["odom_lost"] == "0"
+    ]
 
 
 def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, checked, events) -> dict:
@@ -280,52 +319,82 @@ def summarise(run, blocks, ours, our, ref, sequence, replays, report_path, check
     detections = ours_block["edges_by_detection"]
     print(f"\n## {run.name} ({len(sequence)} frames, {run.mode}; OdomF2M/BundleAdjustment 0, no lens distortion)\n")
     if listed:
-        print(f"frames: {equal} of {listed} files byte-equal to the reference's render"
-              + (f" ({differing} images differ: the same scenario and seed, another render)" if differing else ""))
+        print(
+            f"frames: {equal} of {listed} files byte-equal to the reference's render"
+            + (f" ({differing} images differ: the same scenario and seed, another render)" if differing else "")
+        )
     print("\n| | ours | RTAB-Map 0.23.8 |\n|---|---|---|")
-    print(f"| ATE, every pose written (cm) | {cm(ours_block['ate'])} ({ours_block['frames_with_pose']} poses) "
-          f"| {cm(ref_block['ate'])} ({ref_block['frames_with_pose']} poses) |")
-    print(f"| ATE over the graph nodes (cm) | {cm(ours_block['node_ate'])} ({ours_block['keyframes']} nodes) "
-          f"| {cm(ref_block['ate'])} ({reference_summary.get('db', {}).get('nodes', '?')} nodes) |")
-    print(f"| odometry alone (cm) | {cm(ours_block['odometry_ate'])} "
-          f"| {cm(blocks[REFERENCE_NAME + '-odometry']['ate'])} (nodes' odometry) |")
-    print(f"| odometry, frame to frame: translation error mean / median (cm) | "
-          f"{frame_to_frame(ours.odometry, sequence)} "
-          f"| {frame_to_frame(replays[REFERENCE_NAME + '-odometry'].trajectory, sequence)} |")
-    print(f"| global loop closures (appearance) | {detections.get('appearance', {}).get('accepted', 0)} accepted, "
-          f"{detections.get('appearance', {}).get('rejected', 0)} rejected | {links.get('global_loop', 0)} |")
-    print(f"| proximity links | {detections.get('proximity', {}).get('accepted', 0)} "
-          f"| {links.get('local_space', 0)} |")
-    print(f"| edges by kind (sequential / local / loop) | {ours_block['edges']['sequential']} / "
-          f"{ours_block['edges']['local']} / {ours_block['edges']['loop']} | – |")
+    print(
+        f"| ATE, every pose written (cm) | {cm(ours_block['ate'])} ({ours_block['frames_with_pose']} poses) "
+        f"| {cm(ref_block['ate'])} ({ref_block['frames_with_pose']} poses) |"
+    )
+    print(
+        f"| ATE over the graph nodes (cm) | {cm(ours_block['node_ate'])} ({ours_block['keyframes']} nodes) "
+        f"| {cm(ref_block['ate'])} ({reference_summary.get('db', {}).get('nodes', '?')} nodes) |"
+    )
+    print(
+        f"| odometry alone (cm) | {cm(ours_block['odometry_ate'])} "
+        f"| {cm(blocks[REFERENCE_NAME + '-odometry']['ate'])} (nodes' odometry) |"
+    )
+    print(
+        f"| odometry, frame to frame: translation error mean / median (cm) | "
+        f"{frame_to_frame(ours.odometry, sequence)} "
+        f"| {frame_to_frame(replays[REFERENCE_NAME + '-odometry'].trajectory, sequence)} |"
+    )
+    print(
+        f"| global loop closures (appearance) | {detections.get('appearance', {}).get('accepted', 0)} accepted, "
+        f"{detections.get('appearance', {}).get('rejected', 0)} rejected | {links.get('global_loop', 0)} |"
+    )
+    print(f"| proximity links | {detections.get('proximity', {}).get('accepted', 0)} | {links.get('local_space', 0)} |")
+    print(
+        f"| edges by kind (sequential / local / loop) | {ours_block['edges']['sequential']} / "
+        f"{ours_block['edges']['local']} / {ours_block['edges']['loop']} | – |"
+    )
     print(f"| coverage | {ours_block['coverage']['ratio']:.1%} | {ref_block['coverage']['ratio']:.1%} |")
-    print("\nPer frame (frames where both have the statistic): sum and median ours / reference, share of "
-          "frames that agree, first frame they diverge (inliers, features, local map: off by over 20 % and 2; "
-          "decisions and link counts: any difference), largest difference.\n")
+    print(
+        "\nPer frame (frames where both have the statistic): sum and median ours / reference, share of "
+        "frames that agree, first frame they diverge (inliers, features, local map: off by over 20 % and 2; "
+        "decisions and link counts: any difference), largest difference.\n"
+    )
     print("| statistic | sum | median | agree | first divergence | largest |\n|---|---|---|---|---|---|")
     for key in ("inliers", "features", "local_map", "key_frame", "loop_accepted", "loop_rejected", "proximity"):
         print(divergence(key, our[key], ref[key]))
     rows = frame_rows(run)
     resumed = resumptions(rows)
     if resumed:
-        ours_resumed = [(e.frame_index, int(our["inliers"][e.frame_index])) for e in events
-                        if isinstance(e, TrackingRecovered)]
-        print(f"\nodometry resumes after a loss at frame (inliers): ours {ours_resumed or 'never'}; "
-              f"RTAB-Map 0.23.8 {resumed}")
+        ours_resumed = [
+            (e.frame_index, int(our["inliers"][e.frame_index])) for e in events if isinstance(e, TrackingRecovered)
+        ]
+        print(
+            f"\nodometry resumes after a loss at frame (inliers): ours {ours_resumed or 'never'}; "
+            f"RTAB-Map 0.23.8 {resumed}"
+        )
         before = first_loss(rows)
         if before is not None:
             theirs = replays[f"{REFERENCE_NAME}-odometry"].trajectory
-            print(f"odometry position error (cm; laid onto the groundtruth by its poses before the first loss, "
-                  f"frame {before}): ours {resumption_errors(ours.odometry, sequence, before, [f for f, _ in ours_resumed])}; "
-                  f"RTAB-Map 0.23.8 {resumption_errors(theirs, sequence, before, [f for f, _ in resumed])}")
+            print(
+                f"odometry position error (cm; laid onto the groundtruth by its poses before the first loss, "
+                f"frame {before}): ours {resumption_errors(ours.odometry, sequence, before, [f for f, _ in ours_resumed])}; "
+                f"RTAB-Map 0.23.8 {resumption_errors(theirs, sequence, before, [f for f, _ in resumed])}"
+            )
     print()
     print(pose_divergence(ours.odometry, replays[f"{REFERENCE_NAME}-odometry"].trajectory, sequence, "odometry"))
     print(pose_divergence(ours.trajectory, replays[REFERENCE_NAME].trajectory, sequence, "graph"))
     print(f"\nreport: {report_path}\n  viewslam diff {report_path} {report_path} --runs {REFERENCE_NAME}:rtabmap")
-    return {"run": run.name, "ours": {"ate": ours_block["ate"], "node_ate": ours_block["node_ate"],
-                                      "odometry_ate": ours_block["odometry_ate"], "edges_by_detection": detections},
-            "reference": {"ate": ref_block["ate"], "odometry_ate": blocks[REFERENCE_NAME + "-odometry"]["ate"],
-                          "links": links}}
+    return {
+        "run": run.name,
+        "ours": {
+            "ate": ours_block["ate"],
+            "node_ate": ours_block["node_ate"],
+            "odometry_ate": ours_block["odometry_ate"],
+            "edges_by_detection": detections,
+        },
+        "reference": {
+            "ate": ref_block["ate"],
+            "odometry_ate": blocks[REFERENCE_NAME + "-odometry"]["ate"],
+            "links": links,
+        },
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -338,12 +407,17 @@ def main(argv: list[str] | None = None) -> int:
     lab.add_parameter_options(parser, "ours, on top of the reference's configuration")
     parser.add_argument("--diff", action="store_true", help="also print `viewslam diff` of ours against the original")
     args = parser.parse_args(argv)
-    runs = [run for run in reference_runs(args.reference)
-            if not args.runs or any(wanted in run.name for wanted in args.runs)]
+    runs = [
+        run
+        for run in reference_runs(args.reference)
+        if not args.runs or any(wanted in run.name for wanted in args.runs)
+    ]
     if not args.synthetic:
         runs = [run for run in runs if not run.synthetic] if not args.runs else runs
     if not runs:
-        raise InputError(f"{args.reference}: no reference run" + (f" named like {', '.join(args.runs)}" if args.runs else ""))
+        raise InputError(
+            f"{args.reference}: no reference run" + (f" named like {', '.join(args.runs)}" if args.runs else "")
+        )
     for run in runs:
         summary = compare(run, frames_folder(run, args.tum, args.synthetic), args.out, args)
         if args.diff:

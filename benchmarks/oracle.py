@@ -60,14 +60,17 @@ TOOL = "rtabmap-rgbd_dataset"
 ORIGINAL = "RTAB-Map 0.23.8"
 RULE_PARAMS = {"ros": {}, "tool": {"viewslam/NewMapOnLoss": "true"}}
 RULE_ENV = {"ros": {"RTABMAP_NO_NEW_MAP": "1"}, "tool": {}}
-RULE_TEXT = {"ros": "ROS rule (a loss odometry recovers from continues the map)",
-             "tool": "dataset tool's rule (a new map on every lost frame)"}
+RULE_TEXT = {
+    "ros": "ROS rule (a loss odometry recovers from continues the map)",
+    "tool": "dataset tool's rule (a new map on every lost frame)",
+}
 ITERATION = re.compile(r"Iteration (\d+)/\d+: .*odom\(quality=(-?\d+)/(\d+)")
 LOST_LINE = "Odometry is reset"
 JOINING = ("global_loop", "local_space")
 
 
 # -- the frames ---------------------------------------------------------------------------------
+
 
 def render(scene: str, seed: int, frames: int | None, into: Path) -> Path:
     """The scene's TUM folder (rendered once), named so that the original reads fr3's intrinsics."""
@@ -79,8 +82,11 @@ def render(scene: str, seed: int, frames: int | None, into: Path) -> Path:
 
 def frame_digests(folder: Path) -> dict[str, str]:
     """SHA-256 of every colour and depth image, by path under the folder."""
-    return {str(path.relative_to(folder)): hashlib.sha256(path.read_bytes()).hexdigest()
-            for kind in ("rgb", "depth") for path in sorted((folder / kind).glob("*.png"))}
+    return {
+        str(path.relative_to(folder)): hashlib.sha256(path.read_bytes()).hexdigest()
+        for kind in ("rgb", "depth")
+        for path in sorted((folder / kind).glob("*.png"))
+    }
 
 
 def check_frames(folder: Path, listed: dict[str, str]) -> None:
@@ -88,8 +94,10 @@ def check_frames(folder: Path, listed: dict[str, str]) -> None:
     now = frame_digests(folder)
     differing = sorted(name for name in listed.keys() | now.keys() if listed.get(name) != now.get(name))
     if differing:
-        raise InputError(f"{folder}: {len(differing)} frames differ from the listed SHA-256 (first: {differing[0]}); "
-                         f"no comparison on different frames")
+        raise InputError(
+            f"{folder}: {len(differing)} frames differ from the listed SHA-256 (first: {differing[0]}); "
+            f"no comparison on different frames"
+        )
 
 
 def synced(oracle: Path, folder: Path) -> None:
@@ -100,6 +108,7 @@ def synced(oracle: Path, folder: Path) -> None:
 
 
 # -- the original -------------------------------------------------------------------------------
+
 
 def library_path(oracle: Path, scratch: Path) -> str:
     """The oracle's libraries, with its versioned names restored as links where the copy at hand
@@ -118,11 +127,19 @@ def run_original(oracle: Path, folder: Path, out: Path, rule: str, mode: str, sc
     """One run of the dataset tool; its database and console in ``out``."""
     out.mkdir(parents=True, exist_ok=True)
     if not (out / "rtabmap.db").is_file():
-        arguments = [arg for key, value in PER_FRAME.items() for arg in (f"--{key}", str(value))] if mode == "perframe" else []
+        arguments = (
+            [arg for key, value in PER_FRAME.items() for arg in (f"--{key}", str(value))] if mode == "perframe" else []
+        )
         environment = {**os.environ, **RULE_ENV[rule], "LD_LIBRARY_PATH": library_path(oracle, scratch)}
         with open(out / "console.log", "w") as console:
-            subprocess.run([str(oracle / "bin" / TOOL), "--output", str(out), *arguments, folder.name],
-                           cwd=folder.parent, env=environment, stdout=console, stderr=subprocess.STDOUT, check=True)
+            subprocess.run(
+                [str(oracle / "bin" / TOOL), "--output", str(out), *arguments, folder.name],
+                cwd=folder.parent,
+                env=environment,
+                stdout=console,
+                stderr=subprocess.STDOUT,
+                check=True,
+            )
     return out
 
 
@@ -142,8 +159,11 @@ def original_frames(console: Path) -> list[tuple[bool, int]]:
 def summarise_original(run: Path, sequence) -> dict:
     database = read_rtabmap_database(run / "rtabmap.db")
     map_of = {node.id: node.map_id for node in database.nodes}
-    joining = [(map_of[link.from_id], map_of[link.to_id]) for link in database.links
-               if link.kind in JOINING and map_of[link.from_id] != map_of[link.to_id]]
+    joining = [
+        (map_of[link.from_id], map_of[link.to_id])
+        for link in database.links
+        if link.kind in JOINING and map_of[link.from_id] != map_of[link.to_id]
+    ]
     per_frame = original_frames(run / "console.log")
     return {
         "resumptions": resumptions([lost for lost, _ in per_frame], [inliers for _, inliers in per_frame]),
@@ -160,25 +180,33 @@ def summarise_original(run: Path, sequence) -> dict:
 
 # -- ours ---------------------------------------------------------------------------------------
 
+
 def summarise_ours(folder: Path, rule: str, mode: str, options: argparse.Namespace) -> dict:
     sequence = open_source(folder)
     preset: dict[str, Any] = {**RULE_PARAMS[rule], **(PER_FRAME if mode == "perframe" else {})}
     events: list[Event] = []
-    scored = lab.run(sequence, lab.pipeline_spec("rtabmap", options, preset=preset), "rtabmap",
-                     sinks=[events.append])
+    scored = lab.run(sequence, lab.pipeline_spec("rtabmap", options, preset=preset), "rtabmap", sinks=[events.append])
     run, evaluation = scored.run, scored.evaluation
     tracked = sorted((event for event in events if isinstance(event, FrameTracked)), key=lambda e: e.frame_index)
     session, session_of = 0, {}
-    for event in sorted((e for e in events if isinstance(e, (KeyframeAdded, TrackingRecovered))),
-                        key=lambda e: (e.frame_index, isinstance(e, KeyframeAdded))):
+    for event in sorted(
+        (e for e in events if isinstance(e, (KeyframeAdded, TrackingRecovered))),
+        key=lambda e: (e.frame_index, isinstance(e, KeyframeAdded)),
+    ):
         if isinstance(event, TrackingRecovered) and "new map" in event.reason:
             session += 1
         elif isinstance(event, KeyframeAdded):
             session_of[event.keyframe_id] = session
-    closures = [event for event in events if isinstance(event, GraphEdge) and event.accepted
-                and event.detection in ("appearance", "proximity")]
-    joining = [(session_of[e.from_keyframe], session_of[e.to_keyframe]) for e in closures
-               if session_of.get(e.from_keyframe) != session_of.get(e.to_keyframe)]
+    closures = [
+        event
+        for event in events
+        if isinstance(event, GraphEdge) and event.accepted and event.detection in ("appearance", "proximity")
+    ]
+    joining = [
+        (session_of[e.from_keyframe], session_of[e.to_keyframe])
+        for e in closures
+        if session_of.get(e.from_keyframe) != session_of.get(e.to_keyframe)
+    ]
     nodes = np.isin(run.frame_indices, run.node_frames)
     return {
         "resumptions": resumptions([event.pose is None for event in tracked], [event.inliers for event in tracked]),
@@ -195,6 +223,7 @@ def summarise_ours(folder: Path, rule: str, mode: str, options: argparse.Namespa
 
 
 # -- shared -------------------------------------------------------------------------------------
+
 
 def resumptions(lost: list[bool], inliers: list[int]) -> list[tuple[int, int]]:
     """(frame, inliers) of each frame that registers after lost ones."""
@@ -241,12 +270,23 @@ def resumption_spread(originals: list[dict], k: int) -> str:
 
 def table(title: str, ours: dict, originals: list[dict]) -> str:
     count = max(len(run["resumptions"]) for run in [ours, *originals])
-    rows = [("resumes at frame (inliers)", resumption_text(ours["resumptions"]),
-             " / ".join(resumption_spread(originals, k) for k in range(count)) or "never")]
-    for key, label in (("maps", "maps"), ("joining_links", "loop closures and proximity links between maps"),
-                       ("all_joined", "every map joined to the first"), ("loop_closures", "loop closures"),
-                       ("proximity", "proximity links"), ("nodes", "nodes"), ("node_ate", "ATE over the nodes (cm)"),
-                       ("odometry_ate", "the nodes' odometry, ATE (cm)")):
+    rows = [
+        (
+            "resumes at frame (inliers)",
+            resumption_text(ours["resumptions"]),
+            " / ".join(resumption_spread(originals, k) for k in range(count)) or "never",
+        )
+    ]
+    for key, label in (
+        ("maps", "maps"),
+        ("joining_links", "loop closures and proximity links between maps"),
+        ("all_joined", "every map joined to the first"),
+        ("loop_closures", "loop closures"),
+        ("proximity", "proximity links"),
+        ("nodes", "nodes"),
+        ("node_ate", "ATE over the nodes (cm)"),
+        ("odometry_ate", "the nodes' odometry, ATE (cm)"),
+    ):
         rows.append((label, spread([ours[key]]), spread([run[key] for run in originals])))
     if ours.get("frame_ate") is not None:
         rows.append(("ATE over every pose written (cm)", spread([ours["frame_ate"]]), "–"))
@@ -287,26 +327,48 @@ def main(argv: list[str] | None = None) -> int:
             listed_path = folder.parent / f"{folder.name}.sha256"
             if not listed_path.is_file():
                 listed_path.write_text("".join(f"{digest}  {name}\n" for name, digest in frame_digests(folder).items()))
-            listed = {name: digest for digest, name in (line.split("  ", 1) for line in listed_path.read_text().splitlines())}
+            listed = {
+                name: digest for digest, name in (line.split("  ", 1) for line in listed_path.read_text().splitlines())
+            }
             synced(args.oracle, folder)
             sequence = open_source(folder)
             for rule in args.rules:
                 originals = []
                 for k in range(1, args.runs + 1):
                     check_frames(folder, listed)
-                    run = run_original(args.oracle, folder,
-                                       args.out / "original" / f"{args.scene}-s{seed}-{args.mode}-{rule}-{k}",
-                                       rule, args.mode, Path(scratch))
+                    run = run_original(
+                        args.oracle,
+                        folder,
+                        args.out / "original" / f"{args.scene}-s{seed}-{args.mode}-{rule}-{k}",
+                        rule,
+                        args.mode,
+                        Path(scratch),
+                    )
                     originals.append(summarise_original(run, sequence))
                 check_frames(folder, listed)
                 ours = summarise_ours(folder, rule, args.mode, args)
-                result = {"scene": args.scene, "seed": seed, "mode": args.mode, "rule": rule, "ours": ours,
-                          "original": originals, "frames_sha256": str(listed_path), "overrides": extra}
-                (args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}{'-' + args.block if args.block else ''}.json").write_text(
-                    json.dumps(result, indent=1) + "\n")
+                result = {
+                    "scene": args.scene,
+                    "seed": seed,
+                    "mode": args.mode,
+                    "rule": rule,
+                    "ours": ours,
+                    "original": originals,
+                    "frames_sha256": str(listed_path),
+                    "overrides": extra,
+                }
+                (
+                    args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}{'-' + args.block if args.block else ''}.json"
+                ).write_text(json.dumps(result, indent=1) + "\n")
                 settings = ", ".join(f"{key}={value}" for key, value in extra.items())
-                sections.append(table(f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"
-                                      + (f"; ours with {settings}" if settings else ""), ours, originals))
+                sections.append(
+                    table(
+                        f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"
+                        + (f"; ours with {settings}" if settings else ""),
+                        ours,
+                        originals,
+                    )
+                )
                 print(sections[-1] + "\n", flush=True)
     command = invocation(parser.prog, [arg for arg in arguments if arg != "--docs"])
     text = "\n\n".join(sections) + f"\n\n{stamp(command)}"

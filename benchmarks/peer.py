@@ -39,7 +39,10 @@ DEFAULT_PIPELINES = ["rgbdslam", "rtabmap"]
 DEPTH_TRUNC_M = 4.0
 DOCUMENT = REPO / "docs" / "pipelines.md"
 # TUM folders whose figures docs/pipelines.md shows, by folder name, and their block.
-SEQUENCE_BLOCKS = {"rgbd_dataset_freiburg1_rpy_200": "peer-fr1-rpy-200", "rgbd_dataset_freiburg1_rpy": "peer-fr1-rpy-87"}
+SEQUENCE_BLOCKS = {
+    "rgbd_dataset_freiburg1_rpy_200": "peer-fr1-rpy-200",
+    "rgbd_dataset_freiburg1_rpy": "peer-fr1-rpy-87",
+}
 
 
 def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float, float]:
@@ -47,21 +50,27 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
     o3d = import_open3d()
     odometry = o3d.pipelines.odometry
     camera = sequence.camera
-    intrinsic = o3d.camera.PinholeCameraIntrinsic(camera.width, camera.height, camera.fx, camera.fy,
-                                                  camera.cx, camera.cy)
+    intrinsic = o3d.camera.PinholeCameraIntrinsic(
+        camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy
+    )
     jacobian, option = odometry.RGBDOdometryJacobianFromHybridTerm(), odometry.OdometryOption()
     stamps, poses, previous = [], [], None
     wall, cpu = time.perf_counter(), lab.process_cpu_s()
     for frame in sequence.frames(max_frames=max_frames):
         rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
-            o3d.geometry.Image(np.ascontiguousarray(frame.rgb)), o3d.geometry.Image(frame.depth.astype(np.float32)),
-            depth_scale=1.0, depth_trunc=DEPTH_TRUNC_M, convert_rgb_to_intensity=True)
+            o3d.geometry.Image(np.ascontiguousarray(frame.rgb)),
+            o3d.geometry.Image(frame.depth.astype(np.float32)),
+            depth_scale=1.0,
+            depth_trunc=DEPTH_TRUNC_M,
+            convert_rgb_to_intensity=True,
+        )
         if previous is None:
             pose = np.eye(4)
         else:
             # The motion maps the current frame's points into the previous frame's.
             success, previous_from_current, _ = odometry.compute_rgbd_odometry(
-                rgbd, previous, intrinsic, np.eye(4), jacobian, option)
+                rgbd, previous, intrinsic, np.eye(4), jacobian, option
+            )
             pose = poses[-1] @ (previous_from_current if success else np.eye(4))
         stamps.append(frame.timestamp)
         poses.append(pose)
@@ -70,8 +79,9 @@ def open3d_odometry(sequence, max_frames: int | None) -> tuple[Trajectory, float
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.peer",
-                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.peer", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None, help="the first N frames")
     parser.add_argument("--pipelines", nargs="+", default=DEFAULT_PIPELINES)
@@ -86,10 +96,12 @@ def main(argv: list[str] | None = None) -> int:
     trajectory, wall_s, cpu_s = open3d_odometry(sequence, args.frames)
     peer_ate = _ate_cm(sequence, trajectory)
     peer_fps, peer_cpu_fps = frames / wall_s, frames / cpu_s
-    rows = ["| method | ATE RMSE | odometry ATE | frames/s, wall (× Open3D) | frames/s, CPU time (× Open3D) |",
-            "|---|---|---|---|---|",
-            f"| Open3D RGB-D odometry | {peer_ate:.2f} cm | {peer_ate:.2f} cm | {peer_fps:.1f} (1.00) | "
-            f"{peer_cpu_fps:.1f} (1.00) |"]
+    rows = [
+        "| method | ATE RMSE | odometry ATE | frames/s, wall (× Open3D) | frames/s, CPU time (× Open3D) |",
+        "|---|---|---|---|---|",
+        f"| Open3D RGB-D odometry | {peer_ate:.2f} cm | {peer_ate:.2f} cm | {peer_fps:.1f} (1.00) | "
+        f"{peer_cpu_fps:.1f} (1.00) |",
+    ]
     print("\n".join(rows))
     stages = []
     for name, spec in specs.items():
@@ -97,8 +109,10 @@ def main(argv: list[str] | None = None) -> int:
         run = lab.run(sequence, spec, name, max_frames=args.frames).run
         cpu_fps = run.frames / (lab.process_cpu_s() - cpu)
         ate, odometry_ate = (_ate_cm(sequence, trajectory) for trajectory in (run.trajectory, run.odometry))
-        rows.append(f"| {name} | {ate:.2f} cm | {odometry_ate:.2f} cm | {run.fps:.1f} ({run.fps / peer_fps:.2f}) | "
-                    f"{cpu_fps:.1f} ({cpu_fps / peer_cpu_fps:.2f}) |")
+        rows.append(
+            f"| {name} | {ate:.2f} cm | {odometry_ate:.2f} cm | {run.fps:.1f} ({run.fps / peer_fps:.2f}) | "
+            f"{cpu_fps:.1f} ({cpu_fps / peer_cpu_fps:.2f}) |"
+        )
         stages.append(f"{name}: " + ", ".join(f"`{stage}` {ms:.1f}" for stage, ms in run.per_stage_ms.items()))
         print(rows[-1], flush=True)
     print("\n".join(stages))
@@ -111,11 +125,13 @@ def main(argv: list[str] | None = None) -> int:
 def document(block: str, command: str, load: float, rows: list[str], stages: list[str]) -> None:
     """The table and the stage times into docs/pipelines.md, stamped with ``command``."""
     installed = versions()
-    text = (f"{stamp(command)} Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after; "
-            f"OpenCV {installed['opencv']}, GTSAM {installed['gtsam']}, Open3D {installed['open3d']}.\n\n"
-            + "\n".join(rows)
-            + "\n\nMean milliseconds per frame by stage, by the wall clock (the report's `timing`; stages "
-            "that run on threads of their own overlap): " + "; ".join(stages) + ".")
+    text = (
+        f"{stamp(command)} Load average {load:.1f} before the run, {os.getloadavg()[0]:.1f} after; "
+        f"OpenCV {installed['opencv']}, GTSAM {installed['gtsam']}, Open3D {installed['open3d']}.\n\n"
+        + "\n".join(rows)
+        + "\n\nMean milliseconds per frame by stage, by the wall clock (the report's `timing`; stages "
+        "that run on threads of their own overlap): " + "; ".join(stages) + "."
+    )
     write_block(DOCUMENT, block, text)
 
 

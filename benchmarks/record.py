@@ -74,6 +74,7 @@ class Stopwatch:
                 return function(*args, **kwargs)
             finally:
                 self.seconds += time.thread_time() - start
+
         return timed
 
 
@@ -85,9 +86,11 @@ def timed_recording(folder: Path, frames: int, out: Path) -> tuple[dict[str, Any
         __call__ = watch.wrap(session.PipelineRecorder.__call__)
         begin_frame = watch.wrap(session.PipelineRecorder.begin_frame)
 
-    with (patch.object(session, "PipelineRecorder", TimedRecorder),
-          patch.object(session, "log_frame_image", watch.wrap(session.log_frame_image)),
-          patch.object(session, "log_evaluation", watch.wrap(session.log_evaluation))):
+    with (
+        patch.object(session, "PipelineRecorder", TimedRecorder),
+        patch.object(session, "log_frame_image", watch.wrap(session.log_frame_image)),
+        patch.object(session, "log_evaluation", watch.wrap(session.log_evaluation)),
+    ):
         start = time.perf_counter()
         result = record(str(folder), out=out, max_frames=frames, quiet=True)
         wall = time.perf_counter() - start
@@ -115,16 +118,18 @@ def size_and_time(folder: Path, frames: int, repeats: int, scratch: Path) -> dic
         report, recorder_s, record_wall_s = timed_recording(folder, frames, out)
         bare_s = bare_pipelines(folder, frames)
         pipeline_s = sum(block["timing"]["total_s"] for block in report["pipelines"].values())
-        runs.append({
-            "kib_per_frame": out.stat().st_size / 1024 / frames,
-            "recorder_s": recorder_s,
-            "pipelines_s": pipeline_s,
-            "recorder_share_of_pipelines": recorder_s / pipeline_s,
-            "record_wall_s": record_wall_s,
-            "bare_pipelines_wall_s": bare_s,
-            "wall_ratio": record_wall_s / bare_s,
-            "fps": {name: block["timing"]["fps"] for name, block in report["pipelines"].items()},
-        })
+        runs.append(
+            {
+                "kib_per_frame": out.stat().st_size / 1024 / frames,
+                "recorder_s": recorder_s,
+                "pipelines_s": pipeline_s,
+                "recorder_share_of_pipelines": recorder_s / pipeline_s,
+                "record_wall_s": record_wall_s,
+                "bare_pipelines_wall_s": bare_s,
+                "wall_ratio": record_wall_s / bare_s,
+                "fps": {name: block["timing"]["fps"] for name, block in report["pipelines"].items()},
+            }
+        )
         print(f"repeat {repeat + 1}: record {record_wall_s:.2f} s, no sink {bare_s:.2f} s", file=sys.stderr)
     ratios = sorted(run["wall_ratio"] for run in runs)
     median = min(runs, key=lambda run: (abs(run["wall_ratio"] - ratios[len(ratios) // 2]), run["wall_ratio"]))
@@ -136,9 +141,11 @@ def measure_memory(folder: Path, frames: int, out: Path) -> dict[str, Any]:
     sequence = PingPong(open_source(folder), frames)
     runs = {name: build_run(spec, sequence) for name, spec in lab.pipeline_specs(list(PIPELINE_MODULES)).items()}
     result = record_sequence(sequence, runs, out, quiet=True)
-    return {"peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
-            "kib_per_frame": out.stat().st_size / 1024 / frames,
-            "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()}}
+    return {
+        "peak_rss_gib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20,
+        "kib_per_frame": out.stat().st_size / 1024 / frames,
+        "fps": {name: block["timing"]["fps"] for name, block in result.report["pipelines"].items()},
+    }
 
 
 def peak_memory(folder: Path, frames: int, out: Path) -> dict[str, Any]:
@@ -152,21 +159,36 @@ def table(results: dict) -> str:
     frames = results["frames"]
     ratios = results["wall_ratios"]
     spread = f"; {len(ratios)} runs: {min(ratios):.2f}–{max(ratios):.2f}" if len(ratios) > 1 else ""
-    rows = [("| figure | measured | target |", "|---|---|---|"),
-            (f"| size, {frames} frames, both pipelines | **{results['kib_per_frame']:.1f} KiB per frame** "
-             f"({results['kib_per_frame'] * frames / 1024:.1f} MiB) | ≤ 60 KiB |",),
-            (f"| CPU time inside the recorder (on its own thread) / the pipelines' own wall time, {frames} frames | "
-             f"**{results['recorder_share_of_pipelines']:.1%}** ({results['recorder_s']:.2f} s of "
-             f"{results['pipelines_s']:.2f} s) | ≤ 25 % |",),
-            (f"| wall time of `record` / the same pipelines with no sink, {frames} frames | "
-             f"**{results['wall_ratio']:.2f}×** ({results['record_wall_s']:.2f} s against "
-             f"{results['bare_pipelines_wall_s']:.2f} s{spread}) | ≤ 1.2× |",)]
+    rows = [
+        ("| figure | measured | target |", "|---|---|---|"),
+        (
+            f"| size, {frames} frames, both pipelines | **{results['kib_per_frame']:.1f} KiB per frame** "
+            f"({results['kib_per_frame'] * frames / 1024:.1f} MiB) | ≤ 60 KiB |",
+        ),
+        (
+            f"| CPU time inside the recorder (on its own thread) / the pipelines' own wall time, {frames} frames | "
+            f"**{results['recorder_share_of_pipelines']:.1%}** ({results['recorder_s']:.2f} s of "
+            f"{results['pipelines_s']:.2f} s) | ≤ 25 % |",
+        ),
+        (
+            f"| wall time of `record` / the same pipelines with no sink, {frames} frames | "
+            f"**{results['wall_ratio']:.2f}×** ({results['record_wall_s']:.2f} s against "
+            f"{results['bare_pipelines_wall_s']:.2f} s{spread}) | ≤ 1.2× |",
+        ),
+    ]
     memory = results.get("memory")
     if memory:
-        rows += [(f"| size, {memory['frames']:,} frames, both pipelines | **{memory['kib_per_frame']:.1f} KiB per "
-                  f"frame** ({memory['kib_per_frame'] * memory['frames'] / 1024:.0f} MiB) | ≤ 60 KiB |",),
-                 (f"| peak RSS, {memory['frames']:,} frames, both pipelines, one process | "
-                  f"**{memory['peak_rss_gib']:.2f} GiB** | ≤ 3 GB |",)]
+        rows += [
+            (
+                f"| size, {memory['frames']:,} frames, both pipelines | **{memory['kib_per_frame']:.1f} KiB per "
+                f"frame** ({memory['kib_per_frame'] * memory['frames'] / 1024:.0f} MiB) | ≤ 60 KiB |",
+            ),
+            (
+                f"| peak RSS, {memory['frames']:,} frames, both pipelines, one process | "
+                f"**{memory['peak_rss_gib']:.2f} GiB** | ≤ 3 GB |",
+            ),
+        ]
+
     def rates(fps: dict[str, float]) -> str:
         return " and ".join(f"{name} {value:.1f}" for name, value in fps.items())
 
@@ -196,11 +218,16 @@ def main(argv: list[str] | None = None) -> int:
         results.update(size_and_time(folder, args.frames, args.repeats, Path(scratch)))
         print(f"size and time done: {results['kib_per_frame']:.1f} KiB/frame", file=sys.stderr)
         if args.memory_frames:
-            results["memory"] = {"frames": args.memory_frames,
-                                 **peak_memory(folder, args.memory_frames, Path(scratch) / "memory.rrd")}
+            results["memory"] = {
+                "frames": args.memory_frames,
+                **peak_memory(folder, args.memory_frames, Path(scratch) / "memory.rrd"),
+            }
     print(json.dumps(results, indent=2))
-    block = SEQUENCE_BLOCKS.get(args.sequence.resolve().name) if args.sequence else (
-        "record-cost" if args.scenario == "360_kidnap" else None)
+    block = (
+        SEQUENCE_BLOCKS.get(args.sequence.resolve().name)
+        if args.sequence
+        else ("record-cost" if args.scenario == "360_kidnap" else None)
+    )
     if block is None:
         return 0
     command = invocation(parser.prog, lab.arguments(argv))

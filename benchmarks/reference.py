@@ -31,8 +31,8 @@ THAT_BUILD = {"OdomF2M/BundleAdjustment": 0}
 @dataclass
 class ReferenceRun:
     folder: Path
-    sequence: str          # the folder name of the frames
-    mode: str              # "perframe" or "default"
+    sequence: str  # the folder name of the frames
+    mode: str  # "perframe" or "default"
     synthetic: bool
 
     @property
@@ -47,8 +47,14 @@ class ReferenceRun:
 
 def reference_runs(reference: Path) -> list[ReferenceRun]:
     runs = []
-    for folder in sorted([*reference.glob("*-perframe"), *reference.glob("*-default"),
-                          *(reference / "synthetic").glob("*-perframe"), *(reference / "synthetic").glob("*-default")]):
+    for folder in sorted(
+        [
+            *reference.glob("*-perframe"),
+            *reference.glob("*-default"),
+            *(reference / "synthetic").glob("*-perframe"),
+            *(reference / "synthetic").glob("*-default"),
+        ]
+    ):
         sequence, _, mode = folder.name.rpartition("-")
         runs.append(ReferenceRun(folder, sequence, mode, folder.parent.name == "synthetic"))
     return runs
@@ -65,8 +71,10 @@ def frames_folder(run: ReferenceRun, tum: Path, synthetic: Path | None) -> Path:
     if not run.synthetic:
         return tum / run.sequence
     if synthetic is None:
-        raise InputError(f"{run.name}: a synthetic scene; render it (viewslam synth {scene_name(run.sequence)} "
-                         f"--out DIR/{run.sequence} --resolution 640x480 --seed 0) and pass --synthetic DIR")
+        raise InputError(
+            f"{run.name}: a synthetic scene; render it (viewslam synth {scene_name(run.sequence)} "
+            f"--out DIR/{run.sequence} --resolution 640x480 --seed 0) and pass --synthetic DIR"
+        )
     for candidate in (synthetic / run.sequence, synthetic / scene_name(run.sequence)):
         if candidate.is_dir():
             return candidate

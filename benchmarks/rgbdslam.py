@@ -37,10 +37,15 @@ def peak_rss_mb() -> float:
 
 def speed(args: argparse.Namespace) -> None:
     sequence = open_source(args.sequence, frames=args.frames)
-    print(f"sequence {sequence.name}: {min(len(sequence), args.frames or len(sequence))} frames, "
-          f"{sequence.camera.width}x{sequence.camera.height}")
-    header = "| detector | fps (wall) | fps (CPU time) | " + " | ".join(f"{s} ms (median / mean)" for s in STAGES) + \
-             " | keyframes | loops accepted | ATE RMSE m | odometry ATE RMSE m | peak RSS MB |"
+    print(
+        f"sequence {sequence.name}: {min(len(sequence), args.frames or len(sequence))} frames, "
+        f"{sequence.camera.width}x{sequence.camera.height}"
+    )
+    header = (
+        "| detector | fps (wall) | fps (CPU time) | "
+        + " | ".join(f"{s} ms (median / mean)" for s in STAGES)
+        + " | keyframes | loops accepted | ATE RMSE m | odometry ATE RMSE m | peak RSS MB |"
+    )
     print(header)
     print("|" + "---|" * (header.count("|") - 1))
     for detector in args.detectors:
@@ -55,10 +60,15 @@ def speed(args: argparse.Namespace) -> None:
         cpu_start = lab.process_cpu_s()
         run = lab.run(sequence, spec, "rgbdslam", max_frames=args.frames, sinks=[collect]).run
         cpu_fps = run.frames / (lab.process_cpu_s() - cpu_start)
-        ate, odometry_ate = (lab.ate_rmse(sequence.groundtruth, trajectory) for trajectory in (run.trajectory, run.odometry))
+        ate, odometry_ate = (
+            lab.ate_rmse(sequence.groundtruth, trajectory) for trajectory in (run.trajectory, run.odometry)
+        )
         cells = " | ".join(f"{np.median(v):.1f} / {np.mean(v):.1f}" for v in stage_ms.values())
-        print(f"| {detector} | {run.fps:.1f} | {cpu_fps:.1f} | {cells} | {run.keyframes} | {run.loop_closures_accepted} "
-              f"| {ate:.4f} | {odometry_ate:.4f} | {peak_rss_mb():.0f} |", flush=True)
+        print(
+            f"| {detector} | {run.fps:.1f} | {cpu_fps:.1f} | {cells} | {run.keyframes} | {run.loop_closures_accepted} "
+            f"| {ate:.4f} | {odometry_ate:.4f} | {peak_rss_mb():.0f} |",
+            flush=True,
+        )
 
 
 def memory(args: argparse.Namespace) -> None:
@@ -67,15 +77,18 @@ def memory(args: argparse.Namespace) -> None:
     spec = lab.pipeline_spec("rgbdslam", args)
     before = peak_rss_mb()
     run = lab.run(sequence, spec, "rgbdslam").run
-    print(f"{run.frames} frames ({source.name} forwards and backwards), {run.keyframes} nodes, "
-          f"{run.loop_closures_accepted} loop closures accepted, {len(run.trajectory.timestamps)} poses, "
-          f"{run.total_s:.0f} s ({run.fps:.1f} fps)")
+    print(
+        f"{run.frames} frames ({source.name} forwards and backwards), {run.keyframes} nodes, "
+        f"{run.loop_closures_accepted} loop closures accepted, {len(run.trajectory.timestamps)} poses, "
+        f"{run.total_s:.0f} s ({run.fps:.1f} fps)"
+    )
     print(f"peak RSS {peak_rss_mb():.0f} MB (after imports and before the run: {before:.0f} MB)")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.rgbdslam",
-                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.rgbdslam", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("mode", choices=("speed", "memory"))
     parser.add_argument("--sequence", default=DEFAULT_SEQUENCE, help="TUM folder or synthetic scenario name")
     parser.add_argument("--frames", type=int, default=None)

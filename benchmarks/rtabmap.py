@@ -32,9 +32,17 @@ from . import lab
 from .figures import TUM
 
 REST_FRAMES = 60
-def run(options: argparse.Namespace, name: str, frames: int, resolution: tuple[int, int], rest: int = 0,
-        max_frames: int | None = None, overrides: Mapping[str, Any] | None = None
-        ) -> tuple[RgbdSequence, PipelineRun, list[Event]]:
+
+
+def run(
+    options: argparse.Namespace,
+    name: str,
+    frames: int,
+    resolution: tuple[int, int],
+    rest: int = 0,
+    max_frames: int | None = None,
+    overrides: Mapping[str, Any] | None = None,
+) -> tuple[RgbdSequence, PipelineRun, list[Event]]:
     """``name`` is a synthetic scenario or a TUM folder (then ``frames`` and ``resolution`` are unused);
     ``overrides`` the case's parameters, on top of ``options``' ``--config`` and ``--param``."""
     folder = Path(name) if Path(name).is_dir() else cached_scenario(name, frames=frames, resolution=resolution, seed=0)
@@ -59,8 +67,10 @@ def stage_table(events) -> str:
     for stage in tracked[0].timings_ms:
         values = np.array([e.timings_ms[stage] for e in tracked])
         ran = values[values > 0]
-        lines.append(f"| {stage} | {np.median(ran) if len(ran) else 0:.2f} | {len(ran)} | {values.mean():.2f} "
-                     f"| {values.sum() / total.sum():.0%} |")
+        lines.append(
+            f"| {stage} | {np.median(ran) if len(ran) else 0:.2f} | {len(ran)} | {values.mean():.2f} "
+            f"| {values.sum() / total.sum():.0%} |"
+        )
     lines.append(f"| all | {np.median(total):.2f} | {len(total)} | {total.mean():.2f} | 100% |")
     return "\n".join(lines)
 
@@ -69,43 +79,59 @@ def speed(options: argparse.Namespace) -> None:
     sequence, result, events = run(options, "long_office_household", 300, (640, 480))
     print("## Speed: long_office_household, 300 frames, 640x480, default parameters\n")
     print(stage_table(events))
-    print(f"\nfps {result.fps:.1f} (wall, including image loading), median frame "
-          f"{np.median([sum(e.timings_ms.values()) for e in events if isinstance(e, FrameTracked)]):.1f} ms, "
-          f"locations {result.keyframes}, ATE {ate(sequence, result.trajectory):.3f} m\n")
+    print(
+        f"\nfps {result.fps:.1f} (wall, including image loading), median frame "
+        f"{np.median([sum(e.timings_ms.values()) for e in events if isinstance(e, FrameTracked)]):.1f} ms, "
+        f"locations {result.keyframes}, ATE {ate(sequence, result.trajectory):.3f} m\n"
+    )
 
 
 def accuracy(options: argparse.Namespace) -> None:
     print("## Accuracy (320x240, Rtabmap/DetectionRate 10)\n")
     print("| scenario | frames | ATE RMSE m | odometry ATE m | closures accepted/rejected | coverage |")
     print("|---|---|---|---|---|---|")
-    for name, frames in (("nostructure_texture_near_withloop", 150), ("nostructure_texture_near_withloop", 300),
-                         ("long_office_household", 300)):
+    for name, frames in (
+        ("nostructure_texture_near_withloop", 150),
+        ("nostructure_texture_near_withloop", 300),
+        ("long_office_household", 300),
+    ):
         sequence, result, _ = run(options, name, frames, (320, 240), overrides={"Rtabmap/DetectionRate": 10})
         groundtruth = sequence.groundtruth
         coverage = evaluate(groundtruth, result.trajectory).coverage.ratio if groundtruth is not None else float("nan")
-        print(f"| {name} | {frames} | {ate(sequence, result.trajectory):.4f} | {ate(sequence, result.odometry):.4f} "
-              f"| {result.loop_closures_accepted}/{result.loop_closures_rejected} | {coverage:.2f} |")
+        print(
+            f"| {name} | {frames} | {ate(sequence, result.trajectory):.4f} | {ate(sequence, result.odometry):.4f} "
+            f"| {result.loop_closures_accepted}/{result.loop_closures_rejected} | {coverage:.2f} |"
+        )
     print()
 
 
 def memory(options: argparse.Namespace) -> None:
     print("## Memory: long_office_household, 2,500 frames, 320x240, default parameters\n")
-    print("| Rtabmap/MemoryThr | start | max WM | final WM / LTM | words | vocabulary+bayes ms per location (median) "
-          "| loop closures to the first 10 locations | ATE m | fps |")
+    print(
+        "| Rtabmap/MemoryThr | start | max WM | final WM / LTM | words | vocabulary+bayes ms per location (median) "
+        "| loop closures to the first 10 locations | ATE m | fps |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for threshold, rest in ((0, 0), (30, 0), (30, REST_FRAMES)):
-        sequence, result, events = run(options, "long_office_household", 2500, (320, 240), rest,
-                                       overrides={"Rtabmap/MemoryThr": threshold})
+        sequence, result, events = run(
+            options, "long_office_household", 2500, (320, 240), rest, overrides={"Rtabmap/MemoryThr": threshold}
+        )
         tracked = [e for e in events if isinstance(e, FrameTracked)]
-        per_location = [e.timings_ms["vocabulary"] + e.timings_ms["bayes"] for e in tracked
-                        if e.timings_ms["bayes"] > 0]
-        early = [e for e in events if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry"
-                 and e.from_keyframe < 10]
+        per_location = [
+            e.timings_ms["vocabulary"] + e.timings_ms["bayes"] for e in tracked if e.timings_ms["bayes"] > 0
+        ]
+        early = [
+            e
+            for e in events
+            if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry" and e.from_keyframe < 10
+        ]
         last = tracked[-1].metrics
         start = f"rests {rest} frames" if rest else "moving"
-        print(f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
-              f"| {last['words']} | {np.median(per_location):.1f} | {len(early)} "
-              f"| {ate(sequence, result.trajectory):.3f} | {result.fps:.1f} |")
+        print(
+            f"| {threshold or 'off'} | {start} | {max(e.metrics['wm'] for e in tracked)} | {last['wm']} / {last['ltm']} "
+            f"| {last['words']} | {np.median(per_location):.1f} | {len(early)} "
+            f"| {ate(sequence, result.trajectory):.3f} | {result.fps:.1f} |"
+        )
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"\npeak RSS of the process over the three runs: {peak_mb:.0f} MB\n")
 
@@ -142,25 +168,37 @@ def fidelity(options: argparse.Namespace) -> None:
     ]
     if options.only:
         cases = [case for case in cases if options.only in case[0]]
-    print("| sequence | frames | parameters | frames with a pose | ATE RMSE m | odometry ATE m "
-          "| loop closures (appearance / proximity) | largest step error m |")
+    print(
+        "| sequence | frames | parameters | frames with a pose | ATE RMSE m | odometry ATE m "
+        "| loop closures (appearance / proximity) | largest step error m |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for name, frames, max_frames, overrides in cases:
         sequence, result, events = run(options, name, frames, (320, 240), max_frames=max_frames, overrides=overrides)
-        closures = [e.detection for e in events if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry"]
-        print(f"| {Path(name).name} | {result.frames} | {overrides or 'defaults'} | {len(result.trajectory)} "
-              f"| {ate(sequence, result.trajectory) or float('nan'):.4f} "
-              f"| {ate(sequence, result.odometry) or float('nan'):.4f} | {closures.count('appearance')} / {closures.count('proximity')} "
-              f"| {largest_step_error(sequence, result.trajectory):.3f} |")
+        closures = [
+            e.detection for e in events if isinstance(e, GraphEdge) and e.accepted and e.detection != "odometry"
+        ]
+        print(
+            f"| {Path(name).name} | {result.frames} | {overrides or 'defaults'} | {len(result.trajectory)} "
+            f"| {ate(sequence, result.trajectory) or float('nan'):.4f} "
+            f"| {ate(sequence, result.odometry) or float('nan'):.4f} | {closures.count('appearance')} / {closures.count('proximity')} "
+            f"| {largest_step_error(sequence, result.trajectory):.3f} |"
+        )
     print()
 
 
-CASES: dict[str, Callable[[argparse.Namespace], None]] = {"speed": speed, "accuracy": accuracy, "memory": memory, "fidelity": fidelity}
+CASES: dict[str, Callable[[argparse.Namespace], None]] = {
+    "speed": speed,
+    "accuracy": accuracy,
+    "memory": memory,
+    "fidelity": fidelity,
+}
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.rtabmap",
-                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.rtabmap", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("case", nargs="?", choices=list(CASES), help="one case (default: all)")
     parser.add_argument("only", nargs="?", help="fidelity: only the sequences whose name holds this")
     lab.add_parameter_options(parser, "every case, under the case's own")

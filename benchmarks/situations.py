@@ -31,8 +31,14 @@ IMAGES = REPO / "docs" / "images"
 DOCUMENT = REPO / "docs" / "benchmark.md"
 
 # The charted columns of the results table, by their titles there.
-CHARTED = {"ATE RMSE [m]": "ate_rmse", "RPE trans RMSE [m]": "rpe_trans_rmse", "RPE rot RMSE [deg]": "rpe_rot_rmse",
-           "Time [s]": "time_s", "Coverage": "coverage", "Penalised ATE RMSE [m]": "penalized_ate_rmse"}
+CHARTED = {
+    "ATE RMSE [m]": "ate_rmse",
+    "RPE trans RMSE [m]": "rpe_trans_rmse",
+    "RPE rot RMSE [deg]": "rpe_rot_rmse",
+    "Time [s]": "time_s",
+    "Coverage": "coverage",
+    "Penalised ATE RMSE [m]": "penalized_ate_rmse",
+}
 
 
 def documented_rows(document: str) -> list[dict[str, Any]]:
@@ -73,14 +79,20 @@ def main(argv: list[str] | None = None) -> int:
     with ProcessPoolExecutor(options.jobs) as pool:
         for name, folder in zip(SCENARIOS, pool.map(generate, SCENARIOS)):
             print(f"{name}: {folder}", flush=True)
-    benchmark(scenario_frames=options.frames, resolution=parse_resolution(options.resolution), jobs=options.jobs,
-              out=options.out, quiet=False)
+    benchmark(
+        scenario_frames=options.frames,
+        resolution=parse_resolution(options.resolution),
+        jobs=options.jobs,
+        out=options.out,
+        quiet=False,
+    )
     IMAGES.mkdir(parents=True, exist_ok=True)
     for chart in sorted(options.out.glob("benchmark_*")):
         shutil.copy2(chart, IMAGES / chart.name)
     report = (options.out / "report.md").read_text()
-    table_and_findings = report[report.index("| Sequence |"):report.index("\n## Charts")].replace(
-        "## Findings", "**Findings** (written by the benchmark):")
+    table_and_findings = report[report.index("| Sequence |") : report.index("\n## Charts")].replace(
+        "## Findings", "**Findings** (written by the benchmark):"
+    )
     write_block(DOCUMENT, "situations", f"{stamp(invocation(parser.prog, arguments))}\n\n{table_and_findings.strip()}")
     return 0
 

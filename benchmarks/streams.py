@@ -30,7 +30,9 @@ class PingPong(TimedFrames):
         self.timestamps = first + step * np.median(np.diff(sequence.timestamps))
         self.groundtruth = None
         if sequence.groundtruth is not None:
-            self.groundtruth = Trajectory(self.timestamps, sequence.groundtruth_at(sequence.timestamps[self._source])[0])
+            self.groundtruth = Trajectory(
+                self.timestamps, sequence.groundtruth_at(sequence.timestamps[self._source])[0]
+            )
         self.name, self.path, self.camera = f"{sequence.name}-pingpong-{length}", sequence.path, sequence.camera
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:

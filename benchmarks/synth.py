@@ -55,15 +55,24 @@ def contact_sheet(names, out: Path, resolution, fractions=(0.2, 0.5, 0.8), tile_
         tiles = []
         for _, rgb, depth in preview_frames(name, fractions, resolution=resolution):
             height = int(tile_width * rgb.shape[0] / rgb.shape[1])
-            colour = cv2.resize(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), (tile_width, height),
-                                interpolation=cv2.INTER_AREA)
+            colour = cv2.resize(
+                cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), (tile_width, height), interpolation=cv2.INTER_AREA
+            )
             coloured = cv2.applyColorMap(np.clip(depth / 5.0 * 255, 0, 255).astype(np.uint8), cv2.COLORMAP_TURBO)
             coloured[depth == 0] = 0
             tiles += [colour, cv2.resize(coloured, (tile_width, height), interpolation=cv2.INTER_NEAREST)]
         row = np.hstack(tiles)
         label = np.full((22, row.shape[1], 3), 255, np.uint8)
-        cv2.putText(label, f"{name}   (colour | depth 0-5 m, black = none)", (6, 16), cv2.FONT_HERSHEY_SIMPLEX,
-                    0.5, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(
+            label,
+            f"{name}   (colour | depth 0-5 m, black = none)",
+            (6, 16),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.5,
+            (0, 0, 0),
+            1,
+            cv2.LINE_AA,
+        )
         rows += [label, row]
     out.parent.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out), np.vstack(rows), [cv2.IMWRITE_PNG_COMPRESSION, 9])
@@ -76,8 +85,10 @@ def measure_speed(names, frames: int, resolution, repeats: int, workers: int) ->
     import and build the scene, so only the difference between the runs isolates the steady
     rate; set-up is the rest of the longer run's time.
     """
-    print(f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}, "
-          f"{workers} worker(s)")
+    print(
+        f"load average before: {os.getloadavg()[0]:.2f}; {frames} frames at {resolution[0]}x{resolution[1]}, "
+        f"{workers} worker(s)"
+    )
     print(f"{'scenario':40s} {'setup s':>8s} {'frames/s':>9s} {'CPU s/frame':>12s} {'overall frames/s':>17s}")
     rates, cpu_per_frame, short = [], [], max(2, frames // 2)
     with tempfile.TemporaryDirectory() as scratch:
@@ -85,7 +96,8 @@ def measure_speed(names, frames: int, resolution, repeats: int, workers: int) ->
             half = [timed_run(name, short, resolution, Path(scratch) / "half", workers) for _ in range(repeats)]
             total = [timed_run(name, frames, resolution, Path(scratch) / name, workers) for _ in range(repeats)]
             (half_wall, half_cpu), (total_wall, total_cpu) = (
-                tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (half, total))
+                tuple(statistics.median(run[k] for run in runs) for k in (0, 1)) for runs in (half, total)
+            )
             steady = (frames - short) / max(total_wall - half_wall, 1e-9)
             cpu = (total_cpu - half_cpu) / (frames - short)
             setup = max(total_wall - frames / steady, 0.0)
@@ -93,8 +105,10 @@ def measure_speed(names, frames: int, resolution, repeats: int, workers: int) ->
             cpu_per_frame.append(cpu)
             print(f"{name:40s} {setup:8.2f} {steady:9.1f} {cpu:12.3f} {frames / total_wall:17.1f}", flush=True)
     cpu = statistics.median(cpu_per_frame)
-    print(f"median steady frames/s: {statistics.median(rates):.1f}; median CPU s/frame: {cpu:.3f} "
-          f"(two idle cores: at most {2 / cpu:.1f} frames/s); load average after: {os.getloadavg()[0]:.2f}")
+    print(
+        f"median steady frames/s: {statistics.median(rates):.1f}; median CPU s/frame: {cpu:.3f} "
+        f"(two idle cores: at most {2 / cpu:.1f} frames/s); load average after: {os.getloadavg()[0]:.2f}"
+    )
 
 
 @contextmanager

@@ -33,8 +33,14 @@ DOCUMENT = REPO / "docs" / "benchmark.md"
 def measure(options: argparse.Namespace) -> list[dict]:
     """Every task of the plan run and measured, in plan order."""
     recordings = scratch() if options.record else None
-    tasks = plan_tasks(options.sequences, ["rgbdslam", "rtabmap"], scenario_frames=options.scenario_frames,
-                       resolution=parse_resolution(options.resolution), trials=options.trials, recordings=recordings)
+    tasks = plan_tasks(
+        options.sequences,
+        ["rgbdslam", "rtabmap"],
+        scenario_frames=options.scenario_frames,
+        resolution=parse_resolution(options.resolution),
+        trials=options.trials,
+        recordings=recordings,
+    )
     measured = []
     for task in tasks:
         wall, cpu = time.perf_counter(), lab.process_cpu_s()
@@ -42,20 +48,33 @@ def measure(options: argparse.Namespace) -> list[dict]:
         wall, cpu = time.perf_counter() - wall, lab.process_cpu_s() - cpu
         if not result.ok:
             raise RuntimeError(f"{task.label}: {result.error}")
-        measured.append({"sequence": task.name, "pipeline": task.pipeline, "trial": task.trial, "seed": task.seed,
-                         "frames": result.frames, "cpu_s": cpu, "wall_s": wall,
-                         "returned_kb": len(pickle.dumps(result)) / 1000})
+        measured.append(
+            {
+                "sequence": task.name,
+                "pipeline": task.pipeline,
+                "trial": task.trial,
+                "seed": task.seed,
+                "frames": result.frames,
+                "cpu_s": cpu,
+                "wall_s": wall,
+                "returned_kb": len(pickle.dumps(result)) / 1000,
+            }
+        )
         print(f"{task.label}: {cpu:.1f} s CPU, {wall:.1f} s wall", file=sys.stderr, flush=True)
     return measured
 
 
 def table(measured: list[dict]) -> str:
-    lines = ["| Sequence | Pipeline | Trial (seed) | Frames | CPU [s] | Wall [s] | CPU per frame [ms] | Returned [kB] |",
-             "|---|---|---|---:|---:|---:|---:|---:|"]
+    lines = [
+        "| Sequence | Pipeline | Trial (seed) | Frames | CPU [s] | Wall [s] | CPU per frame [ms] | Returned [kB] |",
+        "|---|---|---|---:|---:|---:|---:|---:|",
+    ]
     for row in measured:
-        lines.append(f"| {row['sequence']} | {row['pipeline']} | {row['trial']} ({row['seed']}) | {row['frames']} "
-                     f"| {row['cpu_s']:.1f} | {row['wall_s']:.1f} | {1000 * row['cpu_s'] / row['frames']:.0f} "
-                     f"| {row['returned_kb']:,.0f} |")
+        lines.append(
+            f"| {row['sequence']} | {row['pipeline']} | {row['trial']} ({row['seed']}) | {row['frames']} "
+            f"| {row['cpu_s']:.1f} | {row['wall_s']:.1f} | {1000 * row['cpu_s'] / row['frames']:.0f} "
+            f"| {row['returned_kb']:,.0f} |"
+        )
     for pipeline in dict.fromkeys(row["pipeline"] for row in measured):
         cpu = [row["cpu_s"] for row in measured if row["pipeline"] == pipeline]
         lines.append(f"| **median** | {pipeline} | | | {statistics.median(cpu):.1f} | | | |")
@@ -73,8 +92,10 @@ def main(argv: list[str] | None = None) -> int:
     options = parser.parse_args(arguments)
     load = os.getloadavg()[0]
     measured = measure(options)
-    text = (f"{stamp(invocation(parser.prog, arguments))} Load average {load:.1f} at the start (other work shared the cores: "
-            f"compare CPU seconds, not wall).\n\n{table(measured)}")
+    text = (
+        f"{stamp(invocation(parser.prog, arguments))} Load average {load:.1f} at the start (other work shared the cores: "
+        f"compare CPU seconds, not wall).\n\n{table(measured)}"
+    )
     write_block(DOCUMENT, "trial-cost", text)
     print(text)
     return 0

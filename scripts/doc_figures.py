@@ -36,7 +36,9 @@ TUM_RPY = TUM / "rgbd_dataset_freiburg1_rpy"
 
 def viewslam(*args: str, cwd: Path | None = None) -> str:
     """Run one viewslam command; its stdout (a failure raises with its stderr)."""
-    result = subprocess.run([sys.executable, "-m", "viewer_slam", *args], capture_output=True, text=True, cwd=cwd, check=False)
+    result = subprocess.run(
+        [sys.executable, "-m", "viewer_slam", *args], capture_output=True, text=True, cwd=cwd, check=False
+    )
     if result.returncode != 0:
         raise RuntimeError(f"viewslam {' '.join(args)} exited {result.returncode}: {result.stderr.strip()}")
     return result.stdout
@@ -55,10 +57,12 @@ def demo() -> str:
     report = json.loads((demo_run() / "demo.json").read_text())
     frames, runs = report["sequence"]["frames"], report["pipelines"]
     rgbdslam, rtabmap = runs["rgbdslam"], runs["rtabmap"]
-    return (f"In this run: rgbdslam {rgbdslam['frames_with_pose']} of {frames} frames with a pose, "
-            f"ATE {rgbdslam['ate']['rmse']:.3f} m, penalised {rgbdslam['penalized_ate']['rmse']:.3f} m;\n"
-            f"rtabmap {rtabmap['frames_with_pose']} frames, {rtabmap['ate']['rmse']:.3f} m, "
-            f"penalised {rtabmap['penalized_ate']['rmse']:.3f} m.")
+    return (
+        f"In this run: rgbdslam {rgbdslam['frames_with_pose']} of {frames} frames with a pose, "
+        f"ATE {rgbdslam['ate']['rmse']:.3f} m, penalised {rgbdslam['penalized_ate']['rmse']:.3f} m;\n"
+        f"rtabmap {rtabmap['frames_with_pose']} frames, {rtabmap['ate']['rmse']:.3f} m, "
+        f"penalised {rtabmap['penalized_ate']['rmse']:.3f} m."
+    )
 
 
 def segments() -> str:
@@ -87,7 +91,8 @@ def segments() -> str:
             f"{before[0].mean():.3f} m (at most {before[0].max():.3f} m) and the segment-aligned one "
             f"{before[1].mean():.3f} m (at most {before[1].max():.3f} m); over the run the RMSE is "
             f"{evaluation.ate.stats()['rmse']:.3f} m globally and {evaluation.segment_ate.stats()['rmse']:.3f} m "
-            f"per segment.")
+            f"per segment."
+        )
     return "\n".join(lines)
 
 
@@ -120,17 +125,23 @@ def cache_need() -> str:
     fractions = np.linspace(0, 1, 5)
     colour = depth = frames = total = 0
     for name in STUDY_SCENARIOS:
-        sizes = np.array([[len(png) for png in encode_frame(rgb, metres, 5000.0)]
-                          for _, rgb, metres in preview_frames(name, fractions)])
+        sizes = np.array(
+            [
+                [len(png) for png in encode_frame(rgb, metres, 5000.0)]
+                for _, rgb, metres in preview_frames(name, fractions)
+            ]
+        )
         colour, depth = colour + sizes[:, 0].sum(), depth + sizes[:, 1].sum()
         frames += default_frames(name)
         total += default_frames(name) * sizes.sum(axis=1).mean()
     sampled = len(STUDY_SCENARIOS) * len(fractions)
-    return (f"The default `viewslam benchmark` renders the seven scenarios at 640x480 and their own lengths, "
-            f"{frames:,} frames,\ninto about {total / 1e9:.1f} GB of cache: "
-            f"{total / frames / 1e6:.2f} MB a frame (colour {colour / sampled / 1e3:.0f} kB, stored "
-            f"uncompressed; depth {depth / sampled / 1e3:.0f} kB\non average), measured on "
-            f"{len(fractions)} frames spread over each run.")
+    return (
+        f"The default `viewslam benchmark` renders the seven scenarios at 640x480 and their own lengths, "
+        f"{frames:,} frames,\ninto about {total / 1e9:.1f} GB of cache: "
+        f"{total / frames / 1e6:.2f} MB a frame (colour {colour / sampled / 1e3:.0f} kB, stored "
+        f"uncompressed; depth {depth / sampled / 1e3:.0f} kB\non average), measured on "
+        f"{len(fractions)} frames spread over each run."
+    )
 
 
 def estimate() -> str:
@@ -138,15 +149,26 @@ def estimate() -> str:
     work = scratch()
     first, second = work / "rpy.rrd", work / "both.rrd"
     viewslam("record", str(TUM_RPY), "--pipeline", "rgbdslam", "--out", str(first), "--quiet")
-    viewslam("record", str(TUM_RPY), "--pipeline", "rgbdslam", "--out", str(second), "--quiet",
-             "--estimate", f"mine={first.with_suffix('.rgbdslam.txt')}")
+    viewslam(
+        "record",
+        str(TUM_RPY),
+        "--pipeline",
+        "rgbdslam",
+        "--out",
+        str(second),
+        "--quiet",
+        "--estimate",
+        f"mine={first.with_suffix('.rgbdslam.txt')}",
+    )
     report = json.loads(second.with_suffix(".json").read_text())
     pipeline, mine = report["pipelines"]["rgbdslam"], report["pipelines"]["mine"]
-    return (f"On the shared fr1/rpy excerpt ({report['sequence']['frames']} frames), rgbdslam's trajectory "
-            f"file replayed as `mine`\nbeside rgbdslam scores ATE RMSE {mine['ate']['rmse']:.7f} m against "
-            f"rgbdslam's {pipeline['ate']['rmse']:.7f} m\n(the file keeps 6 decimals), RPE "
-            f"{mine['rpe']['trans']['rmse']:.4f} m against {pipeline['rpe']['trans']['rmse']:.4f} m, coverage "
-            f"{mine['coverage']['ratio']:.0%} against {pipeline['coverage']['ratio']:.0%}.")
+    return (
+        f"On the shared fr1/rpy excerpt ({report['sequence']['frames']} frames), rgbdslam's trajectory "
+        f"file replayed as `mine`\nbeside rgbdslam scores ATE RMSE {mine['ate']['rmse']:.7f} m against "
+        f"rgbdslam's {pipeline['ate']['rmse']:.7f} m\n(the file keeps 6 decimals), RPE "
+        f"{mine['rpe']['trans']['rmse']:.4f} m against {pipeline['rpe']['trans']['rmse']:.4f} m, coverage "
+        f"{mine['coverage']['ratio']:.0%} against {pipeline['coverage']['ratio']:.0%}."
+    )
 
 
 def diff() -> str:
@@ -154,8 +176,20 @@ def diff() -> str:
     work = scratch()
     viewslam("synth", "360_kidnap", "--out", "kidnap", "--frames", "120", "--resolution", "320x240", cwd=work)
     for name, countdown in (("reset0", 0), ("reset5", 5)):
-        viewslam("record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
-                 "--param", f"Odom/ResetCountdown={countdown}", "--out", f"runs/{name}.rrd", "--quiet", cwd=work)
+        viewslam(
+            "record",
+            "kidnap",
+            "--pipeline",
+            "rtabmap",
+            "--param",
+            "Rtabmap/DetectionRate=5",
+            "--param",
+            f"Odom/ResetCountdown={countdown}",
+            "--out",
+            f"runs/{name}.rrd",
+            "--quiet",
+            cwd=work,
+        )
     return diff_table(viewslam("diff", "runs/reset0.json", "runs/reset5.json", cwd=work))
 
 
@@ -170,15 +204,23 @@ def diff_table(printed: str) -> str:
         widths = [max(len(cells[c]) for cells in rows.values() if c < len(cells)) for c in range(columns)]
         for k in table:
             cells = rows.get(k)
-            lines[k] = (" " + "─" * (sum(widths) + 3 * (columns - 1)) if cells is None else
-                        " " + cells[0].ljust(widths[0]) + "".join("   " + cell.rjust(width)
-                                                                  for cell, width in zip(cells[1:], widths[1:])))
+            lines[k] = (
+                " " + "─" * (sum(widths) + 3 * (columns - 1))
+                if cells is None
+                else " "
+                + cells[0].ljust(widths[0])
+                + "".join("   " + cell.rjust(width) for cell, width in zip(cells[1:], widths[1:]))
+            )
     return "\n".join(["```", *lines, "```"])
 
 
 STUDY_COPY = SHARED_DATA / "study_kasar2018"
-STUDY_SEQUENCES = ("fr2/360_kidnap", "fr3/long_office_household", "fr3/nostructure_notexture_near_withloop",
-                   "fr3/sitting_static")
+STUDY_SEQUENCES = (
+    "fr2/360_kidnap",
+    "fr3/long_office_household",
+    "fr3/nostructure_notexture_near_withloop",
+    "fr3/sitting_static",
+)
 
 
 @functools.cache
@@ -195,7 +237,7 @@ def study_report() -> str:
 def study_table() -> str:
     """The study's table, published beside reproduced, for the README."""
     report = study_report()
-    return report[report.index("| sequence"):report.index("\n## Findings")].rstrip()
+    return report[report.index("| sequence") : report.index("\n## Findings")].rstrip()
 
 
 def study() -> str:
@@ -233,7 +275,9 @@ def stale(documents: dict[str, str], figures: dict[str, str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m scripts.doc_figures", description=__doc__.split("\n\n")[0])
-    parser.add_argument("names", nargs="*", metavar="NAME", help=f"blocks to make: {', '.join(FIGURES)} (all by default)")
+    parser.add_argument(
+        "names", nargs="*", metavar="NAME", help=f"blocks to make: {', '.join(FIGURES)} (all by default)"
+    )
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a block differs")
     options = parser.parse_args(argv)
     unknown = set(options.names) - FIGURES.keys()

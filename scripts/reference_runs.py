@@ -52,8 +52,7 @@ SETTINGS: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
 
 #: Whole machines, every library at once, as the test suite emulates them.
 MACHINES: dict[str, tuple[tuple[str, ...], dict[str, str]]] = {
-    "AVX2 without AVX-512": (("avx2",), {"OPENBLAS_CORETYPE": "Zen",
-                                          "NUMBA_CPU_NAME": "generic"}),
+    "AVX2 without AVX-512": (("avx2",), {"OPENBLAS_CORETYPE": "Zen", "NUMBA_CPU_NAME": "generic"}),
     "Intel with AVX-512": (AVX512, {"OPENBLAS_CORETYPE": "SkylakeX", "NUMBA_CPU_NAME": "skylake-avx512"}),
 }
 
@@ -69,9 +68,26 @@ def record_runs(out: Path, environment: dict[str, str] | None = None) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, **(environment or {}), "VIEWSLAM_CACHE": str(out / "cache")}
     for name, source in (("demo", []), ("rpy200", [str(TUM_RPY_200)])):
-        result = subprocess.run([sys.executable, "-m", "viewer_slam", "record", *source, "--pipeline", "both",
-                                 "--seed", "0", "--out", str(out / f"{name}.rrd"), "--quiet"],
-                                env=env, capture_output=True, text=True, check=False)
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "viewer_slam",
+                "record",
+                *source,
+                "--pipeline",
+                "both",
+                "--seed",
+                "0",
+                "--out",
+                str(out / f"{name}.rrd"),
+                "--quiet",
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
         if result.returncode != 0:
             raise RuntimeError(f"viewslam record {name} exited {result.returncode}: {result.stderr.strip()}")
     return out
@@ -84,18 +100,24 @@ def _sha256(data: bytes) -> str:
 def figures(report: dict) -> dict:
     """A report's figures: everything but the times, the paths and the versions."""
     sequence = {key: value for key, value in report["sequence"].items() if key != "path"}
-    runs = {name: {key: value for key, value in run.items() if key != "timing"}
-            for name, run in report["pipelines"].items()}
+    runs = {
+        name: {key: value for key, value in run.items() if key != "timing"} for name, run in report["pipelines"].items()
+    }
     return {"sequence": sequence, "pipelines": runs}
 
 
 def digests(folder: Path) -> dict[str, str]:
     """The digests of a folder of recorded runs: trajectory files, the demo's frames, figures."""
-    found = {f"{run}.{pipeline}.txt": _sha256((folder / f"{run}.{pipeline}.txt").read_bytes())
-             for run in RUNS for pipeline in PIPELINES}
+    found = {
+        f"{run}.{pipeline}.txt": _sha256((folder / f"{run}.{pipeline}.txt").read_bytes())
+        for run in RUNS
+        for pipeline in PIPELINES
+    }
     frames = hashlib.sha256()
     for path in sorted((folder / "cache").rglob("*.png")):
-        frames.update(path.relative_to(folder / "cache").as_posix().encode() + bytes.fromhex(_sha256(path.read_bytes())))
+        frames.update(
+            path.relative_to(folder / "cache").as_posix().encode() + bytes.fromhex(_sha256(path.read_bytes()))
+        )
     found["demo frames"] = frames.hexdigest()
     for run in RUNS:
         report = json.loads((folder / f"{run}.json").read_text())
@@ -146,8 +168,12 @@ def write_reference(folder: Path, reference: Path = REFERENCE) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m scripts.reference_runs", description=__doc__.split("\n\n")[0])
     parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a run differs")
-    parser.add_argument("--emulate", default=None, metavar="SETTING",
-                        help=f"'all', or one of: {', '.join(SETTINGS)}; {', '.join(MACHINES)}")
+    parser.add_argument(
+        "--emulate",
+        default=None,
+        metavar="SETTING",
+        help=f"'all', or one of: {', '.join(SETTINGS)}; {', '.join(MACHINES)}",
+    )
     options = parser.parse_args(argv)
     settings: dict[str, dict[str, str]] = {"this machine's defaults": {}}
     if options.emulate == "all":

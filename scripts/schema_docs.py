@@ -131,7 +131,7 @@ class Page:
             if owner != self.name:
                 continue  # described with its own schema
             target = load_schema(owner)["$defs"][definition]
-            out += [f"<a id=\"{_anchor(owner, definition)}\"></a>", f"### {definition}", ""]
+            out += [f'<a id="{_anchor(owner, definition)}"></a>', f"### {definition}", ""]
             if target.get("description"):
                 out += [target["description"], ""]
             out += self.table(target, owner, top=False)
@@ -143,8 +143,11 @@ class Page:
             return head + self.children(node, "", within) + [""]
         if top and node.get("type") == "array":
             items = node.get("items", {})
-            about = items.get("description") or ("$ref" in items and self.resolve(items["$ref"], within)[2].get(
-                "description", "")) or "An item."
+            about = (
+                items.get("description")
+                or ("$ref" in items and self.resolve(items["$ref"], within)[2].get("description", ""))
+                or "An item."
+            )
             return head + self.rows(node, "[]", True, within, about) + [""]
         return [f"Type: {self.type_of(node, within)}.", ""]
 
@@ -163,15 +166,15 @@ def page() -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m scripts.schema_docs",
-                                     description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog="python -m scripts.schema_docs", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--check", action="store_true", help="compare instead of writing")
     args = parser.parse_args(argv)
     text = page()
     if args.check:
         if not PAGE.exists() or PAGE.read_text(encoding="utf-8") != text:
-            print(f"{PAGE.relative_to(ROOT)} is out of date: run python -m scripts.schema_docs",
-                  file=sys.stderr)
+            print(f"{PAGE.relative_to(ROOT)} is out of date: run python -m scripts.schema_docs", file=sys.stderr)
             return 1
         return 0
     PAGE.write_text(text, encoding="utf-8")

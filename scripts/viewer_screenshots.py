@@ -43,19 +43,63 @@ PER_FRAME = ("demo", "fr1_rpy_200")  # recordings of a sequence's frames: their 
 # name -> (commands, the recording they write, the image name at 1920x1080)
 FIGURES = {
     "demo": ([["record", "--out", "demo.rrd", "--quiet"]], "demo.rrd", "viewer_demo.png"),
-    "fr1_rpy_200": ([["record", str(RPY_200), "--out", "rpy200.rrd", "--quiet"]], "rpy200.rrd",
-                    "viewer_fr1_rpy_200.png"),
-    "diff": ([["synth", "360_kidnap", "--out", "kidnap", "--frames", "120", "--resolution", "320x240"],
-              ["record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
-               "--param", "Odom/ResetCountdown=0", "--out", "runs/reset0.rrd", "--quiet"],
-              ["record", "kidnap", "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
-               "--param", "Odom/ResetCountdown=5", "--out", "runs/reset5.rrd", "--quiet"],
-              ["diff", "runs/reset0.json", "runs/reset5.json", "--json", "runs/diff.json", "--out", "runs/diff.rrd"]],
-             "runs/diff.rrd", "diff.png"),
-    "study_kidnap": ([["record", "--groundtruth", str(KIDNAP / "rgbd" / "groundtruth.txt"),
-                       "--estimate", f"rgbdslam_v2={KIDNAP / 'rgbd' / 'rgbd_poses.txt'}",
-                       "--estimate", f"rtabmap={KIDNAP / 'rtab' / 'rtabmap_poses.txt'}", "--out", "kidnap.rrd",
-                       "--quiet"]], "kidnap.rrd", "viewer_study_kidnap.png"),
+    "fr1_rpy_200": (
+        [["record", str(RPY_200), "--out", "rpy200.rrd", "--quiet"]],
+        "rpy200.rrd",
+        "viewer_fr1_rpy_200.png",
+    ),
+    "diff": (
+        [
+            ["synth", "360_kidnap", "--out", "kidnap", "--frames", "120", "--resolution", "320x240"],
+            [
+                "record",
+                "kidnap",
+                "--pipeline",
+                "rtabmap",
+                "--param",
+                "Rtabmap/DetectionRate=5",
+                "--param",
+                "Odom/ResetCountdown=0",
+                "--out",
+                "runs/reset0.rrd",
+                "--quiet",
+            ],
+            [
+                "record",
+                "kidnap",
+                "--pipeline",
+                "rtabmap",
+                "--param",
+                "Rtabmap/DetectionRate=5",
+                "--param",
+                "Odom/ResetCountdown=5",
+                "--out",
+                "runs/reset5.rrd",
+                "--quiet",
+            ],
+            ["diff", "runs/reset0.json", "runs/reset5.json", "--json", "runs/diff.json", "--out", "runs/diff.rrd"],
+        ],
+        "runs/diff.rrd",
+        "diff.png",
+    ),
+    "study_kidnap": (
+        [
+            [
+                "record",
+                "--groundtruth",
+                str(KIDNAP / "rgbd" / "groundtruth.txt"),
+                "--estimate",
+                f"rgbdslam_v2={KIDNAP / 'rgbd' / 'rgbd_poses.txt'}",
+                "--estimate",
+                f"rtabmap={KIDNAP / 'rtab' / 'rtabmap_poses.txt'}",
+                "--out",
+                "kidnap.rrd",
+                "--quiet",
+            ]
+        ],
+        "kidnap.rrd",
+        "viewer_study_kidnap.png",
+    ),
 }
 
 
@@ -80,10 +124,26 @@ def screenshot(recording: Path, size: str, out: Path, attempts: int = 4) -> None
     for _ in range(attempts):
         with tempfile.TemporaryDirectory() as folder:
             shot = Path(folder) / "shot.png"
-            subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x2400x24", str(RERUN), "--port",
-                            str(free_port()), "--screenshot-to", str(shot), "--window-size", size, str(recording)],
-                           check=True, capture_output=True, timeout=600,
-                           env={**os.environ, "RUST_LOG": "error"})  # warnings would show as notices
+            subprocess.run(
+                [
+                    "xvfb-run",
+                    "-a",
+                    "-s",
+                    "-screen 0 6600x2400x24",
+                    str(RERUN),
+                    "--port",
+                    str(free_port()),
+                    "--screenshot-to",
+                    str(shot),
+                    "--window-size",
+                    size,
+                    str(recording),
+                ],
+                check=True,
+                capture_output=True,
+                timeout=600,
+                env={**os.environ, "RUST_LOG": "error"},
+            )  # warnings would show as notices
             image = Image.open(shot).convert("RGB").resize((width, height), Image.Resampling.LANCZOS)
         if not has_notice(image):
             break
@@ -110,7 +170,9 @@ def main(argv: list[str] | None = None) -> int:
             for command in commands:
                 subprocess.run([str(VIEWSLAM), *command], cwd=folder, check=True, stdout=subprocess.DEVNULL)
             rrd = Path(folder) / recording
-            frames = json.loads(rrd.with_suffix(".json").read_text())["sequence"]["frames"] if name in PER_FRAME else None
+            frames = (
+                json.loads(rrd.with_suffix(".json").read_text())["sequence"]["frames"] if name in PER_FRAME else None
+            )
             per_frame = f", {rrd.stat().st_size / frames / 1024:.1f} KiB per frame" if frames else ""
             print(f"{name}: {rrd.stat().st_size} bytes{per_frame}")
             for size in SIZES:

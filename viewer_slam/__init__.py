@@ -18,9 +18,14 @@ from .version import __version__  # noqa: E402
 
 # Each command's function, by the module it lives in. record, benchmark and study are also the
 # names of their packages, which are made callable (commands.py).
-COMMANDS = {"evaluate": "viewer_slam.runs.evaluate_command", "record": "viewer_slam.record.command",
-            "benchmark": "viewer_slam.benchmark.command", "study": "viewer_slam.study.command",
-            "diff": "viewer_slam.record.diff", "synth": "viewer_slam.dataset.synth.command"}
+COMMANDS = {
+    "evaluate": "viewer_slam.runs.evaluate_command",
+    "record": "viewer_slam.record.command",
+    "benchmark": "viewer_slam.benchmark.command",
+    "study": "viewer_slam.study.command",
+    "diff": "viewer_slam.record.diff",
+    "synth": "viewer_slam.dataset.synth.command",
+}
 CALLABLE_PACKAGES = ("record", "benchmark", "study")
 __all__ = ["__version__", *COMMANDS]
 

@@ -50,9 +50,12 @@ def check_writable(target: Path) -> None:
     except OSError as error:
         raise InputError.at(target, f"cannot write: {error.strerror or error}") from None
     if longest > limit:
-        raise InputError.at(target, f"name too long: {len(os.fsencode(target.name))} bytes, and written under a "
-                            f"temporary name {longest - len(os.fsencode(target.name))} bytes longer; the file "
-                            f"system allows {limit}")
+        raise InputError.at(
+            target,
+            f"name too long: {len(os.fsencode(target.name))} bytes, and written under a "
+            f"temporary name {longest - len(os.fsencode(target.name))} bytes longer; the file "
+            f"system allows {limit}",
+        )
 
 
 def check_name(path: Path) -> None:
@@ -60,8 +63,9 @@ def check_name(path: Path) -> None:
     try:
         str(path).encode()
     except UnicodeEncodeError:
-        raise InputError.at(str(path).encode(errors="surrogateescape").decode(errors="backslashreplace"),
-                            "the name is not UTF-8 text") from None
+        raise InputError.at(
+            str(path).encode(errors="surrogateescape").decode(errors="backslashreplace"), "the name is not UTF-8 text"
+        ) from None
 
 
 # The files of a TUM folder given as an input that a command reads.
@@ -82,8 +86,9 @@ def refuse_inputs_as_outputs(outputs: dict[Path, str], inputs: dict[Path, str]) 
     for output, option in outputs.items():
         for path, given in files.items():
             if _same_file(Path(output), path):
-                raise InputError(f"{option}: {output} is the input {given}; choose another name, "
-                                 f"an input is never overwritten")
+                raise InputError(
+                    f"{option}: {output} is the input {given}; choose another name, an input is never overwritten"
+                )
 
 
 def _same_file(a: Path, b: Path) -> bool:
@@ -178,8 +183,9 @@ def _lock(target: Path, wait: bool = False) -> int:
         except OSError as error:
             os.close(handle)
             if error.errno in (errno.EWOULDBLOCK, errno.EAGAIN):
-                raise InputError.at(target, "another viewslam run is writing this output; wait for it "
-                                    "or choose another --out") from None
+                raise InputError.at(
+                    target, "another viewslam run is writing this output; wait for it or choose another --out"
+                ) from None
             raise
         try:
             same = os.stat(path).st_ino == os.fstat(handle).st_ino

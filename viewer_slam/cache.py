@@ -60,8 +60,11 @@ def clear_cache(root: Path | None = None) -> list[CacheEntry]:
     the entries removed. A name starting with a dot is a render, a download or a write being
     staged by a process still running, which renames it into place or removes it: removing it
     under that process would make it fail, so it stays."""
-    removed = [entry for entry in cache_entries(root)
-               if entry.name.split("/")[0] not in KEPT_ON_CLEAR and not entry.path.name.startswith(".")]
+    removed = [
+        entry
+        for entry in cache_entries(root)
+        if entry.name.split("/")[0] not in KEPT_ON_CLEAR and not entry.path.name.startswith(".")
+    ]
     for entry in removed:
         try:
             if entry.path.is_dir() and not entry.path.is_symlink():

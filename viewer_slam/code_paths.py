@@ -38,10 +38,14 @@ _CNL = (*_SKX, "avx512ifma", "avx512vbmi")
 _CLX = (*_SKX, "avx512_vnni")
 #: OpenCV's AVX-512 dispatch levels, by its names, with the CPU flags each needs. Only those this
 #: CPU has are disabled: naming one it lacks makes OpenCV print a warning at every start.
-OPENCV_AVX512 = {"AVX512F": ("avx512f",), "AVX512-COMMON": ("avx512f", "avx512cd"), "AVX512-SKX": _SKX,
-                 "AVX512-CNL": _CNL, "AVX512-CLX": _CLX,
-                 "AVX512-ICL": (*_CNL, *_CLX, "avx512_vbmi2", "avx512_bitalg", "avx512_vpopcntdq", "vaes", "gfni",
-                                "vpclmulqdq")}
+OPENCV_AVX512 = {
+    "AVX512F": ("avx512f",),
+    "AVX512-COMMON": ("avx512f", "avx512cd"),
+    "AVX512-SKX": _SKX,
+    "AVX512-CNL": _CNL,
+    "AVX512-CLX": _CLX,
+    "AVX512-ICL": (*_CNL, *_CLX, "avx512_vbmi2", "avx512_bitalg", "avx512_vpopcntdq", "vaes", "gfni", "vpclmulqdq"),
+}
 
 
 @cache
@@ -71,8 +75,10 @@ def environment() -> dict[str, str]:
     if not guaranteed():
         return {}
     disabled = os.environ.get("NPY_DISABLE_CPU_FEATURES", "").replace(",", " ").split()
-    held = {"NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
-            "OPENBLAS_CORETYPE": OPENBLAS_KERNELS}
+    held = {
+        "NPY_DISABLE_CPU_FEATURES": " ".join(disabled + [t for t in NUMPY_BEYOND_AVX2 if t not in disabled]),
+        "OPENBLAS_CORETYPE": OPENBLAS_KERNELS,
+    }
     opencv = [name for name, needs in OPENCV_AVX512.items() if cpu_flags().issuperset(needs)]
     if opencv:
         off = os.environ.get("OPENCV_CPU_DISABLE", "").replace(" ", ",").split(",")
@@ -87,9 +93,12 @@ def hold() -> None:
     os.environ.update(held)
     if "numpy" in sys.modules and numpy_level() in NUMPY_BEYOND_AVX2:
         settings = " ".join(f"{name}={value!r}" for name, value in held.items())
-        warnings.warn("NumPy was imported before viewer_slam and runs its AVX-512 code, so results may differ in "
-                      f"the last bits from other machines'; import viewer_slam first, or set {settings}",
-                      RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            "NumPy was imported before viewer_slam and runs its AVX-512 code, so results may differ in "
+            f"the last bits from other machines'; import viewer_slam first, or set {settings}",
+            RuntimeWarning,
+            stacklevel=3,
+        )
 
 
 def numpy_level() -> str | None:

@@ -21,22 +21,36 @@ class Colour(NamedTuple):
 
 
 PIPELINE_COLOURS = {"rgbdslam": Colour((255, 140, 0), "orange"), "rtabmap": Colour((40, 150, 255), "blue")}
-FALLBACK_COLOURS = (Colour((200, 80, 220), "purple"), Colour((60, 200, 120), "green"),
-                    Colour((230, 200, 40), "yellow"), Colour((0, 200, 210), "cyan"),
-                    Colour((240, 100, 150), "pink"), Colour((150, 110, 70), "brown"))
+FALLBACK_COLOURS = (
+    Colour((200, 80, 220), "purple"),
+    Colour((60, 200, 120), "green"),
+    Colour((230, 200, 40), "yellow"),
+    Colour((0, 200, 210), "cyan"),
+    Colour((240, 100, 150), "pink"),
+    Colour((150, 110, 70), "brown"),
+)
 
 GROUNDTRUTH = Colour((170, 170, 170), "grey")
 ACCEPTED = Colour((40, 220, 90), "green")
 REJECTED = Colour((150, 40, 40), "dark red")
 INLIER = Colour((40, 220, 90), "green")
 OUTLIER = Colour((235, 50, 50), "red")
-STATUS = {"initialising": Colour((150, 150, 150), "grey"), "ok": Colour((40, 220, 90), "green"),
-          "relocalised": Colour((255, 200, 0), "yellow"), "lost": Colour((235, 50, 50), "red")}
+STATUS = {
+    "initialising": Colour((150, 150, 150), "grey"),
+    "ok": Colour((40, 220, 90), "green"),
+    "relocalised": Colour((255, 200, 0), "yellow"),
+    "lost": Colour((235, 50, 50), "red"),
+}
 LOST = STATUS["lost"]
-CAUSES = {"sensor blocked": Colour((120, 120, 120), "grey"), "no depth": Colour((90, 60, 200), "indigo"),
-          "fast motion": Colour((255, 140, 0), "orange"), "dynamic scene": Colour((200, 80, 220), "purple"),
-          "too few features": Colour((235, 50, 50), "red"), "too few inliers": Colour((230, 200, 40), "yellow"),
-          "unknown": Colour((170, 170, 170), "grey")}
+CAUSES = {
+    "sensor blocked": Colour((120, 120, 120), "grey"),
+    "no depth": Colour((90, 60, 200), "indigo"),
+    "fast motion": Colour((255, 140, 0), "orange"),
+    "dynamic scene": Colour((200, 80, 220), "purple"),
+    "too few features": Colour((235, 50, 50), "red"),
+    "too few inliers": Colour((230, 200, 40), "yellow"),
+    "unknown": Colour((170, 170, 170), "grey"),
+}
 
 # A pose coloured by its error: green at no error, through yellow, to red at the largest shown;
 # a pose without a groundtruth pair (no error) dark grey.
@@ -60,7 +74,8 @@ def error_colours(errors: np.ndarray, top: float) -> np.ndarray:
     errors = np.asarray(errors, dtype=np.float64)
     share = np.clip(np.nan_to_num(errors / top if top > 0 else errors * 0.0), 0.0, 1.0)
     stops = np.linspace(0.0, 1.0, len(ERROR_RAMP))
-    rgb = np.stack([np.interp(share, stops, [colour.rgb[channel] for colour in ERROR_RAMP]) for channel in range(3)],
-                   axis=1)
+    rgb = np.stack(
+        [np.interp(share, stops, [colour.rgb[channel] for colour in ERROR_RAMP]) for channel in range(3)], axis=1
+    )
     rgb[~np.isfinite(errors)] = NO_ERROR.rgb
     return np.round(rgb).astype(np.uint8)

@@ -52,8 +52,13 @@ def counted(description: str, total: int, unit: str, enabled: bool = True) -> It
 
     Disabled (``--quiet``), nothing is printed and counting costs one call.
     """
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), RateColumn(unit),
-               TimeRemainingColumn())
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        RateColumn(unit),
+        TimeRemainingColumn(),
+    )
     with StderrProgress(*columns, enabled=enabled) as bar:
         task = bar.add_task(description, total=total)
         yield lambda: bar.advance(task)

@@ -16,17 +16,38 @@ UNLIMITED = 10_000
 STDOUT_FD = 1
 ASCII_ERRORS = "viewslam-ascii"
 """The error handler that writes what a stream cannot encode as its nearest ASCII."""
-_ASCII = {"—": "-", "–": "-", "−": "-", "…": "...", "·": "-", "°": " deg", "±": "+/-", "×": "x", "→": "->",
-          "≤": "<=", "≥": ">=", "━": "-", "─": "-", "│": "|", "█": "#", "•": "*", "’": "'", "“": '"', "”": '"'}
+_ASCII = {
+    "—": "-",
+    "–": "-",
+    "−": "-",
+    "…": "...",
+    "·": "-",
+    "°": " deg",
+    "±": "+/-",
+    "×": "x",
+    "→": "->",
+    "≤": "<=",
+    "≥": ">=",
+    "━": "-",
+    "─": "-",
+    "│": "|",
+    "█": "#",
+    "•": "*",
+    "’": "'",
+    "“": '"',
+    "”": '"',
+}
 """What our tables, progress lines and messages print beyond ASCII, as the ASCII that says the same."""
 
 
 def _nearest_ascii(error: UnicodeError) -> tuple[str, int]:
     if not isinstance(error, UnicodeEncodeError):
         raise error
-    text = error.object[error.start:error.end]
-    return "".join(_ASCII.get(character) or unicodedata.normalize("NFKD", character).encode("ascii", "ignore").decode()
-                   or "?" for character in text), error.end
+    text = error.object[error.start : error.end]
+    return "".join(
+        _ASCII.get(character) or unicodedata.normalize("NFKD", character).encode("ascii", "ignore").decode() or "?"
+        for character in text
+    ), error.end
 
 
 codecs.register_error(ASCII_ERRORS, _nearest_ascii)

@@ -26,20 +26,31 @@ BASELINE = 0.075
 
 def project(pose: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     in_camera = transform_points(invert(pose), points)
-    return np.c_[FX * in_camera[:, 0] / in_camera[:, 2] + CX, FY * in_camera[:, 1] / in_camera[:, 2] + CY], in_camera[:, 2]
+    return np.c_[FX * in_camera[:, 0] / in_camera[:, 2] + CX, FY * in_camera[:, 1] / in_camera[:, 2] + CY], in_camera[
+        :, 2
+    ]
 
 
 def scene(pixel_noise: float, seed: int = 0):
     """200 points 2-4 m away seen by four held key frames and the adjusted frame."""
     rng = np.random.default_rng(seed)
     world = rng.uniform([-1, -1, 2], [1, 1, 4], (200, 3))
-    held = {frame: make_pose(Rotation.from_rotvec([0, 0.02 * frame, 0]).as_matrix(), [0.05 * frame, 0, 0]) for frame in range(4)}
+    held = {
+        frame: make_pose(Rotation.from_rotvec([0, 0.02 * frame, 0]).as_matrix(), [0.05 * frame, 0, 0])
+        for frame in range(4)
+    }
     truth = make_pose(Rotation.from_rotvec([0.01, 0.1, 0]).as_matrix(), [0.22, 0.01, 0])
     rows = []
     for frame, pose in [*held.items(), (FREE_FRAME, truth)]:
         pixels, depth = project(pose, world)
-        rows.append((np.arange(len(world)), np.full(len(world), frame),
-                     pixels + rng.normal(0, pixel_noise, pixels.shape), depth))
+        rows.append(
+            (
+                np.arange(len(world)),
+                np.full(len(world), frame),
+                pixels + rng.normal(0, pixel_noise, pixels.shape),
+                depth,
+            )
+        )
     observations = Observations(*[np.concatenate(column) for column in zip(*rows)])
     return rng, world, held, truth, observations
 
@@ -48,8 +59,9 @@ def test_chi2_of_an_edge_is_gtsams_unwhitened_error_over_the_pixel_variance():
     rng = np.random.default_rng(1)
     pose = make_pose(Rotation.from_rotvec([0.1, 0.05, 0.02]).as_matrix(), [0.1, 0.2, 0.0])
     points = rng.uniform([-1, -1, 2], [1, 1, 4], (4, 3))
-    observations = Observations(np.arange(4), np.zeros(4, int), rng.uniform(0, 480, (4, 2)),
-                                np.array([2.0, 3.0, np.nan, 0.0]))
+    observations = Observations(
+        np.arange(4), np.zeros(4, int), rng.uniform(0, 480, (4, 2)), np.array([2.0, 3.0, np.nan, 0.0])
+    )
     chi2 = edge_chi2({0: pose}, points, observations, K, BASELINE, pixel_variance=2.0)
     values = gtsam.Values()
     values.insert(0, gtsam.Pose3(pose))
@@ -57,11 +69,17 @@ def test_chi2_of_an_edge_is_gtsams_unwhitened_error_over_the_pixel_variance():
     for i, ((u, v), depth) in enumerate(zip(observations.pixels, observations.depth)):
         values.insert(100 + i, points[i])
         if i < 2:
-            factor = gtsam.GenericStereoFactor3D(gtsam.StereoPoint2(u, u - FX * BASELINE / depth, v), unit.Create(3),
-                                                 0, 100 + i, gtsam.Cal3_S2Stereo(FX, FY, 0, CX, CY, BASELINE))
+            factor = gtsam.GenericStereoFactor3D(
+                gtsam.StereoPoint2(u, u - FX * BASELINE / depth, v),
+                unit.Create(3),
+                0,
+                100 + i,
+                gtsam.Cal3_S2Stereo(FX, FY, 0, CX, CY, BASELINE),
+            )
         else:
-            factor = gtsam.GenericProjectionFactorCal3_S2(gtsam.Point2(u, v), unit.Create(2), 0, 100 + i,
-                                                          gtsam.Cal3_S2(FX, FY, 0, CX, CY))
+            factor = gtsam.GenericProjectionFactorCal3_S2(
+                gtsam.Point2(u, v), unit.Create(2), 0, 100 + i, gtsam.Cal3_S2(FX, FY, 0, CX, CY)
+            )
         error = factor.unwhitenedError(values)
         assert chi2[i] == pytest.approx(error @ error / 2.0, rel=1e-9)
 
@@ -70,8 +88,9 @@ def test_adjustment_brings_a_perturbed_pose_back_to_the_truth():
     rng, world, held, truth, observations = scene(pixel_noise=0.5)
     guess = truth @ make_pose(Rotation.from_rotvec([0.005, -0.005, 0.003]).as_matrix(), [0.02, -0.01, 0.015])
     noisy_points = world + rng.normal(0, 0.01, world.shape)
-    result = adjust_frame(guess, noisy_points, observations, held, Link(3, invert(held[3]) @ guess, 1e-3, 1e-3), K,
-                          BundleSettings())
+    result = adjust_frame(
+        guess, noisy_points, observations, held, Link(3, invert(held[3]) @ guess, 1e-3, 1e-3), K, BundleSettings()
+    )
     # 200 points at 0.5 px: the pose is known to about a millimetre; the guess was 2.7 cm off.
     assert np.linalg.norm(result.pose[:3, 3] - truth[:3, 3]) < 0.005
     assert np.linalg.norm(result.pose[:3, 3] - truth[:3, 3]) < 0.2 * np.linalg.norm(guess[:3, 3] - truth[:3, 3])
@@ -104,7 +123,7 @@ def test_without_a_kernel_one_pass_drops_nothing():
 
 def test_the_camera_moves_as_g2os_sbacam_update_translation_added_rotation_by_a_quaternion_on_the_right():
     pose = make_pose(Rotation.from_rotvec([0.2, -0.1, 0.3]).as_matrix(), [1.0, 2.0, 3.0])
-    vector_part = np.sin(0.05) * np.array([0.0, 0.0, 1.0])     # quaternion of a 0.1 rad turn about z
+    vector_part = np.sin(0.05) * np.array([0.0, 0.0, 1.0])  # quaternion of a 0.1 rad turn about z
     moved = updated_pose(pose, np.r_[0.1, 0.0, -0.2, vector_part])
     np.testing.assert_allclose(moved[:3, 3], [1.1, 2.0, 2.8])
     np.testing.assert_allclose(moved[:3, :3], pose[:3, :3] @ Rotation.from_rotvec([0, 0, 0.1]).as_matrix(), atol=1e-12)

@@ -7,8 +7,13 @@ from viewer_slam.geometry.se3 import invert, make_pose
 
 
 def circle(n=12, radius=2.0):
-    return [make_pose(Rotation.from_rotvec([0, -2 * np.pi * i / n, 0]).as_matrix(), [radius * np.sin(2 * np.pi * i / n), 0, radius * np.cos(2 * np.pi * i / n)])
-            for i in range(n)]
+    return [
+        make_pose(
+            Rotation.from_rotvec([0, -2 * np.pi * i / n, 0]).as_matrix(),
+            [radius * np.sin(2 * np.pi * i / n), 0, radius * np.cos(2 * np.pi * i / n)],
+        )
+        for i in range(n)
+    ]
 
 
 def drifting_graph(truth, loop_information, linear_solver="cholesky"):
@@ -123,17 +128,24 @@ def test_conjugate_gradients_agree_with_cholesky_where_loops_join_the_whole_hist
     rng = np.random.default_rng(0)
     truth = [np.eye(4)]
     for _ in range(119):
-        truth.append(truth[-1] @ make_pose(Rotation.from_rotvec(rng.normal(0, 0.05, 3)).as_matrix(), rng.normal(0, 0.05, 3)))
+        truth.append(
+            truth[-1] @ make_pose(Rotation.from_rotvec(rng.normal(0, 0.05, 3)).as_matrix(), rng.normal(0, 0.05, 3))
+        )
     solved, errors = [], []
     for linear_solver in LINEAR_SOLVERS:
         graph = PoseGraph(huber_threshold=1.0, linear_solver=linear_solver)
         noise = np.random.default_rng(1)
-        pairs = [(i - 1, i) for i in range(1, 120)] + [(int(j), i) for i in range(20, 120) for j in noise.choice(i - 5, 2)]
+        pairs = [(i - 1, i) for i in range(1, 120)] + [
+            (int(j), i) for i in range(20, 120) for j in noise.choice(i - 5, 2)
+        ]
         for a, b in pairs:
             error = make_pose(Rotation.from_rotvec(noise.normal(0, 0.01, 3)).as_matrix(), noise.normal(0, 0.01, 3))
             graph.add_edge(Edge(a, b, invert(truth[a]) @ truth[b] @ error, np.diag([1e4] * 3 + [1e4] * 3), robust=True))
         for node, pose in enumerate(truth):
-            graph.add_node(node, pose @ make_pose(Rotation.from_rotvec(noise.normal(0, 0.02, 3)).as_matrix(), noise.normal(0, 0.05, 3)))
+            graph.add_node(
+                node,
+                pose @ make_pose(Rotation.from_rotvec(noise.normal(0, 0.02, 3)).as_matrix(), noise.normal(0, 0.05, 3)),
+            )
         graph.add_prior(0, truth[0], information_from_sigmas(1e-6, 1e-6))
         errors.append(graph.optimize()[1])
         solved.append(np.stack([graph.poses[i] for i in range(120)]))

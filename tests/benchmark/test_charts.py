@@ -7,23 +7,43 @@ from matplotlib.text import Text
 
 from viewer_slam.benchmark.plots import CHARTS, draw_metric, plot_metric, uses_log_axis
 
-SEQUENCES = ("desk_with_person", "pioneer_360", "360_kidnap", "long_office_household",
-             "nostructure_notexture_near_withloop", "nostructure_texture_near_withloop", "sitting_static")
+SEQUENCES = (
+    "desk_with_person",
+    "pioneer_360",
+    "360_kidnap",
+    "long_office_household",
+    "nostructure_notexture_near_withloop",
+    "nostructure_texture_near_withloop",
+    "sitting_static",
+)
 # The study's spread: 0.002 m to 1.94 m, with a failed task and a run without a pose.
-ATE = {"rgbdslam": (0.003, 0.007, 0.013, 1.938, 0.261, 0.003, 0.003),
-       "rtabmap": (0.003, 0.021, 0.131, 0.004, 0.029, 0.003, 0.002)}
+ATE = {
+    "rgbdslam": (0.003, 0.007, 0.013, 1.938, 0.261, 0.003, 0.003),
+    "rtabmap": (0.003, 0.021, 0.131, 0.004, 0.029, 0.003, 0.002),
+}
 
 
 def study_rows(scale: float = 1.0) -> list[dict]:
     rows = []
     for pipeline, values in ATE.items():
         for sequence, value in zip(SEQUENCES, values):
-            rows.append({"sequence": sequence, "pipeline": pipeline, "status": "ok", "ate_rmse": value * scale,
-                         "rpe_trans_rmse": value * scale, "rpe_rot_rmse": 10 * value, "time_s": 30 + 100 * value,
-                         "coverage": min(1.0, 0.3 + value), "penalized_ate_rmse": value * scale})
+            rows.append(
+                {
+                    "sequence": sequence,
+                    "pipeline": pipeline,
+                    "status": "ok",
+                    "ate_rmse": value * scale,
+                    "rpe_trans_rmse": value * scale,
+                    "rpe_rot_rmse": 10 * value,
+                    "time_s": 30 + 100 * value,
+                    "coverage": min(1.0, 0.3 + value),
+                    "penalized_ate_rmse": value * scale,
+                }
+            )
     rows[-1] = {**rows[-1], **{metric: None for metric in CHARTS}}  # no pose: "n/a"
-    rows.append({"sequence": "broken", "pipeline": "rgbdslam", "status": "failed",
-                 **{metric: None for metric in CHARTS}})
+    rows.append(
+        {"sequence": "broken", "pipeline": "rgbdslam", "status": "failed", **{metric: None for metric in CHARTS}}
+    )
     return rows
 
 
@@ -45,14 +65,18 @@ def test_every_chart_has_axis_titles_and_tick_labels_inside_the_image(scale):
         assert axes.get_ylabel().startswith(CHARTS[metric]) and axes.get_title(loc="left")
         image = figure.bbox
         low, high = sorted(axes.get_ylim())
-        labels = [label for label in axes.get_yticklabels() if label.get_text() and low <= label.get_position()[1] <= high]
+        labels = [
+            label for label in axes.get_yticklabels() if label.get_text() and low <= label.get_position()[1] <= high
+        ]
         assert len(labels) >= 2 and len(axes.get_xticklabels()) == len(SEQUENCES) + 1
         labels += axes.get_xticklabels()
         title = next(text for text in figure.findobj(Text) if text.get_text() == CHARTS[metric])
         for label in [*labels, axes.yaxis.label, title]:
             box = label.get_window_extent()
-            assert image.x0 <= box.x0 and box.x1 <= image.x1 and image.y0 <= box.y0 and box.y1 <= image.y1, \
-                (metric, label.get_text())
+            assert image.x0 <= box.x0 and box.x1 <= image.x1 and image.y0 <= box.y0 and box.y1 <= image.y1, (
+                metric,
+                label.get_text(),
+            )
         assert not title.get_window_extent().overlaps(axes.get_legend().get_window_extent())
         plt.close(figure)
 
@@ -61,8 +85,11 @@ def test_labels_print_small_values_in_full():
     figure = draw_metric(study_rows(0.001), "ate_rmse")
     figure.canvas.draw()
     low, high = figure.axes[0].get_ylim()
-    texts = [label.get_text() for label in figure.axes[0].get_yticklabels()
-             if label.get_text() and low <= label.get_position()[1] <= high]
+    texts = [
+        label.get_text()
+        for label in figure.axes[0].get_yticklabels()
+        if label.get_text() and low <= label.get_position()[1] <= high
+    ]
     assert all(text.startswith("0.") or text in ("0", "1") for text in texts), texts  # not ".0030" nor 1e-5
     plt.close(figure)
 

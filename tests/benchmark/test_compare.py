@@ -25,8 +25,20 @@ pytestmark = pytest.mark.slow
 FRAMES = 120
 BIN = Path(sys.executable).parent
 GAP = range(40, 60)  # frames the estimate has no pose for: lost
-ARGS = ["--scenario-frames", str(FRAMES), "--resolution", "320x240", "--pipeline", "rtabmap",
-        "--param", "Rtabmap/DetectionRate=5", "--jobs", "1", "--no-cache", "--quiet"]
+ARGS = [
+    "--scenario-frames",
+    str(FRAMES),
+    "--resolution",
+    "320x240",
+    "--pipeline",
+    "rtabmap",
+    "--param",
+    "Rtabmap/DetectionRate=5",
+    "--jobs",
+    "1",
+    "--no-cache",
+    "--quiet",
+]
 
 
 @pytest.fixture(scope="module")
@@ -39,19 +51,42 @@ def folders(tmp_path_factory):
     poses, _ = sequence.groundtruth_at(sequence.timestamps[posed])
     poses[:, :3, 3] += np.random.default_rng(3).normal(0.0, 0.01, (len(posed), 3))
     write_tum(root / "noisy.txt", Trajectory(sequence.timestamps[posed], poses))
-    assert main(["benchmark", "360_kidnap", *ARGS, "--param", "Odom/ResetCountdown=0", "--out",
-                 str(root / "a")]) == 0
-    result = subprocess.run([BIN / "viewslam", "benchmark", "360_kidnap", *ARGS, "--param", "Odom/ResetCountdown=5",
-                             "--estimate", f"noisy={root / 'noisy.txt'}", "--out", str(root / "b"),
-                             "--compare", str(root / "a")], capture_output=True, text=True, timeout=600)
+    assert main(["benchmark", "360_kidnap", *ARGS, "--param", "Odom/ResetCountdown=0", "--out", str(root / "a")]) == 0
+    result = subprocess.run(
+        [
+            BIN / "viewslam",
+            "benchmark",
+            "360_kidnap",
+            *ARGS,
+            "--param",
+            "Odom/ResetCountdown=5",
+            "--estimate",
+            f"noisy={root / 'noisy.txt'}",
+            "--out",
+            str(root / "b"),
+            "--compare",
+            str(root / "a"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
-    diff = subprocess.run([BIN / "viewslam", "diff", str(root / "a/runs/360_kidnap.json"),
-                           str(root / "b/runs/360_kidnap.json"), "--json", str(root / "diff.json")],
-                          capture_output=True, text=True, timeout=600)
+    diff = subprocess.run(
+        [
+            BIN / "viewslam",
+            "diff",
+            str(root / "a/runs/360_kidnap.json"),
+            str(root / "b/runs/360_kidnap.json"),
+            "--json",
+            str(root / "diff.json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert diff.returncode == 0, diff.stderr
     return root, result.stdout, scenario
-
-
 
 
 def section(report: str) -> str:
@@ -77,10 +112,13 @@ def test_the_compared_row_has_the_diffs_numbers(folders):
     compared = json.loads((root / "diff.json").read_text())["runs"][0]
     a, b = rows(root / "a")["rtabmap"], rows(root / "b")["rtabmap"]
     assert f"| coverage | {a['coverage']:.3f} | {b['coverage']:.3f} | {b['coverage'] - a['coverage']:+.3f} |" in text
-    assert (f"| penalised ATE RMSE [m] | {a['penalized_ate_rmse']:.3f} | {b['penalized_ate_rmse']:.3f} | "
-            f"{b['penalized_ate_rmse'] - a['penalized_ate_rmse']:+.3f} |") in text
-    only_b = set(np.round(read_tum(root / "b/runs/360_kidnap.rtabmap.txt").timestamps, 6)) - \
-        set(np.round(read_tum(root / "a/runs/360_kidnap.rtabmap.txt").timestamps, 6))
+    assert (
+        f"| penalised ATE RMSE [m] | {a['penalized_ate_rmse']:.3f} | {b['penalized_ate_rmse']:.3f} | "
+        f"{b['penalized_ate_rmse'] - a['penalized_ate_rmse']:+.3f} |"
+    ) in text
+    only_b = set(np.round(read_tum(root / "b/runs/360_kidnap.rtabmap.txt").timestamps, 6)) - set(
+        np.round(read_tum(root / "a/runs/360_kidnap.rtabmap.txt").timestamps, 6)
+    )
     assert len(compared["frames_only_b"]) == len(only_b) > 0
     assert f"- frames tracked by B only: {len(only_b)} (" in text
     difference = compared["ate_difference"]
@@ -98,8 +136,12 @@ def test_an_estimate_row_scores_as_evaluate_and_has_no_timing(folders):
     row = rows(root / "b")["noisy"]
     assert row["time_s"] is None and row["fps"] is None and row["status"] == "ok"
     assert row["frames"] == FRAMES and row["frames_with_pose"] == FRAMES - len(GAP)
-    evaluated = subprocess.run([BIN / "viewslam", "evaluate", str(scenario), str(root / "noisy.txt"), "--json",
-                                str(root / "evaluate.json")], capture_output=True, text=True, timeout=600)
+    evaluated = subprocess.run(
+        [BIN / "viewslam", "evaluate", str(scenario), str(root / "noisy.txt"), "--json", str(root / "evaluate.json")],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert evaluated.returncode == 0, evaluated.stderr
     expected = json.loads((root / "evaluate.json").read_text())
     assert row["ate_rmse"] == pytest.approx(expected["ate"]["rmse"], abs=1e-12)
@@ -149,7 +191,7 @@ def test_an_estimate_needs_exactly_one_sequence_and_a_readable_file(folders, tmp
     estimate = f"noisy={root / 'noisy.txt'}"
     assert "exactly one SEQUENCE" in bad(["360_kidnap", "sitting_static", "--estimate", estimate], capsys)
     (tmp_path / "broken.txt").write_text("not a trajectory\n")
-    assert "broken.txt" in bad(["360_kidnap", *ARGS, "--out", str(tmp_path / "out"), "--estimate",
-                                f"broken={tmp_path / 'broken.txt'}"], capsys)
-    assert "already a pipeline's" in bad(["360_kidnap", *ARGS, "--estimate", f"rtabmap={root / 'noisy.txt'}"],
-                                         capsys)
+    assert "broken.txt" in bad(
+        ["360_kidnap", *ARGS, "--out", str(tmp_path / "out"), "--estimate", f"broken={tmp_path / 'broken.txt'}"], capsys
+    )
+    assert "already a pipeline's" in bad(["360_kidnap", *ARGS, "--estimate", f"rtabmap={root / 'noisy.txt'}"], capsys)

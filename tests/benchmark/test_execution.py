@@ -54,7 +54,15 @@ def test_failures_are_reported_and_the_other_tasks_finish(folder, tmp_path):
         task(folder, name="b"),
     ]
     results = run_tasks(tasks, LocalExecutor(jobs=2))
-    assert [result.sequence for result in results] == ["a", "raises", "exits", "calls-sys-exit", "hangs", "corrupt", "b"]
+    assert [result.sequence for result in results] == [
+        "a",
+        "raises",
+        "exits",
+        "calls-sys-exit",
+        "hangs",
+        "corrupt",
+        "b",
+    ]
     assert [result.status for result in results] == ["ok", "failed", "failed", "failed", "failed", "failed", "ok"]
     assert results[1].error == "RuntimeError: scripted failure"
     assert results[2].error == "worker process died"
@@ -100,8 +108,9 @@ def test_results_do_not_depend_on_the_number_of_workers(folder):
     serial = run_tasks(tasks, LocalExecutor(jobs=1))
     parallel = run_tasks(tasks, LocalExecutor(jobs=2))
     for one, other in zip(serial, parallel):
-        assert {k: v for k, v in one.report.items() if k != "timing"} == \
-               {k: v for k, v in other.report.items() if k != "timing"}
+        assert {k: v for k, v in one.report.items() if k != "timing"} == {
+            k: v for k, v in other.report.items() if k != "timing"
+        }
     assert np.all(np.diff([result.report["ate"]["rmse"] for result in serial]) > 0)
 
 
@@ -109,8 +118,9 @@ def test_recorded_task_returns_its_recording_and_scores_the_same(folder, tmp_pat
     """The worker sends the recording, its report and trajectory back as bytes (it writes nothing
     where the driver keeps them); the driver writes them there."""
     recording = tmp_path / "rec" / "tiny.fake.rrd"
-    recording_task = BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", params=FakeParams(lost_from=8),
-                                   recording=recording)
+    recording_task = BenchmarkTask(
+        name="tiny", sequence=folder, pipeline="fake", params=FakeParams(lost_from=8), recording=recording
+    )
     recorded = execute_task(recording_task)
     plain = execute_task(task(folder, lost_from=8))
     assert recorded.ok, recorded.error
@@ -121,8 +131,9 @@ def test_recorded_task_returns_its_recording_and_scores_the_same(folder, tmp_pat
     delivered = deliver_files(recording_task, recorded)
     assert delivered.ok and not delivered.files
     assert recording.stat().st_size > 0 and json.loads(recording.with_suffix(".json").read_text())["pipelines"]["fake"]
-    assert {k: v for k, v in recorded.report.items() if k != "timing"} == \
-           {k: v for k, v in plain.report.items() if k != "timing"}
+    assert {k: v for k, v in recorded.report.items() if k != "timing"} == {
+        k: v for k, v in plain.report.items() if k != "timing"
+    }
     assert (recorded.frames, recorded.time_span) == (plain.frames, plain.time_span)
 
 
@@ -143,15 +154,27 @@ def test_an_estimate_task_is_cached_under_its_file_s_bytes(folder, tmp_path):
 def test_record_and_a_benchmark_task_score_the_same_run_alike(folder, tmp_path):
     """One run service: `record` with the parameters as text and a task with them as a validated
     object give the same report block (timing aside) and the same trajectory file."""
-    recorded = record(str(folder), pipeline="fake", out=tmp_path / "run.rrd", max_frames=20,
-                      params=["lost_from=8", "lost_until=14"], quiet=True)
-    task_result = execute_task(BenchmarkTask(name="tiny", sequence=folder, pipeline="fake", max_frames=20,
-                                             params=FakeParams(lost_from=8, lost_until=14)))
+    recorded = record(
+        str(folder),
+        pipeline="fake",
+        out=tmp_path / "run.rrd",
+        max_frames=20,
+        params=["lost_from=8", "lost_until=14"],
+        quiet=True,
+    )
+    task_result = execute_task(
+        BenchmarkTask(
+            name="tiny", sequence=folder, pipeline="fake", max_frames=20, params=FakeParams(lost_from=8, lost_until=14)
+        )
+    )
     assert task_result.ok, task_result.error
     write_report(tmp_path / "task.json", {"pipelines": {"fake": task_result.report}})
-    blocks = [json.loads(path.read_text())["pipelines"]["fake"] for path in (recorded.report_path, tmp_path / "task.json")]
-    assert [{k: v for k, v in block.items() if k != "timing"} for block in blocks] == \
-           [{k: v for k, v in blocks[0].items() if k != "timing"}] * 2
+    blocks = [
+        json.loads(path.read_text())["pipelines"]["fake"] for path in (recorded.report_path, tmp_path / "task.json")
+    ]
+    assert [{k: v for k, v in block.items() if k != "timing"} for block in blocks] == [
+        {k: v for k, v in blocks[0].items() if k != "timing"}
+    ] * 2
     assert blocks[0]["tracking_lost"] and blocks[0]["ate"]["n"] == 14
     assert recorded.trajectories["fake"].read_text() == task_result.trajectory
 
@@ -167,8 +190,9 @@ def test_a_machine_without_the_planned_folder_renders_the_scenario_in_its_own_ca
     there = execute_task(planned)
     assert here.ok and there.ok, there.error
     assert (tmp_path / "node-cache" / "synth" / planned.sequence.name).is_dir()
-    assert {k: v for k, v in there.report.items() if k != "timing"} == \
-           {k: v for k, v in here.report.items() if k != "timing"}
+    assert {k: v for k, v in there.report.items() if k != "timing"} == {
+        k: v for k, v in here.report.items() if k != "timing"
+    }
     assert there.trajectory == here.trajectory and there.sequence_block == here.sequence_block
 
     folder = write_tum_folder(tmp_path / "given", frames=5)

@@ -27,18 +27,26 @@ from pathlib import Path
 import pytest
 from benchmark_fake_pipeline import MODULE, write_tum_folder
 
-pytestmark = [pytest.mark.slow,
-              pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray is not installed")]
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray is not installed"),
+]
 
 ROOT = Path(__file__).parents[2]
 RAY = Path(sys.executable).with_name("ray")
 STARTED = "block forever"  # what `ray start --block` logs once its node is up
-DRIVER = ("import sys; from viewer_slam.pipelines import base; base.PIPELINE_MODULES['fake'] = sys.argv[1]; "
-          "from viewer_slam.cli import main; sys.exit(main(sys.argv[2:]))")
+DRIVER = (
+    "import sys; from viewer_slam.pipelines import base; base.PIPELINE_MODULES['fake'] = sys.argv[1]; "
+    "from viewer_slam.cli import main; sys.exit(main(sys.argv[2:]))"
+)
 TRIALS = 4
 # A lost node is declared dead after a few missed half-second health checks, not Ray's default 30 s or more.
-HEALTH_CHECKS = {"RAY_health_check_initial_delay_ms": "0", "RAY_health_check_period_ms": "500",
-                 "RAY_health_check_timeout_ms": "500", "RAY_health_check_failure_threshold": "4"}
+HEALTH_CHECKS = {
+    "RAY_health_check_initial_delay_ms": "0",
+    "RAY_health_check_period_ms": "500",
+    "RAY_health_check_timeout_ms": "500",
+    "RAY_health_check_failure_threshold": "4",
+}
 
 
 @dataclass
@@ -76,10 +84,21 @@ def start_node(folder: Path, arguments: list[str], env: dict[str, str]) -> Node:
         (folder / name).mkdir(parents=True)
     log = folder / "log"
     process = subprocess.Popen(
-        [str(RAY), "start", *arguments, "--node-ip-address=127.0.0.1", "--num-cpus=1", f"--temp-dir={folder / 'ray'}",
-         "--disable-usage-stats", "--block"],
+        [
+            str(RAY),
+            "start",
+            *arguments,
+            "--node-ip-address=127.0.0.1",
+            "--num-cpus=1",
+            f"--temp-dir={folder / 'ray'}",
+            "--disable-usage-stats",
+            "--block",
+        ],
         env={**env, "FAKE_PIPELINE_MARKERS": str(folder / "markers"), "TMPDIR": str(folder / "tmp")},
-        stdout=log.open("w"), stderr=subprocess.STDOUT, start_new_session=True)
+        stdout=log.open("w"),
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
+    )
     deadline = time.monotonic() + 180
     while STARTED not in log.read_text():
         if process.poll() is not None or time.monotonic() > deadline:
@@ -108,9 +127,14 @@ def cluster():
     # Short paths: Ray's sockets live under the temporary folder, and a socket path has at most 107 bytes.
     root = Path(tempfile.mkdtemp(prefix="vsray-"))
     port = free_port()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "tests" / "helpers"), str(ROOT)]),
-           "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(16), "RAY_USAGE_STATS_ENABLED": "0",
-           **HEALTH_CHECKS}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT / "tests" / "helpers"), str(ROOT)]),
+        "RAY_AUTH_MODE": "token",
+        "RAY_AUTH_TOKEN": secrets.token_hex(16),
+        "RAY_USAGE_STATS_ENABLED": "0",
+        **HEALTH_CHECKS,
+    }
     head = start_node(root / "head", ["--head", f"--port={port}", "--include-dashboard=false"], env)
     try:
         node = start_node(root / "node", [f"--address=127.0.0.1:{port}"], {**env, "FAKE_PIPELINE_DOOMED": "1"})
@@ -125,9 +149,13 @@ def cluster():
 
 
 def driver(cluster: Cluster, arguments: list[str], cache: Path) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-c", DRIVER, MODULE, "benchmark", *arguments],
-                            env={**cluster.env, "VIEWSLAM_CACHE": str(cache)}, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-c", DRIVER, MODULE, "benchmark", *arguments],
+        env={**cluster.env, "VIEWSLAM_CACHE": str(cache)},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def finish(process: subprocess.Popen) -> tuple[int, str]:
@@ -145,16 +173,35 @@ def scores(row: dict) -> dict:
 
 
 def untimed(block: dict) -> dict:
-    return {key: [untimed(trial) for trial in value] if key == "trials" else value
-            for key, value in block.items() if key != "timing"}
+    return {
+        key: [untimed(trial) for trial in value] if key == "trials" else value
+        for key, value in block.items()
+        if key != "timing"
+    }
 
 
 def test_results_reports_and_recordings_come_back_to_the_driver(cluster, tmp_path):
     folder = write_tum_folder(tmp_path / "tiny", frames=20)
-    common = [str(folder), "--pipeline", "fake", "--param", "wobble_per_seed_m=0.01", "--trials", str(TRIALS),
-              "--quiet"]
-    on_cluster = [*common, "--executor", "ray", "--ray-address", cluster.address, "--record",
-                  "--out", str(tmp_path / "cluster")]
+    common = [
+        str(folder),
+        "--pipeline",
+        "fake",
+        "--param",
+        "wobble_per_seed_m=0.01",
+        "--trials",
+        str(TRIALS),
+        "--quiet",
+    ]
+    on_cluster = [
+        *common,
+        "--executor",
+        "ray",
+        "--ray-address",
+        cluster.address,
+        "--record",
+        "--out",
+        str(tmp_path / "cluster"),
+    ]
     code, output = finish(driver(cluster, on_cluster, tmp_path / "cache"))
     assert code == 0, output
     ran = {name: len(node.markers) for name, node in (("head", cluster.head), ("node", cluster.node))}
@@ -175,12 +222,14 @@ def test_results_reports_and_recordings_come_back_to_the_driver(cluster, tmp_pat
     assert not [*cluster.head.scratch.glob("viewslam-task-*"), *cluster.node.scratch.glob("viewslam-task-*")]
 
     local_out = tmp_path / "local"
-    code, output = finish(driver(cluster, [*common, "--jobs", "2", "--no-cache", "--record", "--out", str(local_out)],
-                                 tmp_path / "cache"))
+    code, output = finish(
+        driver(cluster, [*common, "--jobs", "2", "--no-cache", "--record", "--out", str(local_out)], tmp_path / "cache")
+    )
     assert code == 0, output
     assert [scores(row) for row in rows(local_out)] == [scores(row) for row in remote]
-    assert sorted(path.name for path in (local_out / "recordings").iterdir()) == \
-           sorted(path.name for path in (out / "recordings").iterdir())  # the same files in the same places
+    assert sorted(path.name for path in (local_out / "recordings").iterdir()) == sorted(
+        path.name for path in (out / "recordings").iterdir()
+    )  # the same files in the same places
     blocks = [json.loads((where / "runs" / "tiny.json").read_text())["pipelines"]["fake"] for where in (out, local_out)]
     assert untimed(blocks[0]) == untimed(blocks[1]) and len(blocks[0]["trials"]) == TRIALS
 
@@ -195,9 +244,23 @@ def test_a_node_lost_mid_run_fails_its_tasks_and_the_others_complete(cluster, tm
     """Runs last: it takes the second node down. Its tasks hang there until it goes."""
     folder = write_tum_folder(tmp_path / "tiny", frames=20)
     head_before, node_before = len(cluster.head.markers), len(cluster.node.markers)
-    arguments = [str(folder), "--pipeline", "fake", "--param", "fail=hang_where_doomed", "--trials", str(TRIALS),
-                 "--executor", "ray", "--ray-address", cluster.address, "--record", "--out", str(tmp_path / "out"),
-                 "--quiet"]
+    arguments = [
+        str(folder),
+        "--pipeline",
+        "fake",
+        "--param",
+        "fail=hang_where_doomed",
+        "--trials",
+        str(TRIALS),
+        "--executor",
+        "ray",
+        "--ray-address",
+        cluster.address,
+        "--record",
+        "--out",
+        str(tmp_path / "out"),
+        "--quiet",
+    ]
     running = driver(cluster, arguments, tmp_path / "cache")
     deadline = time.monotonic() + 120
     while len(cluster.node.markers) == node_before:  # a task hangs on the doomed node

@@ -37,8 +37,9 @@ def cache(cache_root, monkeypatch):
 
 def corrupted_copy(tmp_path: Path) -> Path:
     """A scenario whose tenth colour image is cut short, as an interrupted copy leaves it."""
-    folder = shutil.copytree(resolve_sequence("sitting_static", frames=FRAMES, resolution=(160, 120)),
-                             tmp_path / "corrupted")
+    folder = shutil.copytree(
+        resolve_sequence("sitting_static", frames=FRAMES, resolution=(160, 120)), tmp_path / "corrupted"
+    )
     image = sorted((folder / "rgb").iterdir())[9]
     image.write_bytes(image.read_bytes()[:200])
     return folder
@@ -53,15 +54,19 @@ def test_seven_situations_two_pipelines(tmp_path, capsys):
         reader = csv.DictReader(handle)
         rows = list(reader)
     assert reader.fieldnames == list(COLUMNS)
-    assert [(row["sequence"], row["pipeline"]) for row in rows] == \
-           [(name, pipeline) for name in (*SCENARIOS, "corrupted") for pipeline in ("rgbdslam", "rtabmap")]
+    assert [(row["sequence"], row["pipeline"]) for row in rows] == [
+        (name, pipeline) for name in (*SCENARIOS, "corrupted") for pipeline in ("rgbdslam", "rtabmap")
+    ]
     assert [row["status"] for row in rows] == ["ok"] * 14 + ["failed"] * 2
     assert all(int(row["frames"]) == FRAMES and 0 <= float(row["coverage"]) <= 1 for row in rows[:14])
     assert all(float(row["time_s"]) > 0 for row in rows[:14])
     # The study's flaw in numbers: somewhere a pipeline is charged for time without a pose.
-    assert any(float(row["coverage"]) < 1 and row["penalized_ate_rmse"]
-               and (not row["ate_rmse"] or float(row["penalized_ate_rmse"]) > float(row["ate_rmse"]))
-               for row in rows[:14])
+    assert any(
+        float(row["coverage"]) < 1
+        and row["penalized_ate_rmse"]
+        and (not row["ate_rmse"] or float(row["penalized_ate_rmse"]) > float(row["ate_rmse"]))
+        for row in rows[:14]
+    )
     report = (out / "report.md").read_text()
     assert "- corrupted / rgbdslam: InputError: " in report and "truncated PNG" in report
     assert len([line for line in report.splitlines() if line.startswith("| ")]) == 1 + 16

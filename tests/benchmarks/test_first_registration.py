@@ -21,8 +21,10 @@ def test_frame_zero_is_no_registration():
     assert exit_.value.code == 2
 
 
-@pytest.mark.skipif(not (REFERENCE / RUN).is_dir() or not (TUM / "rgbd_dataset_freiburg1_rpy_200").is_dir(),
-                    reason="the original's runs and the TUM excerpt are not beside the repository")
+@pytest.mark.skipif(
+    not (REFERENCE / RUN).is_dir() or not (TUM / "rgbd_dataset_freiburg1_rpy_200").is_dir(),
+    reason="the original's runs and the TUM excerpt are not beside the repository",
+)
 def test_the_first_registration_beside_the_originals(capsys):
     assert first_registration.main([]) == 0
     printed = capsys.readouterr().out

@@ -25,22 +25,28 @@ def options(*params: str, config: Path | None = None) -> argparse.Namespace:
 def test_parameters_come_in_layers_config_preset_param_last(tmp_path):
     config = tmp_path / "config.toml"
     config.write_text('"Odom/ResetCountdown" = 3\n"Vis/MinInliers" = 25\n"Rtabmap/DetectionRate" = 2\n')
-    spec = lab.pipeline_spec("rtabmap", options("Vis/MinInliers=30", "Kp/MaxFeatures=400", config=config),
-                             preset={"Odom/ResetCountdown": 7, "Vis/MinInliers": 11},
-                             last={"Kp/MaxFeatures": 500})
+    spec = lab.pipeline_spec(
+        "rtabmap",
+        options("Vis/MinInliers=30", "Kp/MaxFeatures=400", config=config),
+        preset={"Odom/ResetCountdown": 7, "Vis/MinInliers": 11},
+        last={"Kp/MaxFeatures": 500},
+    )
     values = spec.params.model_dump(by_alias=True)
-    assert values["Rtabmap/DetectionRate"] == 2     # the config alone
-    assert values["Odom/ResetCountdown"] == 7       # the preset over the config
-    assert values["Vis/MinInliers"] == 30           # --param over the preset
-    assert values["Kp/MaxFeatures"] == 500          # the script's own value last
+    assert values["Rtabmap/DetectionRate"] == 2  # the config alone
+    assert values["Odom/ResetCountdown"] == 7  # the preset over the config
+    assert values["Vis/MinInliers"] == 30  # --param over the preset
+    assert values["Kp/MaxFeatures"] == 500  # the script's own value last
     assert lab.pipeline_spec("rtabmap").params == type(spec.params)()  # no options: the defaults
 
 
-@pytest.mark.parametrize(("item", "problem"), [
-    ("Vis/MinInliers=many", "Vis/MinInliers expects an integer, got 'many'"),
-    ("No/Such=1", "unknown parameter 'No/Such'"),
-    ("Vis/MinInliers", "expected KEY=VALUE"),
-])
+@pytest.mark.parametrize(
+    ("item", "problem"),
+    [
+        ("Vis/MinInliers=many", "Vis/MinInliers expects an integer, got 'many'"),
+        ("No/Such=1", "unknown parameter 'No/Such'"),
+        ("Vis/MinInliers", "expected KEY=VALUE"),
+    ],
+)
 def test_bad_parameters_are_refused_as_record_refuses_them(item, problem):
     with pytest.raises(InputError, match=problem):
         lab.pipeline_specs(["rtabmap"], options(item))
@@ -58,16 +64,24 @@ def test_a_run_through_the_service_is_the_bare_pipeline_run_and_scored(tiny_scen
 
 
 def test_bad_input_ends_in_one_line_and_exit_code_2():
-    done = subprocess.run([sys.executable, "-m", "benchmarks.peer", "--param", "Vis/MinInliers=many"], cwd=REPO,
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [sys.executable, "-m", "benchmarks.peer", "--param", "Vis/MinInliers=many"],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
-        "error: --param: parameter Vis/MinInliers expects an integer, got 'many'"]
+        "error: --param: parameter Vis/MinInliers expects an integer, got 'many'"
+    ]
 
 
 def test_a_block_is_replaced_in_place_and_a_missing_one_named():
-    text = "intro\n<!-- oracle: kidnap -->\nold\n<!-- /oracle: kidnap -->\n<!-- figures: kidnap -->\nkept\n" \
-           "<!-- /figures: kidnap -->\n"
+    text = (
+        "intro\n<!-- oracle: kidnap -->\nold\n<!-- /oracle: kidnap -->\n<!-- figures: kidnap -->\nkept\n"
+        "<!-- /figures: kidnap -->\n"
+    )
     replaced = figures.with_block(text, "kidnap", "new\nlines", "oracle")
     assert figures.written(replaced, "kidnap", "oracle") == "new\nlines"
     assert figures.written(replaced, "kidnap") == "kept"

@@ -26,10 +26,12 @@ def reference(tiny_scene, tmp_path_factory):
     for name in ("poses_tum.txt", "db_poses_odom_tum.txt"):
         write_tum(run / name, sequence.groundtruth)
     header = "stamp,node_id,odom_inliers,odom_features,odom_local_map_size,odom_keyframe_added,loop_rejected\n"
-    (run / "nodes.csv").write_text(header + "".join(f"{stamp:.6f},{i + 1},100,500,900,1,0\n"
-                                                    for i, stamp in enumerate(sequence.timestamps)))
-    (run / "links.csv").write_text("from_id,to_id,type_name\n" + "".join(
-        f"{i},{i + 1},neighbor\n" for i in range(1, len(sequence))))
+    (run / "nodes.csv").write_text(
+        header + "".join(f"{stamp:.6f},{i + 1},100,500,900,1,0\n" for i, stamp in enumerate(sequence.timestamps))
+    )
+    (run / "links.csv").write_text(
+        "from_id,to_id,type_name\n" + "".join(f"{i},{i + 1},neighbor\n" for i in range(1, len(sequence)))
+    )
     (run / "summary.json").write_text(json.dumps({"db": {"nodes": len(sequence), "links_by_type": {}}}))
     return root / "reference", root / "tum"
 
@@ -37,8 +39,12 @@ def reference(tiny_scene, tmp_path_factory):
 def test_ours_beside_the_original_replayed(reference, tmp_path, capsys):
     folder, tum = reference
     out = tmp_path / "out"
-    assert like_for_like.main([SEQUENCE, "--reference", str(folder), "--tum", str(tum), "--out", str(out),
-                               "--param", "Vis/MinInliers=12"]) == 0
+    assert (
+        like_for_like.main(
+            [SEQUENCE, "--reference", str(folder), "--tum", str(tum), "--out", str(out), "--param", "Vis/MinInliers=12"]
+        )
+        == 0
+    )
     report = json.loads((out / f"{SEQUENCE}-perframe.json").read_text())
     runs = report["pipelines"]
     assert list(runs) == ["rtabmap", REFERENCE_NAME, f"{REFERENCE_NAME}-odometry"]
@@ -63,6 +69,7 @@ def test_no_reference_run_is_refused(tmp_path):
 def test_a_bad_parameter_is_refused_before_the_run(reference, tmp_path):
     folder, tum = reference
     with pytest.raises(InputError, match="Vis/MinInliers expects an integer"):
-        like_for_like.main(["--reference", str(folder), "--tum", str(tum), "--out", str(tmp_path),
-                            "--param", "Vis/MinInliers=x"])
+        like_for_like.main(
+            ["--reference", str(folder), "--tum", str(tum), "--out", str(tmp_path), "--param", "Vis/MinInliers=x"]
+        )
     assert not list(tmp_path.iterdir())

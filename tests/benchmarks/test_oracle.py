@@ -21,8 +21,10 @@ def test_frames_that_differ_from_the_list_are_refused(tmp_path):
     for kind in ("rgb", "depth"):
         (tmp_path / kind / "1.png").write_bytes(kind.encode())
     listed = oracle.frame_digests(tmp_path)
-    assert listed == {"rgb/1.png": hashlib.sha256(b"rgb").hexdigest(),
-                      "depth/1.png": hashlib.sha256(b"depth").hexdigest()}
+    assert listed == {
+        "rgb/1.png": hashlib.sha256(b"rgb").hexdigest(),
+        "depth/1.png": hashlib.sha256(b"depth").hexdigest(),
+    }
     oracle.check_frames(tmp_path, listed)  # the same frames: no word
     (tmp_path / "depth" / "1.png").write_bytes(b"another depth")
     with pytest.raises(InputError, match="1 frames differ from the listed SHA-256 .first: depth/1.png."):

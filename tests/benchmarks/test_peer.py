@@ -8,8 +8,12 @@ from viewer_slam.errors import InputError
 
 def test_the_table_of_the_peer_and_a_pipeline(tiny_scene, capsys, monkeypatch):
     monkeypatch.setattr(peer, "SEQUENCE_BLOCKS", {})  # nothing written into the docs
-    assert peer.main(["--sequence", str(tiny_scene), "--frames", "6", "--pipelines", "rtabmap",
-                      "--param", "Vis/MinInliers=12"]) == 0
+    assert (
+        peer.main(
+            ["--sequence", str(tiny_scene), "--frames", "6", "--pipelines", "rtabmap", "--param", "Vis/MinInliers=12"]
+        )
+        == 0
+    )
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == f"sequence {tiny_scene.name}: 6 frames, 320x240"
     rows = {line.split("|")[1].strip(): line for line in lines if line.startswith("| ")}

@@ -7,8 +7,7 @@ from benchmarks import record
 
 def test_size_time_and_memory_of_a_short_recording(tiny_scene, monkeypatch, capsys):
     monkeypatch.setattr(record, "SEQUENCE_BLOCKS", {})  # nothing written into the docs
-    assert record.main(["--sequence", str(tiny_scene), "--frames", "4", "--repeats", "1",
-                        "--memory-frames", "6"]) == 0
+    assert record.main(["--sequence", str(tiny_scene), "--frames", "4", "--repeats", "1", "--memory-frames", "6"]) == 0
     results = json.loads(capsys.readouterr().out)
     assert results["frames"] == 4 and len(results["wall_ratios"]) == 1
     assert 0 < results["recorder_s"] < results["record_wall_s"]

@@ -4,8 +4,22 @@ from benchmarks import rgbdslam
 
 
 def test_speed_per_detector(tiny_scene, capsys):
-    assert rgbdslam.main(["speed", "--sequence", str(tiny_scene), "--frames", "5", "--detectors", "ORB",
-                          "--param", "max_keypoints=300"]) == 0
+    assert (
+        rgbdslam.main(
+            [
+                "speed",
+                "--sequence",
+                str(tiny_scene),
+                "--frames",
+                "5",
+                "--detectors",
+                "ORB",
+                "--param",
+                "max_keypoints=300",
+            ]
+        )
+        == 0
+    )
     lines = capsys.readouterr().out.splitlines()
     assert lines[0] == f"sequence {tiny_scene.name}: 5 frames, 320x240"
     row = [cell.strip() for cell in lines[3].split("|")[1:-1]]

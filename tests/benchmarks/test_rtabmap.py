@@ -28,8 +28,9 @@ def test_a_bad_parameter_is_refused_before_the_first_case(monkeypatch):
 
 def test_a_case_runs_with_the_command_lines_parameters_under_its_own(tiny_scene, monkeypatch):
     options = rtabmap.argparse.Namespace(param=["Vis/MinInliers=12", "Rtabmap/DetectionRate=3"], config=None)
-    sequence, run, events = rtabmap.run(options, str(tiny_scene), 0, (320, 240), max_frames=4,
-                                        overrides={"Rtabmap/DetectionRate": 10})
+    sequence, run, events = rtabmap.run(
+        options, str(tiny_scene), 0, (320, 240), max_frames=4, overrides={"Rtabmap/DetectionRate": 10}
+    )
     assert run.frames == 4 and len(events) >= 4
     assert run.parameters["Vis/MinInliers"] == 12 and run.parameters["Rtabmap/DetectionRate"] == 10
     assert rtabmap.ate(sequence, run.trajectory) < 0.05

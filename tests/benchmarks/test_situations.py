@@ -18,6 +18,7 @@ def test_redraw_draws_the_charts_from_the_table(tmp_path, monkeypatch, capsys):
     assert situations.main(["--redraw"]) == 0
     drawn = sorted(path.name for path in tmp_path.iterdir())
     assert drawn and all(name.startswith("benchmark_") and name.endswith((".png", ".svg")) for name in drawn)
-    assert {name.removesuffix(".svg") for name in drawn if name.endswith(".svg")} == \
-        {name.removesuffix(".png") for name in drawn if name.endswith(".png")}
+    assert {name.removesuffix(".svg") for name in drawn if name.endswith(".svg")} == {
+        name.removesuffix(".png") for name in drawn if name.endswith(".png")
+    }
     assert sorted(capsys.readouterr().out.split()) == [str(tmp_path / name) for name in drawn]

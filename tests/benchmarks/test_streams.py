@@ -12,8 +12,10 @@ def test_forwards_backwards_forwards_with_time_running_on(tiny_scene):
     frames = list(stream.frames())
     assert len(stream) == len(frames) == 25
     assert [frame.index for frame in frames] == list(range(25))
-    source = [int(np.flatnonzero([np.array_equal(frame.rgb, sequence.frame(i).rgb) for i in range(10)])[0])
-              for frame in frames]
+    source = [
+        int(np.flatnonzero([np.array_equal(frame.rgb, sequence.frame(i).rgb) for i in range(10)])[0])
+        for frame in frames
+    ]
     assert source == [*range(10), *range(8, 0, -1), *range(0, 7)]
     period = np.median(np.diff(sequence.timestamps))
     assert np.allclose(np.diff(stream.timestamps), period) and stream.timestamps[0] == sequence.timestamps[0]

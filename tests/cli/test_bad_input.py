@@ -23,8 +23,12 @@ from viewer_slam.cli import main
 
 pytestmark = pytest.mark.skipif(not TUM_RPY.is_dir(), reason="shared TUM excerpt not present")
 
-EARLIER = {"run.rrd": b"earlier recording", "run.json": b'{"earlier": true}\n',
-           "run.rgbdslam.txt": b"# earlier rgbdslam\n", "run.rtabmap.txt": b"# earlier rtabmap\n"}
+EARLIER = {
+    "run.rrd": b"earlier recording",
+    "run.json": b'{"earlier": true}\n',
+    "run.rgbdslam.txt": b"# earlier rgbdslam\n",
+    "run.rtabmap.txt": b"# earlier rtabmap\n",
+}
 
 
 @dataclass
@@ -41,12 +45,14 @@ def write(relative: str, content: bytes | str) -> Callable[[Path, Path], None]:
         path = tmp / relative.removeprefix("tmp/") if relative.startswith("tmp/") else seq / relative
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_bytes(content.encode() if isinstance(content, str) else content)
+
     return prepare
 
 
 def mkdir(relative: str) -> Callable[[Path, Path], None]:
     def prepare(seq: Path, tmp: Path) -> None:
         (tmp / relative).mkdir(parents=True)
+
     return prepare
 
 
@@ -58,7 +64,7 @@ def corrupt_image_data(seq: Path, tmp: Path) -> None:
     """Zeroes in the middle of the first colour image's compressed data (its chunks' lengths kept)."""
     image = first_image(seq, "rgb")
     data = bytearray(image.read_bytes())
-    data[len(data) // 2:len(data) // 2 + 64] = bytes(64)
+    data[len(data) // 2 : len(data) // 2 + 64] = bytes(64)
     image.write_bytes(bytes(data))
 
 
@@ -68,12 +74,14 @@ def invalid_compressed_data(seq: Path, tmp: Path) -> None:
     image = first_image(seq, "rgb")
     data = bytearray(image.read_bytes())
     offset = 8
-    while data[offset + 4:offset + 8] != b"IDAT":
-        offset += 12 + struct.unpack(">I", data[offset:offset + 4])[0]
-    (length,) = struct.unpack(">I", data[offset:offset + 4])
+    while data[offset + 4 : offset + 8] != b"IDAT":
+        offset += 12 + struct.unpack(">I", data[offset : offset + 4])[0]
+    (length,) = struct.unpack(">I", data[offset : offset + 4])
     start = offset + 8 + length // 2
-    data[start:start + 64] = bytes(64)
-    data[offset + 8 + length:offset + 12 + length] = struct.pack(">I", zlib.crc32(data[offset + 4:offset + 8 + length]))
+    data[start : start + 64] = bytes(64)
+    data[offset + 8 + length : offset + 12 + length] = struct.pack(
+        ">I", zlib.crc32(data[offset + 4 : offset + 8 + length])
+    )
     image.write_bytes(bytes(data))
 
 
@@ -95,9 +103,13 @@ def eight_bit_depth(seq: Path, tmp: Path) -> None:
 
 def shift_depth_stamps(seq: Path, tmp: Path) -> None:
     lines = (seq / "depth.txt").read_text().splitlines()
-    (seq / "depth.txt").write_text("\n".join(
-        f"{float(line.split()[0]) + 100:.6f} {line.split()[1]}" if not line.startswith("#") else line
-        for line in lines) + "\n")
+    (seq / "depth.txt").write_text(
+        "\n".join(
+            f"{float(line.split()[0]) + 100:.6f} {line.split()[1]}" if not line.startswith("#") else line
+            for line in lines
+        )
+        + "\n"
+    )
 
 
 def replace_line(listing: str, text: str) -> Callable[[Path, Path], None]:
@@ -106,6 +118,7 @@ def replace_line(listing: str, text: str) -> Callable[[Path, Path], None]:
         index = next(i for i, line in enumerate(lines) if not line.startswith("#"))
         lines[index] = text
         (seq / listing).write_text("\n".join(lines) + "\n")
+
     return prepare
 
 
@@ -118,40 +131,53 @@ def camera(**changes) -> Callable[[Path, Path], None]:
 
 def copy(relative: str, target: str) -> Callable[[Path, Path], None]:
     """Copy the sequence's file ``relative`` to ``tmp/target``."""
+
     def prepare(seq: Path, tmp: Path) -> None:
         shutil.copyfile(seq / relative, tmp / target)
+
     return prepare
 
 
 def hard_link(relative: str, target: str) -> Callable[[Path, Path], None]:
     """The sequence's file ``relative`` also under the name ``tmp/target`` (the same inode)."""
+
     def prepare(seq: Path, tmp: Path) -> None:
         os.link(seq / relative, tmp / target)
+
     return prepare
 
 
 def png_header(width: int, height: int) -> bytes:
     """A PNG whose chunks are all valid, announcing ``width`` x ``height`` RGB pixels, with one
     tiny IDAT: a decoder would have to allocate the whole image before finding the data short."""
+
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(b"\0" * 16)) + chunk(b"IEND", b""))
+
+    return (
+        b"\x89PNG\r\n\x1a\n"
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(b"\0" * 16))
+        + chunk(b"IEND", b"")
+    )
 
 
 def replace_image(folder: str, content: bytes) -> Callable[[Path, Path], None]:
     def prepare(seq: Path, tmp: Path) -> None:
         first_image(seq, folder).write_bytes(content)
+
     return prepare
 
 
 def estimate(lines: str) -> Callable[[Path, Path], None]:
     """``tmp/e.txt``: the first groundtruth stamps of the excerpt with poses from ``lines``
     (each ``tx ty tz qx qy qz qw``, used in turn)."""
+
     def prepare(seq: Path, tmp: Path) -> None:
         stamps = [line.split()[0] for line in (seq / "rgb.txt").read_text().splitlines() if not line.startswith("#")]
         poses = lines.splitlines()
         (tmp / "e.txt").write_text("".join(f"{stamp} {poses[i % len(poses)]}\n" for i, stamp in enumerate(stamps)))
+
     return prepare
 
 
@@ -162,18 +188,22 @@ def nested(depth: int, leaf: str = "1") -> str:
 
 def jpeg(mutate: Callable[[bytearray], None]) -> Callable[[Path, Path], None]:
     """The first colour image as a JPEG, damaged by ``mutate`` (its bytes, changed in place)."""
+
     def prepare(seq: Path, tmp: Path) -> None:
         import cv2
 
         data = bytearray(cv2.imencode(".jpg", cv2.imread(str(first_image(seq, "rgb"))))[1].tobytes())
         mutate(data)
         first_image(seq, "rgb").write_bytes(bytes(data))
+
     return prepare
 
 
-def tiny_bag(name: str, damage: Callable[[bytearray], None] | None = None, frames: int = 4,
-             depth: float = 1.5) -> Callable[[Path, Path], None]:
+def tiny_bag(
+    name: str, damage: Callable[[bytearray], None] | None = None, frames: int = 4, depth: float = 1.5
+) -> Callable[[Path, Path], None]:
     """``tmp/name``: a ROS 1 bag of 32x24 frames whose depth is ``depth`` m everywhere, then ``damage``d."""
+
     def prepare(seq: Path, tmp: Path) -> None:
         import numpy as np
         from bag_writer import BagWriter
@@ -189,6 +219,7 @@ def tiny_bag(name: str, damage: Callable[[bytearray], None] | None = None, frame
             data = bytearray((tmp / name).read_bytes())
             damage(data)
             (tmp / name).write_bytes(bytes(data))
+
     return prepare
 
 
@@ -201,7 +232,7 @@ def flip_depth_exponent(data: bytearray) -> None:
 def damage_record_header(data: bytearray) -> None:
     """A field length in the header of the first message record inside the first chunk made huge."""
     offset = data.index(b"op=\x02", data.index(b"op=\x05"))
-    data[offset - 4:offset] = b"\xff\xff\x00\x00"
+    data[offset - 4 : offset] = b"\xff\xff\x00\x00"
 
 
 def damage_record_kind(data: bytearray) -> None:
@@ -211,13 +242,20 @@ def damage_record_kind(data: bytearray) -> None:
 
 
 def truncate_chunk(data: bytearray) -> None:
-    del data[len(data) * 2 // 3:]
+    del data[len(data) * 2 // 3 :]
 
 
 def report(**changes) -> str:
     """A `viewslam record` report of one run, as far as `diff` reads it before the trajectories."""
-    block = {"frames_with_pose": 2, "ate": None, "rpe": None, "coverage": None, "penalized_ate": None,
-             "tracking_lost": [], "parameters": {}}
+    block = {
+        "frames_with_pose": 2,
+        "ate": None,
+        "rpe": None,
+        "coverage": None,
+        "penalized_ate": None,
+        "tracking_lost": [],
+        "parameters": {},
+    }
     data = {"sequence": {"name": "s", "path": "/nowhere", "frames": 3}, "pipelines": {"run": block}}
     for key, value in changes.items():
         where, _, name = key.rpartition("__")
@@ -249,15 +287,22 @@ RECORD_CASES = {
     "ratio-above-one": Case([*RECORD, "--param", "nn_distance_ratio=1.5"], "nn_distance_ratio"),
     "ratio-text": Case([*RECORD, "--param", "nn_distance_ratio=high"], "nn_distance_ratio"),
     "integer-fraction": Case([*RECORD, "--param", "max_keypoints=2.5"], "max_keypoints"),
-    "depth-range-inverted": Case([*RECORD, "--param", "minimum_depth=2", "--param", "maximum_depth=1"],
-                                 "maximum_depth must be above minimum_depth (2.0), or 0 for no limit, got 1.0"),
-    "vis-depth-range-inverted": Case([*RECORD, "--param", "Vis/MinDepth=3", "--param", "Vis/MaxDepth=0.5"],
-                                     "Vis/MaxDepth must be above Vis/MinDepth (3.0)"),
-    "matches-cap-below-minimum": Case([*RECORD, "--param", "max_matches=10"],
-                                      "max_matches must be at least min_matches (20), got 10"),
-    "config-and-param-inverted": Case([*RECORD, "--config", "{tmp}/c.toml", "--param", "minimum_depth=2"],
-                                      "c.toml and --param: parameter maximum_depth",
-                                      write("tmp/c.toml", "[rgbdslam]\nmaximum_depth = 1.5\n")),
+    "depth-range-inverted": Case(
+        [*RECORD, "--param", "minimum_depth=2", "--param", "maximum_depth=1"],
+        "maximum_depth must be above minimum_depth (2.0), or 0 for no limit, got 1.0",
+    ),
+    "vis-depth-range-inverted": Case(
+        [*RECORD, "--param", "Vis/MinDepth=3", "--param", "Vis/MaxDepth=0.5"],
+        "Vis/MaxDepth must be above Vis/MinDepth (3.0)",
+    ),
+    "matches-cap-below-minimum": Case(
+        [*RECORD, "--param", "max_matches=10"], "max_matches must be at least min_matches (20), got 10"
+    ),
+    "config-and-param-inverted": Case(
+        [*RECORD, "--config", "{tmp}/c.toml", "--param", "minimum_depth=2"],
+        "c.toml and --param: parameter maximum_depth",
+        write("tmp/c.toml", "[rgbdslam]\nmaximum_depth = 1.5\n"),
+    ),
     "detector-surf": Case([*RECORD, "--param", "feature_detector_type=SURF"], "SURF"),
     "detector-unknown": Case([*RECORD, "--param", "feature_detector_type=FAST"], "feature_detector_type"),
     "boolean-maybe": Case([*RECORD, "--param", "RGBD/ProximityBySpace=maybe"], "RGBD/ProximityBySpace"),
@@ -273,52 +318,81 @@ RECORD_CASES = {
     # --config
     "config-missing": Case([*RECORD, "--config", "{tmp}/nope.toml"], "nope.toml"),
     "config-undecodable": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", b"\xff\xfe = 1\n")),
-    "config-misspelt-table": Case([*RECORD, "--config", "{tmp}/c.toml"], "[rgbd_slam]",
-                                  write("tmp/c.toml", "[rgbd_slam]\nmax_keypoints = 100\n")),
-    "config-broken": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", "max_keypoints = = 1\n")),
+    "config-misspelt-table": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"], "[rgbd_slam]", write("tmp/c.toml", "[rgbd_slam]\nmax_keypoints = 100\n")
+    ),
+    "config-broken": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", "max_keypoints = = 1\n")
+    ),
     "config-folder": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml", mkdir("c.toml")),
-    "config-wrong-type": Case([*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints",
-                              write("tmp/c.toml", 'max_keypoints = "many"\n')),
-    "config-table-out-of-range": Case([*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints",
-                                      write("tmp/c.toml", "[rgbdslam]\nmax_keypoints = -1\n")),
-    "config-bool-for-float": Case([*RECORD, "--config", "{tmp}/c.toml"], "nn_distance_ratio expects a number",
-                                  write("tmp/c.toml", "nn_distance_ratio = true\n")),
-    "config-bool-for-int": Case([*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints expects an integer",
-                                write("tmp/c.toml", "[rgbdslam]\nmax_keypoints = false\n")),
-    "config-text-for-int": Case([*RECORD, "--config", "{tmp}/c.toml"], "Vis/MaxFeatures expects an integer",
-                                write("tmp/c.toml", '[rtabmap]\n"Vis/MaxFeatures" = "500"\n')),
-    "config-fraction-for-int": Case([*RECORD, "--config", "{tmp}/c.toml"], "Mem/STMSize expects an integer",
-                                    write("tmp/c.toml", '"Mem/STMSize" = 10.0\n')),
+    "config-wrong-type": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints", write("tmp/c.toml", 'max_keypoints = "many"\n')
+    ),
+    "config-table-out-of-range": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"], "max_keypoints", write("tmp/c.toml", "[rgbdslam]\nmax_keypoints = -1\n")
+    ),
+    "config-bool-for-float": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "nn_distance_ratio expects a number",
+        write("tmp/c.toml", "nn_distance_ratio = true\n"),
+    ),
+    "config-bool-for-int": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "max_keypoints expects an integer",
+        write("tmp/c.toml", "[rgbdslam]\nmax_keypoints = false\n"),
+    ),
+    "config-text-for-int": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "Vis/MaxFeatures expects an integer",
+        write("tmp/c.toml", '[rtabmap]\n"Vis/MaxFeatures" = "500"\n'),
+    ),
+    "config-fraction-for-int": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "Mem/STMSize expects an integer",
+        write("tmp/c.toml", '"Mem/STMSize" = 10.0\n'),
+    ),
     "pipeline-empty-string": Case([*RECORD, "--pipeline", ""], "--pipeline ''"),
-    "config-table-unknown-key": Case([*RECORD, "--config", "{tmp}/c.toml"], "'Mem/STMSize'",
-                                     write("tmp/c.toml", '[rgbdslam]\n"Mem/STMSize" = 3\n')),
+    "config-table-unknown-key": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"], "'Mem/STMSize'", write("tmp/c.toml", '[rgbdslam]\n"Mem/STMSize" = 3\n')
+    ),
     # outputs
     "out-not-rrd": Case([*RECORD[:3], "{tmp}/out/run.txt", "--quiet"], "run.txt"),
     "out-is-folder": Case([*RECORD[:3], "{tmp}/out/dir.rrd", "--quiet"], "dir.rrd", mkdir("out/dir.rrd")),
     "out-under-a-file": Case([*RECORD[:3], "{seq}/rgb.txt/x.rrd", "--quiet"], "rgb.txt/x.rrd"),
     "report-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.json", mkdir("out/other.json")),
-    "trajectory-is-folder": Case([*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.rtabmap.txt",
-                                 mkdir("out/other.rtabmap.txt")),
+    "trajectory-is-folder": Case(
+        [*RECORD[:3], "{tmp}/out/other.rrd", "--quiet"], "other.rtabmap.txt", mkdir("out/other.rtabmap.txt")
+    ),
     "out-name-too-long": Case([*RECORD[:3], "{tmp}/out/" + "n" * 300 + ".rrd", "--quiet"], "n" * 300),
     "out-name-not-utf8": Case([*RECORD[:3], "{tmp}/out/run\udcff.rrd", "--quiet"], "run\\xff.rrd"),
     "out-under-a-file-deeper": Case([*RECORD[:3], "{seq}/rgb.txt/a/b/x.rrd", "--quiet"], "rgb.txt"),
     # inputs are never outputs
-    "trajectory-is-the-estimate": Case([*RECORD, "--estimate", "mine={tmp}/out/run.mine.txt"],
-                                       "run.mine.txt", copy("groundtruth.txt", "out/run.mine.txt")),
-    "trajectory-is-the-estimate-by-inode": Case([*RECORD, "--estimate", "mine={seq}/groundtruth.txt"],
-                                                "run.mine.txt", hard_link("groundtruth.txt", "out/run.mine.txt")),
-    "report-is-the-config": Case([*RECORD, "--config", "{tmp}/out/run.json"], "run.json",
-                                 write("tmp/out/run.json", "max_keypoints = 100\n")),
+    "trajectory-is-the-estimate": Case(
+        [*RECORD, "--estimate", "mine={tmp}/out/run.mine.txt"],
+        "run.mine.txt",
+        copy("groundtruth.txt", "out/run.mine.txt"),
+    ),
+    "trajectory-is-the-estimate-by-inode": Case(
+        [*RECORD, "--estimate", "mine={seq}/groundtruth.txt"],
+        "run.mine.txt",
+        hard_link("groundtruth.txt", "out/run.mine.txt"),
+    ),
+    "report-is-the-config": Case(
+        [*RECORD, "--config", "{tmp}/out/run.json"], "run.json", write("tmp/out/run.json", "max_keypoints = 100\n")
+    ),
     # the sequence
     "estimate-missing": Case([*RECORD, "--estimate", "mine={tmp}/nope.txt"], "nope.txt"),
-    "estimate-unknown-format": Case([*RECORD, "--estimate", "mine={tmp}/e.txt"], "e.txt",
-                                    write("tmp/e.txt", "poses follow\n")),
+    "estimate-unknown-format": Case(
+        [*RECORD, "--estimate", "mine={tmp}/e.txt"], "e.txt", write("tmp/e.txt", "poses follow\n")
+    ),
     "estimate-folder": Case([*RECORD, "--estimate", "mine={tmp}/e.txt"], "e.txt", mkdir("e.txt")),
     "estimate-no-equals": Case([*RECORD, "--estimate", "{tmp}/e.txt"], "--estimate '"),
-    "estimate-clashes-pipeline": Case([*RECORD, "--pipeline", "rgbdslam", "--estimate", "rgbdslam={tmp}/e.txt"],
-                                      "--estimate rgbdslam="),
-    "estimate-clashes-estimate": Case([*RECORD, "--estimate", "a={tmp}/e.txt", "--estimate", "a={tmp}/f.txt"],
-                                      "--estimate a="),
+    "estimate-clashes-pipeline": Case(
+        [*RECORD, "--pipeline", "rgbdslam", "--estimate", "rgbdslam={tmp}/e.txt"], "--estimate rgbdslam="
+    ),
+    "estimate-clashes-estimate": Case(
+        [*RECORD, "--estimate", "a={tmp}/e.txt", "--estimate", "a={tmp}/f.txt"], "--estimate a="
+    ),
     "estimate-name-with-slash": Case([*RECORD, "--estimate", "orb/3={tmp}/e.txt"], "--estimate orb/3="),
     "estimate-format-unknown": Case([*RECORD, "--estimate", "a={tmp}/e.txt", "--format", "g2o"], "'g2o' is not one of"),
     "bag-option-on-folder": Case([*RECORD, "--rgb-topic", "/camera/rgb"], "--rgb-topic"),
@@ -346,8 +420,9 @@ RECORD_CASES = {
     "camera-depth-factor-zero": Case(RECORD, "camera.json", camera(depth_factor=0)),
     "camera-width-zero": Case(RECORD, "camera.json", camera(width=0)),
     "camera-width-text": Case(RECORD, "camera.json", camera(width="wide")),
-    "camera-missing-key": Case(RECORD, "camera.json",
-                               write("camera.json", json.dumps({k: v for k, v in CAMERA.items() if k != "cy"}))),
+    "camera-missing-key": Case(
+        RECORD, "camera.json", write("camera.json", json.dumps({k: v for k, v in CAMERA.items() if k != "cy"}))
+    ),
     "camera-cx-huge": Case(RECORD, "camera.json", camera(cx=1e308)),
     "camera-fx-huge": Case(RECORD, "camera.json", camera(fx=1e300)),
     "camera-depth-factor-tiny": Case(RECORD, "camera.json", camera(depth_factor=1e-300)),
@@ -366,36 +441,62 @@ RECORD_CASES = {
     "image-missing": Case(RGBDSLAM, "depth/", remove_image),
     "depth-eight-bit": Case(RGBDSLAM, "depth/", eight_bit_depth),
     # deeply nested, oversized and mistyped structured files
-    "camera-nested-deep": Case(RECORD, "camera.json: cannot read camera calibration: nested more than",
-                               write("camera.json", nested(100_000))),
-    "camera-nested-inside-a-value": Case(RECORD, "camera.json: cannot read camera calibration: nested more than",
-                                         camera(distortion=json.loads(nested(40, "0")))),
-    "camera-too-large": Case(RECORD, "camera.json: cannot read camera calibration: 2,",
-                             write("camera.json", json.dumps(CAMERA) + " " * 2_000_000)),
-    "camera-integer-too-long": Case(RECORD, "camera.json: cannot read camera calibration: not valid JSON",
-                                    write("camera.json", json.dumps(CAMERA).replace("640", "6" * 5000))),
-    "config-nested-arrays": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: nested more than",
-                                 write("tmp/c.toml", f"max_keypoints = {nested(5000)}\n")),
-    "config-nested-tables": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: nested more than",
-                                 write("tmp/c.toml", "max_keypoints = " + "{a = " * 3000 + "1" + "}" * 3000 + "\n")),
-    "config-integer-too-long": Case([*RECORD, "--config", "{tmp}/c.toml"], "c.toml: cannot read config: not valid TOML",
-                                    write("tmp/c.toml", "max_keypoints = " + "1" * 5000 + "\n")),
+    "camera-nested-deep": Case(
+        RECORD, "camera.json: cannot read camera calibration: nested more than", write("camera.json", nested(100_000))
+    ),
+    "camera-nested-inside-a-value": Case(
+        RECORD,
+        "camera.json: cannot read camera calibration: nested more than",
+        camera(distortion=json.loads(nested(40, "0"))),
+    ),
+    "camera-too-large": Case(
+        RECORD,
+        "camera.json: cannot read camera calibration: 2,",
+        write("camera.json", json.dumps(CAMERA) + " " * 2_000_000),
+    ),
+    "camera-integer-too-long": Case(
+        RECORD,
+        "camera.json: cannot read camera calibration: not valid JSON",
+        write("camera.json", json.dumps(CAMERA).replace("640", "6" * 5000)),
+    ),
+    "config-nested-arrays": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "c.toml: cannot read config: nested more than",
+        write("tmp/c.toml", f"max_keypoints = {nested(5000)}\n"),
+    ),
+    "config-nested-tables": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "c.toml: cannot read config: nested more than",
+        write("tmp/c.toml", "max_keypoints = " + "{a = " * 3000 + "1" + "}" * 3000 + "\n"),
+    ),
+    "config-integer-too-long": Case(
+        [*RECORD, "--config", "{tmp}/c.toml"],
+        "c.toml: cannot read config: not valid TOML",
+        write("tmp/c.toml", "max_keypoints = " + "1" * 5000 + "\n"),
+    ),
     # images whose damage libjpeg would print about
     "jpeg-bad-marker": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__setitem__(slice(2, 4), b"\xff\x01"))),
     "jpeg-truncated": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__delitem__(slice(len(data) // 2, None)))),
     "jpeg-end-in-the-header": Case(RGBDSLAM, "rgb/", jpeg(lambda data: data.__setitem__(slice(20, 22), b"\xff\xd9"))),
     # damaged ROS 1 bags
-    "bag-depth-bits-flipped": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet", "--pipeline", "rtabmap"],
-                                   "b.bag: frame 0 (5.000000 s): /cam/depth: depth 1.27606e+38 m at pixel (0, 0)",
-                                   tiny_bag("b.bag", flip_depth_exponent)),
-    "bag-record-header-damaged": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
-                                      "b.bag: cannot read the bag: Declared field size is too large",
-                                      tiny_bag("b.bag", damage_record_header)),
-    "bag-record-kind-damaged": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
-                                    "b.bag: cannot read the bag: Expected to find message data",
-                                    tiny_bag("b.bag", damage_record_kind)),
-    "bag-chunk-truncated": Case(["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"], "b.bag: ",
-                                tiny_bag("b.bag", truncate_chunk)),
+    "bag-depth-bits-flipped": Case(
+        ["record", "{tmp}/b.bag", "--out", "{out}", "--quiet", "--pipeline", "rtabmap"],
+        "b.bag: frame 0 (5.000000 s): /cam/depth: depth 1.27606e+38 m at pixel (0, 0)",
+        tiny_bag("b.bag", flip_depth_exponent),
+    ),
+    "bag-record-header-damaged": Case(
+        ["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
+        "b.bag: cannot read the bag: Declared field size is too large",
+        tiny_bag("b.bag", damage_record_header),
+    ),
+    "bag-record-kind-damaged": Case(
+        ["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"],
+        "b.bag: cannot read the bag: Expected to find message data",
+        tiny_bag("b.bag", damage_record_kind),
+    ),
+    "bag-chunk-truncated": Case(
+        ["record", "{tmp}/b.bag", "--out", "{out}", "--quiet"], "b.bag: ", tiny_bag("b.bag", truncate_chunk)
+    ),
 }
 
 BENCHMARK = ["benchmark", "{seq}", "--out", "{tmp}/bench", "--quiet", "--no-cache"]
@@ -415,103 +516,173 @@ BENCHMARK_CASES = {
     "benchmark-timeout-inf": Case([*BENCHMARK, "--timeout", "inf"], "--timeout"),
     "benchmark-timeout-nan": Case([*BENCHMARK, "--timeout", "nan"], "--timeout"),
     "benchmark-timeout-zero": Case([*BENCHMARK, "--timeout", "0"], "--timeout"),
-    "benchmark-config-undecodable": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "c.toml",
-                                         write("tmp/c.toml", b"\xff\xfe\n")),
-    "benchmark-config-misspelt-table": Case([*BENCHMARK, "--config", "{tmp}/c.toml"], "[rtab_map]",
-                                            write("tmp/c.toml", "[rtab_map]\n")),
+    "benchmark-config-undecodable": Case(
+        [*BENCHMARK, "--config", "{tmp}/c.toml"], "c.toml", write("tmp/c.toml", b"\xff\xfe\n")
+    ),
+    "benchmark-config-misspelt-table": Case(
+        [*BENCHMARK, "--config", "{tmp}/c.toml"], "[rtab_map]", write("tmp/c.toml", "[rtab_map]\n")
+    ),
     "benchmark-old-frames-option": Case([*BENCHMARK, "--frames", "60"], "--frames"),
     "benchmark-estimate-is-a-run-trajectory": Case(
         [*BENCHMARK, "--estimate", "mine={tmp}/bench/runs/rgbd_dataset_freiburg1_rpy.mine.txt"],
         "runs/rgbd_dataset_freiburg1_rpy.mine.txt is the input --estimate mine=",
-        lambda seq, tmp: (tmp / "bench/runs").mkdir(parents=True) or copy("groundtruth.txt", "bench/runs/"
-                                                                             "rgbd_dataset_freiburg1_rpy.mine.txt")(seq, tmp)),
-    "benchmark-config-is-the-results": Case([*BENCHMARK, "--config", "{tmp}/bench/results.json"],
-                                            "results.json is the input --config", write("tmp/bench/results.json", "")),
+        lambda seq, tmp: (
+            (tmp / "bench/runs").mkdir(parents=True)
+            or copy("groundtruth.txt", "bench/runs/rgbd_dataset_freiburg1_rpy.mine.txt")(seq, tmp)
+        ),
+    ),
+    "benchmark-config-is-the-results": Case(
+        [*BENCHMARK, "--config", "{tmp}/bench/results.json"],
+        "results.json is the input --config",
+        write("tmp/bench/results.json", ""),
+    ),
     "benchmark-unknown-sequence": Case(["benchmark", "fr9/none", "--out", "{tmp}/bench", "--quiet"], "fr9/none"),
 }
 
 OTHER_CASES = {
     "download-unknown": Case(["download", "fr9/none", "--dest", "{tmp}/d"], "fr9/none"),
-    "download-mirror-not-url": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "notaurl"],
-                                    "--mirror 'notaurl'"),
-    "download-mirror-ftp": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "ftp://host/x"],
-                                "--mirror 'ftp://host/x'"),
-    "download-mirror-bad-ipv6": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "http://[::1/x"],
-                                     "--mirror 'http://[::1/x'"),
-    "download-mirror-bad-port": Case(["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "http://host:port/x"],
-                                     "--mirror 'http://host:port/x'"),
+    "download-mirror-not-url": Case(
+        ["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "notaurl"], "--mirror 'notaurl'"
+    ),
+    "download-mirror-ftp": Case(
+        ["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "ftp://host/x"], "--mirror 'ftp://host/x'"
+    ),
+    "download-mirror-bad-ipv6": Case(
+        ["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "http://[::1/x"], "--mirror 'http://[::1/x'"
+    ),
+    "download-mirror-bad-port": Case(
+        ["download", "fr1/xyz", "--dest", "{tmp}/d", "--mirror", "http://host:port/x"], "--mirror 'http://host:port/x'"
+    ),
     "sequence-name-with-newline": Case(["record", "{tmp}/no\nsuch", "--out", "{out}"], "no\\nsuch"),
     "evaluate-estimate-name-with-newline": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e\n.txt"], "e\\n.txt"),
-    "download-dest-is-file": Case(["download", "fr1/xyz", "--dest", "{seq}/rgb.txt", "--mirror", "http://localhost:9"],
-                                  "rgb.txt"),
+    "download-dest-is-file": Case(
+        ["download", "fr1/xyz", "--dest", "{seq}/rgb.txt", "--mirror", "http://localhost:9"], "rgb.txt"
+    ),
     "evaluate-groundtruth-missing": Case(["evaluate", "{tmp}/none.txt", "{seq}/groundtruth.txt"], "none.txt"),
-    "evaluate-estimate-bad-line": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt",
-                                       write("tmp/e.txt", "1.0 2.0\n")),
-    "evaluate-no-overlap": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt",
-                                write("tmp/e.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n")),
-    "evaluate-json-is-the-estimate": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--json",
-                                           "{tmp}/out/e.txt"], "--json", copy("groundtruth.txt", "out/e.txt")),
-    "evaluate-json-is-the-groundtruth": Case(["evaluate", "{tmp}/out/gt.txt", "{seq}/groundtruth.txt", "--json",
-                                              "{tmp}/out/gt.txt"], "--json", copy("groundtruth.txt", "out/gt.txt")),
-    "evaluate-plot-is-the-estimate": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--plot",
-                                           "{tmp}/out/e.txt"], "--plot", copy("groundtruth.txt", "out/e.txt")),
-    "evaluate-json-is-the-estimate-by-inode": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt",
-                                                    "--json", "{tmp}/out/e.json"], "--json",
-                                                   hard_link("groundtruth.txt", "out/e.json")),
-    "evaluate-json-is-the-plot": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--json",
-                                       "{tmp}/out/e.json", "--plot", "{tmp}/out/e.json"], "--plot"),
-    "evaluate-delta-huge": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--delta", "1e300",
-                                 "--delta-unit", "frames"],
-                                "--delta"),
-    "evaluate-delta-inf": Case(["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--delta", "inf"],
-                               "--delta"),
-    "evaluate-estimate-nan": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1",
-                                  estimate("nan 0 0 0 0 0 1")),
-    "evaluate-estimate-huge": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:2",
-                                   estimate("0 0 0 0 0 0 1\n1e300 1e300 0 0 0 0 1")),
-    "evaluate-estimate-zero-quaternion": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1",
-                                              estimate("0 0 0 0 0 0 0")),
-    "evaluate-estimate-name-too-long": Case(["evaluate", "{seq}/groundtruth.txt", "{tmp}/" + "e" * 300 + ".txt"],
-                                            "e" * 300),
-    "evaluate-folder-without-groundtruth": Case(["evaluate", "{seq}", "{tmp}/gt.txt"], "groundtruth.txt",
-                                                lambda seq, tmp: (seq / "groundtruth.txt").rename(tmp / "gt.txt")),
+    "evaluate-estimate-bad-line": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt", write("tmp/e.txt", "1.0 2.0\n")
+    ),
+    "evaluate-no-overlap": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"],
+        "e.txt",
+        write("tmp/e.txt", "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n"),
+    ),
+    "evaluate-json-is-the-estimate": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--json", "{tmp}/out/e.txt"],
+        "--json",
+        copy("groundtruth.txt", "out/e.txt"),
+    ),
+    "evaluate-json-is-the-groundtruth": Case(
+        ["evaluate", "{tmp}/out/gt.txt", "{seq}/groundtruth.txt", "--json", "{tmp}/out/gt.txt"],
+        "--json",
+        copy("groundtruth.txt", "out/gt.txt"),
+    ),
+    "evaluate-plot-is-the-estimate": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/out/e.txt", "--plot", "{tmp}/out/e.txt"],
+        "--plot",
+        copy("groundtruth.txt", "out/e.txt"),
+    ),
+    "evaluate-json-is-the-estimate-by-inode": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--json", "{tmp}/out/e.json"],
+        "--json",
+        hard_link("groundtruth.txt", "out/e.json"),
+    ),
+    "evaluate-json-is-the-plot": Case(
+        [
+            "evaluate",
+            "{seq}/groundtruth.txt",
+            "{seq}/groundtruth.txt",
+            "--json",
+            "{tmp}/out/e.json",
+            "--plot",
+            "{tmp}/out/e.json",
+        ],
+        "--plot",
+    ),
+    "evaluate-delta-huge": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--delta", "1e300", "--delta-unit", "frames"],
+        "--delta",
+    ),
+    "evaluate-delta-inf": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{seq}/groundtruth.txt", "--delta", "inf"], "--delta"
+    ),
+    "evaluate-estimate-nan": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1", estimate("nan 0 0 0 0 0 1")
+    ),
+    "evaluate-estimate-huge": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"],
+        "e.txt:2",
+        estimate("0 0 0 0 0 0 1\n1e300 1e300 0 0 0 0 1"),
+    ),
+    "evaluate-estimate-zero-quaternion": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/e.txt"], "e.txt:1", estimate("0 0 0 0 0 0 0")
+    ),
+    "evaluate-estimate-name-too-long": Case(
+        ["evaluate", "{seq}/groundtruth.txt", "{tmp}/" + "e" * 300 + ".txt"], "e" * 300
+    ),
+    "evaluate-folder-without-groundtruth": Case(
+        ["evaluate", "{seq}", "{tmp}/gt.txt"],
+        "groundtruth.txt",
+        lambda seq, tmp: (seq / "groundtruth.txt").rename(tmp / "gt.txt"),
+    ),
     "synth-unknown-scenario": Case(["synth", "nowhere", "--out", "{tmp}/s"], "nowhere"),
     "synth-resolution": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--resolution", "0x480"], "--resolution"),
     "synth-frames-zero": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--frames", "0"], "--frames"),
     "synth-frames-huge": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--frames", "1000000000000"], "--frames"),
-    "synth-out-under-a-file": Case(["synth", "360_kidnap", "--out", "{seq}/rgb.txt/s", "--frames", "2",
-                                    "--resolution", "32x24"], "rgb.txt"),
-    "synth-out-read-only": Case(["synth", "360_kidnap", "--out", "/proc/viewslam-synth", "--frames", "2",
-                                 "--resolution", "32x24"], "/proc/viewslam-synth"),
-    "synth-out-name-too-long": Case(["synth", "360_kidnap", "--out", "{tmp}/" + "s" * 300, "--frames", "2",
-                                     "--resolution", "32x24"], "s" * 300),
+    "synth-out-under-a-file": Case(
+        ["synth", "360_kidnap", "--out", "{seq}/rgb.txt/s", "--frames", "2", "--resolution", "32x24"], "rgb.txt"
+    ),
+    "synth-out-read-only": Case(
+        ["synth", "360_kidnap", "--out", "/proc/viewslam-synth", "--frames", "2", "--resolution", "32x24"],
+        "/proc/viewslam-synth",
+    ),
+    "synth-out-name-too-long": Case(
+        ["synth", "360_kidnap", "--out", "{tmp}/" + "s" * 300, "--frames", "2", "--resolution", "32x24"], "s" * 300
+    ),
     "synth-seed-negative": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--seed", "-1"], "--seed"),
     "synth-out-not-empty": Case(["synth", "360_kidnap", "--out", "{seq}", "--frames", "2"], "--force"),
     "synth-camera-unknown": Case(["synth", "360_kidnap", "--out", "{tmp}/s", "--camera", "fr9"], "fr9"),
     "view-missing": Case(["view", "{tmp}/none.rrd"], "none.rrd"),
-    "view-web-empty": Case(["view", "{tmp}/e.rrd", "--web"], "e.rrd: not a complete Rerun recording",
-                           write("tmp/e.rrd", b"")),
+    "view-web-empty": Case(
+        ["view", "{tmp}/e.rrd", "--web"], "e.rrd: not a complete Rerun recording", write("tmp/e.rrd", b"")
+    ),
     "view-web-garbage": Case(["view", "{tmp}/g.rrd", "--web"], "g.rrd: not a complete", write("tmp/g.rrd", b"garbage")),
     "view-web-json": Case(["view", "{tmp}/out/run.json", "--web"], "run.json: not a complete"),
     "view-truncated": Case(["view", "{tmp}/t.rrd"], "t.rrd: not a complete", write("tmp/t.rrd", b"RRF2\0\0\0\0")),
     # reports given to diff: nested, oversized, mistyped
-    "diff-report-nested-deep": Case(DIFF, "a.json: cannot read the report: nested more than",
-                                    write("tmp/a.json", nested(100_000))),
-    "diff-report-nested-in-a-block": Case(DIFF, "a.json: cannot read the report: nested more than",
-                                          write("tmp/a.json", report(run__parameters={"k": json.loads(nested(40))}))),
+    "diff-report-nested-deep": Case(
+        DIFF, "a.json: cannot read the report: nested more than", write("tmp/a.json", nested(100_000))
+    ),
+    "diff-report-nested-in-a-block": Case(
+        DIFF,
+        "a.json: cannot read the report: nested more than",
+        write("tmp/a.json", report(run__parameters={"k": json.loads(nested(40))})),
+    ),
     "diff-report-not-utf8": Case(DIFF, "a.json: cannot read the report: not UTF-8", write("tmp/a.json", b"{\xff}")),
-    "diff-run-name-with-slash": Case(DIFF, "a.json: run name 'orb/3' is not one viewslam writes",
-                                     write("tmp/a.json", report().replace('"run"', '"orb/3"'))),
-    "diff-run-name-dot-dot": Case(DIFF, "a.json: run name '..' is not one viewslam writes",
-                                  write("tmp/a.json", report().replace('"run"', '".."'))),
-    "diff-sequence-path-number": Case(DIFF, "a.json: sequence block: path is int",
-                                      write("tmp/a.json", report(sequence__path=5))),
-    "diff-sequence-frames-text": Case(DIFF, "a.json: sequence block: frames must be a count",
-                                      write("tmp/a.json", report(sequence__frames="three"))),
-    "diff-loss-without-timestamp": Case(DIFF, "a.json: run 'run': tracking_lost is not a list of losses",
-                                        write("tmp/a.json", report(run__tracking_lost=[{"frame": 1, "reason": "x"}]))),
-    "diff-lost-interval-text": Case(DIFF, "a.json: run 'run': coverage is not an object",
-                                    write("tmp/a.json", report(run__coverage={"lost_intervals": [["a", "b"]]}))),
+    "diff-run-name-with-slash": Case(
+        DIFF,
+        "a.json: run name 'orb/3' is not one viewslam writes",
+        write("tmp/a.json", report().replace('"run"', '"orb/3"')),
+    ),
+    "diff-run-name-dot-dot": Case(
+        DIFF, "a.json: run name '..' is not one viewslam writes", write("tmp/a.json", report().replace('"run"', '".."'))
+    ),
+    "diff-sequence-path-number": Case(
+        DIFF, "a.json: sequence block: path is int", write("tmp/a.json", report(sequence__path=5))
+    ),
+    "diff-sequence-frames-text": Case(
+        DIFF, "a.json: sequence block: frames must be a count", write("tmp/a.json", report(sequence__frames="three"))
+    ),
+    "diff-loss-without-timestamp": Case(
+        DIFF,
+        "a.json: run 'run': tracking_lost is not a list of losses",
+        write("tmp/a.json", report(run__tracking_lost=[{"frame": 1, "reason": "x"}])),
+    ),
+    "diff-lost-interval-text": Case(
+        DIFF,
+        "a.json: run 'run': coverage is not an object",
+        write("tmp/a.json", report(run__coverage={"lost_intervals": [["a", "b"]]})),
+    ),
 }
 
 CASES = RECORD_CASES | BENCHMARK_CASES | OTHER_CASES
@@ -552,9 +723,11 @@ def test_bad_input_is_one_line_exit_2_and_loses_nothing(case, excerpt, tmp_path,
 
 
 # Commands that create the cache before anything else.
-CACHE_COMMANDS = [["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
-                  ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
-                  ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"]]
+CACHE_COMMANDS = [
+    ["download", "fr1/xyz", "--mirror", "http://localhost:9", "--quiet"],
+    ["record", "sitting_static", "--out", "{tmp}/run.rrd", "--quiet"],
+    ["benchmark", "sitting_static", "--out", "{tmp}/bench", "--quiet"],
+]
 
 
 @pytest.mark.parametrize("arguments", CACHE_COMMANDS, ids=["download", "record", "benchmark"])
@@ -578,16 +751,19 @@ def read_only_cache(tmp_path):
         yield cache
         cache.chmod(0o755)
         return
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(cache)],
-                      capture_output=True).returncode != 0:
+    if (
+        subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", str(cache)], capture_output=True
+        ).returncode
+        != 0
+    ):
         pytest.skip("no read-only file system can be mounted here")
     yield cache
     subprocess.run(["umount", str(cache)], check=True)
 
 
 @pytest.mark.parametrize("arguments", CACHE_COMMANDS, ids=["download", "record", "benchmark"])
-def test_a_read_only_cache_is_one_line_naming_the_variable(arguments, read_only_cache, tmp_path, monkeypatch,
-                                                            capfd):
+def test_a_read_only_cache_is_one_line_naming_the_variable(arguments, read_only_cache, tmp_path, monkeypatch, capfd):
     monkeypatch.setenv("VIEWSLAM_CACHE", str(read_only_cache))
     monkeypatch.delenv("VIEWSLAM_DATA", raising=False)
     assert main([argument.format(tmp=tmp_path) for argument in arguments]) == 2
@@ -623,10 +799,12 @@ def png_chunks(data: bytes) -> list[bytes]:
     """The chunk types of a PNG, read with the format's own layout (length, type, data, CRC)."""
     kinds, offset = [], 8
     while offset < len(data):
-        (length,) = struct.unpack(">I", data[offset:offset + 4])
-        kinds.append(data[offset + 4:offset + 8])
-        assert zlib.crc32(data[offset + 4:offset + 8 + length]) == struct.unpack(
-            ">I", data[offset + 8 + length:offset + 12 + length])[0]
+        (length,) = struct.unpack(">I", data[offset : offset + 4])
+        kinds.append(data[offset + 4 : offset + 8])
+        assert (
+            zlib.crc32(data[offset + 4 : offset + 8 + length])
+            == struct.unpack(">I", data[offset + 8 + length : offset + 12 + length])[0]
+        )
         offset += 12 + length
     return kinds
 
@@ -649,7 +827,7 @@ def test_a_damaged_jpeg_is_read_without_libjpeg_noise(excerpt, tmp_path, capfd):
     seq = shutil.copytree(excerpt, tmp_path / excerpt.name)
     image = cv2.imread(str(first_image(seq, "rgb")))
     data = bytearray(cv2.imencode(".jpg", image)[1].tobytes())
-    data[len(data) // 2:len(data) // 2 + 20] = b"\xff\xd9" * 10  # an end marker inside the scan data
+    data[len(data) // 2 : len(data) // 2 + 20] = b"\xff\xd9" * 10  # an end marker inside the scan data
     first_image(seq, "rgb").write_bytes(bytes(data))
     frame = open_source(seq).frame(0)
     assert frame.rgb.shape == (480, 640, 3) and frame.rgb.dtype == np.uint8
@@ -666,8 +844,9 @@ def bound_by_modes(command: list[str]) -> list[str]:
     return ["setpriv", "--bounding-set", "-dac_override,-dac_read_search", *command]
 
 
-@pytest.mark.parametrize("locked, mode", [("sequence", 0o000), ("parent", 0o600)],
-                         ids=["sequence-mode-000", "parent-without-x"])
+@pytest.mark.parametrize(
+    "locked, mode", [("sequence", 0o000), ("parent", 0o600)], ids=["sequence-mode-000", "parent-without-x"]
+)
 def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, mode, excerpt, tmp_path):
     seq = shutil.copytree(excerpt, tmp_path / "parent" / excerpt.name)
     out = tmp_path / "out"
@@ -679,9 +858,26 @@ def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, 
     environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2])}
     try:
         assert subprocess.run(bound_by_modes(["test", "-r", str(seq / "rgb.txt")])).returncode == 1  # denied
-        result = subprocess.run(bound_by_modes([sys.executable, "-m", "viewer_slam", "record", str(seq), "--out",
-                                                str(out / "run.rrd"), "--pipeline", "rgbdslam", "--quiet"]),
-                                capture_output=True, text=True, env=environment, timeout=120)
+        result = subprocess.run(
+            bound_by_modes(
+                [
+                    sys.executable,
+                    "-m",
+                    "viewer_slam",
+                    "record",
+                    str(seq),
+                    "--out",
+                    str(out / "run.rrd"),
+                    "--pipeline",
+                    "rgbdslam",
+                    "--quiet",
+                ]
+            ),
+            capture_output=True,
+            text=True,
+            env=environment,
+            timeout=120,
+        )
     finally:
         folder.chmod(0o755)
     assert result.returncode == 2 and result.stderr.count("\n") == 1, result.stderr
@@ -691,12 +887,18 @@ def test_an_untraversable_sequence_folder_is_one_line_and_loses_nothing(locked, 
 
 # Nothing but our own lines on stderr: what native libraries print is held at its source.
 
-def run_viewslam(*arguments, environment: dict[str, str] | None = None,
-                 timeout: float = 300) -> subprocess.CompletedProcess:
+
+def run_viewslam(
+    *arguments, environment: dict[str, str] | None = None, timeout: float = 300
+) -> subprocess.CompletedProcess:
     """``viewslam ARGUMENTS`` from this tree, in a process of its own, its output captured as bytes."""
     environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[2]), **(environment or {})}
-    return subprocess.run([sys.executable, "-m", "viewer_slam", *map(str, arguments)], capture_output=True,
-                          env=environment, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "viewer_slam", *map(str, arguments)],
+        capture_output=True,
+        env=environment,
+        timeout=timeout,
+    )
 
 
 def test_a_bag_whose_depth_is_all_infinite_records_with_nothing_on_stderr(tmp_path):
@@ -757,8 +959,15 @@ ENCODINGS = ["ascii", "latin-1"]
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_record_prints_its_progress_and_summary_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
     # A wide terminal: the long temporary path is printed on one line, as the check below reads it.
-    result = run_viewslam("record", excerpt, "--out", tmp_path / "run.rrd", "--pipeline", "rgbdslam",
-                          environment={"PYTHONIOENCODING": encoding, "COLUMNS": "400"})
+    result = run_viewslam(
+        "record",
+        excerpt,
+        "--out",
+        tmp_path / "run.rrd",
+        "--pipeline",
+        "rgbdslam",
+        environment={"PYTHONIOENCODING": encoding, "COLUMNS": "400"},
+    )
     assert result.returncode == 0, result.stderr
     printed = result.stdout.decode("ascii")  # nothing but ASCII: the table's rules, the dashes of no figure
     assert "rgbdslam" in printed and f"wrote {tmp_path / 'run.rrd'}" in printed and "+-" in printed
@@ -767,8 +976,11 @@ def test_record_prints_its_progress_and_summary_in_a_locale_without_utf8(excerpt
 
 @pytest.mark.parametrize("encoding", ENCODINGS)
 def test_evaluate_and_the_lists_print_in_a_locale_without_utf8(excerpt, tmp_path, encoding):
-    for arguments in (["evaluate", excerpt / "groundtruth.txt", excerpt / "groundtruth.txt"], ["sequences"],
-                      ["pipelines"]):
+    for arguments in (
+        ["evaluate", excerpt / "groundtruth.txt", excerpt / "groundtruth.txt"],
+        ["sequences"],
+        ["pipelines"],
+    ):
         result = run_viewslam(*arguments, environment={"PYTHONIOENCODING": encoding})
         assert result.returncode == 0 and result.stderr == b"", (arguments, result.stderr)
         # Their lines are echoed by click, which writes UTF-8 to a stream it takes for a misconfigured ASCII one.

@@ -29,8 +29,19 @@ def run(capsys, *args) -> tuple[int, str, str]:
 
 
 def test_prints_the_table_and_writes_json_and_plot(capsys, tmp_path):
-    code, out, err = run(capsys, GROUNDTRUTH, ESTIMATE, "--json", tmp_path / "e.json", "--plot", tmp_path / "e.png",
-                         "--delta", 1, "--delta-unit", "frames")
+    code, out, err = run(
+        capsys,
+        GROUNDTRUTH,
+        ESTIMATE,
+        "--json",
+        tmp_path / "e.json",
+        "--plot",
+        tmp_path / "e.png",
+        "--delta",
+        1,
+        "--delta-unit",
+        "frames",
+    )
     assert code == 0
     assert err == f"wrote {tmp_path / 'e.json'}\nwrote {tmp_path / 'e.png'}\n"
     for column in ("estimate", "pairs", "coverage", "ATE", "ATE seg.", "RPE trans", "RPE rot", "penal. ATE"):
@@ -44,8 +55,12 @@ def test_prints_the_table_and_writes_json_and_plot(capsys, tmp_path):
     assert (blocks["rpe"]["delta"], blocks["rpe"]["delta_unit"]) == (1, "frames")
     assert blocks["alignment"] == "rigid"
     assert table_rows(out)[str(ESTIMATE)] == [
-        "786", f"{blocks['coverage']['ratio']:.1%}", *(f"{blocks[key]['rmse']:.4f}" for key in ("ate", "ate_segments")),
-        *(f"{blocks['rpe'][key]['rmse']:.4f}" for key in ("trans", "rot")), f"{blocks['penalized_ate']['rmse']:.4f}"]
+        "786",
+        f"{blocks['coverage']['ratio']:.1%}",
+        *(f"{blocks[key]['rmse']:.4f}" for key in ("ate", "ate_segments")),
+        *(f"{blocks['rpe'][key]['rmse']:.4f}" for key in ("trans", "rot")),
+        f"{blocks['penalized_ate']['rmse']:.4f}",
+    ]
     assert "RPE trans [m], rot [deg]: alignment-free, Δ = 1 frame" in out
     assert (tmp_path / "e.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert (tmp_path / "e.png").stat().st_size > 20_000
@@ -65,8 +80,19 @@ def table_rows(out: str) -> dict[str, list[str]]:
 def test_output_is_byte_identical_across_runs(capsys, tmp_path, monkeypatch, picture):
     for name, second in (("a", 1_700_000_000.0), ("b", 1_700_000_100.0)):  # a date in the file would differ
         monkeypatch.setattr("time.time", lambda second=second: second)
-        assert run(capsys, GROUNDTRUTH, ESTIMATE, "--all-deltas", "--json", tmp_path / f"{name}.json",
-                   "--plot", tmp_path / f"{name}.{picture}")[0] == 0
+        assert (
+            run(
+                capsys,
+                GROUNDTRUTH,
+                ESTIMATE,
+                "--all-deltas",
+                "--json",
+                tmp_path / f"{name}.json",
+                "--plot",
+                tmp_path / f"{name}.{picture}",
+            )[0]
+            == 0
+        )
     assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
     assert (tmp_path / f"a.{picture}").read_bytes() == (tmp_path / f"b.{picture}").read_bytes()
 
@@ -89,7 +115,10 @@ def test_a_sequence_folder_as_groundtruth_measures_coverage_over_its_frames(caps
     assert run(capsys, sequence / "groundtruth.txt", tmp_path / "est.txt", "--json", tmp_path / "file.json")[0] == 0
     frames = open_source(sequence).timestamps
     assert json.loads((tmp_path / "folder.json").read_text())["coverage"] == {
-        "ratio": 1.0, "lost_intervals": [], "span": {"start": frames[0], "end": frames[-1], "rule": "sequence frames"}}
+        "ratio": 1.0,
+        "lost_intervals": [],
+        "span": {"start": frames[0], "end": frames[-1], "rule": "sequence frames"},
+    }
     assert json.loads((tmp_path / "file.json").read_text())["ate"]["n"] == len(groundtruth)
 
 
@@ -139,8 +168,23 @@ def test_an_unreadable_png_in_a_sequence_is_one_line_naming_it(tmp_path):
     first_listed = next(line for line in (sequence / "rgb.txt").read_text().splitlines() if not line.startswith("#"))
     broken = sequence / first_listed.split()[1]
     broken.write_bytes(b"this is not a PNG")
-    result = subprocess.run([VIEWSLAM, "record", sequence, "--pipeline", "rgbdslam", "--max-frames", "2",
-                             "--quiet", "--out", tmp_path / "x.rrd"], capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [
+            VIEWSLAM,
+            "record",
+            sequence,
+            "--pipeline",
+            "rgbdslam",
+            "--max-frames",
+            "2",
+            "--quiet",
+            "--out",
+            tmp_path / "x.rrd",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 2
     assert result.stderr == f"viewslam: error: {broken}: not a readable image\n"
 
@@ -166,8 +210,11 @@ def test_the_readme_example_is_fully_covered_and_its_first_half_half_covered(cap
     assert full["ratio"] >= 0.99 and full["lost_intervals"] == []
     assert 0.45 <= half["ratio"] <= 0.55 and len(half["lost_intervals"]) == 1
     start = read_tum(ESTIMATE).timestamps[0]
-    assert full["span"] == {"start": start, "end": read_tum(GROUNDTRUTH).timestamps[-1],
-                            "rule": "estimate start to groundtruth end"}
+    assert full["span"] == {
+        "start": start,
+        "end": read_tum(GROUNDTRUTH).timestamps[-1],
+        "rule": "estimate start to groundtruth end",
+    }
     assert f"{ESTIMATE}: read as TUM; coverage over {start:.6f}.." in out
     assert "estimate start to groundtruth end), 0 lost intervals" in out
     assert f"{cut}: read as TUM; coverage over" in out and out.rstrip().endswith(", 1 lost interval")
@@ -184,11 +231,24 @@ def test_span_and_sequence_options_set_the_coverage_span(capsys, tmp_path):
     sequence = tmp_path / "rgbd_dataset_freiburg1_rpy"
     shutil.copytree(TUM_RPY, sequence, ignore=shutil.ignore_patterns("*.png"))
     (tmp_path / "est.txt").write_text((sequence / "groundtruth.txt").read_text())
-    assert run(capsys, sequence / "groundtruth.txt", tmp_path / "est.txt", "--sequence", sequence,
-               "--json", tmp_path / "q.json")[0] == 0
+    assert (
+        run(
+            capsys,
+            sequence / "groundtruth.txt",
+            tmp_path / "est.txt",
+            "--sequence",
+            sequence,
+            "--json",
+            tmp_path / "q.json",
+        )[0]
+        == 0
+    )
     frames = open_source(sequence).timestamps
     assert json.loads((tmp_path / "q.json").read_text())["coverage"]["span"] == {
-        "start": frames[0], "end": frames[-1], "rule": "sequence frames"}
+        "start": frames[0],
+        "end": frames[-1],
+        "rule": "sequence frames",
+    }
 
 
 def test_several_estimates_give_the_same_numbers_per_row_as_separate_calls(capsys, tmp_path):
@@ -225,8 +285,13 @@ def test_each_alignment_is_named_in_the_report_and_on_the_terminal(capsys, tmp_p
     legend = out.splitlines()[1:4]
     assert legend[0].startswith("  ATE, penal. ATE [m]: ") and legend[1].startswith("  ATE seg. [m]: ")
     assert legend[2].startswith("  RPE trans [m], rot [deg]: alignment-free")
-    assert {"rigid": "rigid alignment", "sim3": "similarity", "origin": "origin alignment",
-            "segments": "each tracked segment", "none": "no alignment"}[align] in legend[0]
+    assert {
+        "rigid": "rigid alignment",
+        "sim3": "similarity",
+        "origin": "origin alignment",
+        "segments": "each tracked segment",
+        "none": "no alignment",
+    }[align] in legend[0]
 
 
 def test_scale_is_the_sim3_spelling(capsys, tmp_path):
@@ -288,8 +353,13 @@ def test_piped_tables_are_never_cut(tmp_path):
     deep.mkdir()
     estimate = deep / "freiburg1_xyz-rgbdslam.txt"
     shutil.copy(ESTIMATE, estimate)
-    result = subprocess.run([VIEWSLAM, "evaluate", GROUNDTRUTH, estimate, "--json", tmp_path / "e.json"],
-                            capture_output=True, text=True, timeout=120, env={**os.environ, "COLUMNS": "60"})
+    result = subprocess.run(
+        [VIEWSLAM, "evaluate", GROUNDTRUTH, estimate, "--json", tmp_path / "e.json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "COLUMNS": "60"},
+    )
     assert result.returncode == 0 and result.stderr == f"wrote {tmp_path / 'e.json'}\n"
     assert "…" not in result.stdout
     blocks = json.loads((tmp_path / "e.json").read_text())

@@ -16,17 +16,30 @@ from hypothesis import strategies as st
 
 from viewer_slam.errors import InputError
 
-CAMERA = {"fx": 517.3, "fy": 516.5, "cx": 318.6, "cy": 255.3, "width": 640, "height": 480, "depth_factor": 5000.0,
-          "distortion": [0.26, -0.95, -0.005, 0.003, 1.16]}
+CAMERA = {
+    "fx": 517.3,
+    "fy": 516.5,
+    "cx": 318.6,
+    "cy": 255.3,
+    "width": 640,
+    "height": 480,
+    "depth_factor": 5000.0,
+    "distortion": [0.26, -0.95, -0.005, 0.003, 1.16],
+}
 CONFIG = '[rgbdslam]\nmax_keypoints = 600\nnn_distance_ratio = 0.6\n\n[rtabmap]\n"Vis/MaxFeatures" = 400\n'
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 # Values of every JSON type, including the awkward ones: a number too long to convert, an infinity.
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers(-2**70, 2**70) | st.floats() | st.text(max_size=8)
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**70), 2**70)
+    | st.floats()
+    | st.text(max_size=8)
     | st.just(int("9" * 40)),
     lambda children: st.lists(children, max_size=3) | st.dictionaries(st.text(max_size=4), children, max_size=3),
-    max_leaves=6)
+    max_leaves=6,
+)
 
 
 def paths_into(value, prefix=()) -> list[tuple]:
@@ -66,13 +79,27 @@ def json_variants(draw, good) -> str:
         depth = draw(st.integers(1, 200_000))
         return draw(st.sampled_from(["[", '{"a":'])) * depth + "1"
     if kind == "mistyped":
-        return json.dumps(replaced(good, draw(st.sampled_from(paths_into(good))), draw(json_values)),
-                          allow_nan=True)
-    return text[:draw(st.integers(0, len(text) - 1))]
+        return json.dumps(replaced(good, draw(st.sampled_from(paths_into(good))), draw(json_values)), allow_nan=True)
+    return text[: draw(st.integers(0, len(text) - 1))]
 
 
-toml_literals = st.sampled_from(['"text"', "true", "1.5", "-7", "nan", "inf", "[1, 2]", "{a = 1}", "1979-05-27",
-                                 "9" * 5000, "0x7fffffffffffffff", "[[1], [2]]", '"""'])
+toml_literals = st.sampled_from(
+    [
+        '"text"',
+        "true",
+        "1.5",
+        "-7",
+        "nan",
+        "inf",
+        "[1, 2]",
+        "{a = 1}",
+        "1979-05-27",
+        "9" * 5000,
+        "0x7fffffffffffffff",
+        "[[1], [2]]",
+        '"""',
+    ]
+)
 
 
 @st.composite
@@ -87,7 +114,7 @@ def toml_variants(draw) -> str:
         index = draw(st.sampled_from([i for i, line in enumerate(lines) if " = " in line]))
         lines[index] = lines[index].split(" = ")[0] + " = " + draw(toml_literals)
         return "\n".join(lines) + "\n"
-    return CONFIG[:draw(st.integers(0, len(CONFIG) - 1))]
+    return CONFIG[: draw(st.integers(0, len(CONFIG) - 1))]
 
 
 def reads_or_names(path: Path, read: Callable[[], object], capfd) -> None:
@@ -173,7 +200,7 @@ def damaged_images(draw) -> bytes:
     data = bytearray(IMAGES[draw(st.sampled_from(sorted(IMAGES)))])
     kind = draw(st.sampled_from(["truncated", "first-marker", "flipped"]))
     if kind == "truncated":
-        return bytes(data[:draw(st.integers(0, len(data) - 1))])
+        return bytes(data[: draw(st.integers(0, len(data) - 1))])
     if kind == "first-marker":  # a marker of another kind (or none) after the signature
         data[3] = draw(st.integers(0, 255))
         return bytes(data)
@@ -210,8 +237,7 @@ def bag(tmp_path_factory) -> bytes:
             stamp = 5 * 10**9 + k * 33_333_333
             writer.image("/cam/rgb", stamp, "cam", rng.integers(0, 256, (24, 32, 3), dtype=np.uint8), "bgr8")
             writer.camera_info("/cam/camera_info", stamp, "cam", 32, 24, (40.0, 41.0, 15.5, 11.5), (0, 0, 0, 0, 0))
-            writer.image("/cam/depth", stamp + 1000, "cam", rng.uniform(0.5, 3, (24, 32)).astype(np.float32),
-                         "32FC1")
+            writer.image("/cam/depth", stamp + 1000, "cam", rng.uniform(0.5, 3, (24, 32)).astype(np.float32), "32FC1")
     return path.read_bytes()
 
 
@@ -222,7 +248,7 @@ def test_bag_reader(bag, data, capfd):
 
     damaged = bytearray(bag)
     if data.draw(st.booleans(), label="truncate"):
-        del damaged[data.draw(st.integers(0, len(bag) - 1), label="at"):]
+        del damaged[data.draw(st.integers(0, len(bag) - 1), label="at") :]
     else:
         for _ in range(data.draw(st.integers(1, 8), label="flips")):
             offset = data.draw(st.integers(0, len(bag) - 1), label="offset")

@@ -43,8 +43,24 @@ def test_non_empty_folder_is_refused_without_force(tmp_path, capsys):
     assert main(["synth", "sitting_static", "--out", str(out), *TINY, "--force"]) == 0
     assert (out / "keep.txt").read_text() == "mine"
     assert len(open_source(out)) == 6
-    assert main(["synth", "sitting_static", "--out", str(out), "--frames", "4", "--resolution", "64x48",
-                 "--force", "--camera", "fr1"]) == 0
+    assert (
+        main(
+            [
+                "synth",
+                "sitting_static",
+                "--out",
+                str(out),
+                "--frames",
+                "4",
+                "--resolution",
+                "64x48",
+                "--force",
+                "--camera",
+                "fr1",
+            ]
+        )
+        == 0
+    )
     sequence = open_source(out)
     assert len(sequence) == 4 and len(list((out / "rgb").iterdir())) == 4
     assert sequence.camera.fx == pytest.approx(517.3 / 10)
@@ -52,8 +68,21 @@ def test_non_empty_folder_is_refused_without_force(tmp_path, capsys):
 
 
 def test_console_script_writes_a_sequence(tmp_path):
-    result = subprocess.run([Path(sys.executable).parent / "viewslam", "synth", "pioneer_360", "--out", str(tmp_path / "p"), *TINY,
-                             "--seed", "2"], capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [
+            Path(sys.executable).parent / "viewslam",
+            "synth",
+            "pioneer_360",
+            "--out",
+            str(tmp_path / "p"),
+            *TINY,
+            "--seed",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr
     assert read_info(tmp_path / "p")["seed"] == 2
 
@@ -70,8 +99,11 @@ def test_cached_scenario_generates_once(tmp_path, monkeypatch):
 
 
 def _files(folder: Path) -> dict[str, bytes]:
-    return {f"{kind}/{path.name}": path.read_bytes() for kind in ("rgb", "depth")
-            for path in sorted((folder / kind).iterdir())}
+    return {
+        f"{kind}/{path.name}": path.read_bytes()
+        for kind in ("rgb", "depth")
+        for path in sorted((folder / kind).iterdir())
+    }
 
 
 def test_a_cut_renders_only_its_frames_byte_identical_to_the_whole_run(tmp_path, monkeypatch):

@@ -67,10 +67,14 @@ def test_a_viewer_that_fails_later_is_one_line_with_its_reason(recording, tmp_pa
 
     monkeypatch.setenv("DISPLAY", ":99")
     monkeypatch.setattr(viewer, "VIEWER_START_S", 0.0)
-    shell_viewer(tmp_path, monkeypatch, "printf '\\033[33m WARN\\033[0m noise\\nError: wgpu: the GPU went away\\n' >&2; exit 1")
+    shell_viewer(
+        tmp_path, monkeypatch, "printf '\\033[33m WARN\\033[0m noise\\nError: wgpu: the GPU went away\\n' >&2; exit 1"
+    )
     assert main(["view", str(recording)]) == 2
-    assert capfd.readouterr().err == f"viewslam: error: {recording}: the viewer ended with an error (wgpu: the GPU " \
-                                     f"went away)\n"
+    assert (
+        capfd.readouterr().err == f"viewslam: error: {recording}: the viewer ended with an error (wgpu: the GPU "
+        f"went away)\n"
+    )
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="DISPLAY and WAYLAND_DISPLAY are X11/Wayland's")
@@ -97,8 +101,13 @@ def test_record_spawn_with_no_display_says_so_before_anything_is_written(tmp_pat
 def test_view_web_serves_the_web_viewer_on_localhost(tmp_path):
     recording = tiny_recording(tmp_path / "one-point.rrd")
     environment = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    process = subprocess.Popen([VIEWSLAM, "view", str(recording), "--web"], stdout=subprocess.PIPE, text=True,
-                               env=environment, start_new_session=True)
+    process = subprocess.Popen(
+        [VIEWSLAM, "view", str(recording), "--web"],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    )
     try:
         line = process.stdout.readline()
         address = re.search(r"http://127\.0\.0\.1:\d+/\S*", line)
@@ -165,14 +174,18 @@ def test_record_spawn_streams_to_the_viewer_it_started_and_to_no_other(tiny_run,
     assert subprocess.run([viewer_binary(), "rrd", "verify", str(out)], capture_output=True).returncode == 0
 
 
-def test_record_spawn_of_a_viewer_that_exits_at_once_is_one_line_and_loses_nothing(tiny_run, tmp_path, monkeypatch,
-                                                                                   capsys):
+def test_record_spawn_of_a_viewer_that_exits_at_once_is_one_line_and_loses_nothing(
+    tiny_run, tmp_path, monkeypatch, capsys
+):
     sequence, out = tiny_run
     fake_viewer(tmp_path, monkeypatch, "sys.exit(1)")
     assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--spawn", "--quiet"]) == 2
     error = capsys.readouterr().err
-    assert error.startswith("viewslam: error: --spawn: the viewer exited at once (exit code 1)") and \
-        f"viewslam view {out} --web" in error and error.count("\n") == 1
+    assert (
+        error.startswith("viewslam: error: --spawn: the viewer exited at once (exit code 1)")
+        and f"viewslam view {out} --web" in error
+        and error.count("\n") == 1
+    )
     assert [path.name for path in out.parent.iterdir()] == ["run.rrd"] and out.read_bytes() == b"earlier recording"
 
 
@@ -193,21 +206,30 @@ def silent_listener():
         yield listener.getsockname()[1]
 
 
-@pytest.mark.parametrize("address, problem", [
-    ("localhost", "not a viewer address"), ("localhost:0", "not a viewer address"),
-    ("localhost:http", "not a viewer address"), ("http://localhost:9876/proxy", "not a viewer address"),
-    ("rerun+http://localhost:9876/other", "not a viewer address"),
-    ("127.0.0.1:{refusing}", "no viewer accepts connections there"), ("127.0.0.1:{silent}", "no answer from a viewer"),
-], ids=["no-port", "port-0", "port-not-a-number", "http-scheme", "not-the-proxy", "refused", "silent"])
-def test_record_connect_to_no_viewer_is_one_line_and_loses_nothing(address, problem, tiny_run, silent_listener,
-                                                                  monkeypatch, capsys):
+@pytest.mark.parametrize(
+    "address, problem",
+    [
+        ("localhost", "not a viewer address"),
+        ("localhost:0", "not a viewer address"),
+        ("localhost:http", "not a viewer address"),
+        ("http://localhost:9876/proxy", "not a viewer address"),
+        ("rerun+http://localhost:9876/other", "not a viewer address"),
+        ("127.0.0.1:{refusing}", "no viewer accepts connections there"),
+        ("127.0.0.1:{silent}", "no answer from a viewer"),
+    ],
+    ids=["no-port", "port-0", "port-not-a-number", "http-scheme", "not-the-proxy", "refused", "silent"],
+)
+def test_record_connect_to_no_viewer_is_one_line_and_loses_nothing(
+    address, problem, tiny_run, silent_listener, monkeypatch, capsys
+):
     import viewer_slam.rerun_adapter.viewer as viewer
 
     monkeypatch.setattr(viewer, "CONNECT_TIMEOUT_S", 0.5)
     sequence, out = tiny_run
     address = address.format(refusing=refusing_port(), silent=silent_listener)
-    assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address,
-                 "--quiet"]) == 2
+    assert (
+        main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address, "--quiet"]) == 2
+    )
     error = capsys.readouterr().err
     assert error.startswith(f"viewslam: error: --connect {address}: {problem}") and error.count("\n") == 1, error
     assert [path.name for path in out.parent.iterdir()] == ["run.rrd"] and out.read_bytes() == b"earlier recording"
@@ -234,6 +256,8 @@ def test_record_connect_keeps_the_recording_when_the_viewer_goes_away(tiny_run):
 
         threading.Thread(target=answer_then_close, daemon=True).start()
         address = f"127.0.0.1:{listener.getsockname()[1]}"
-        assert main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address,
-                     "--quiet"]) == 0
+        assert (
+            main(["record", str(sequence), "--pipeline", "fake", "--out", str(out), "--connect", address, "--quiet"])
+            == 0
+        )
     assert subprocess.run([viewer_binary(), "rrd", "verify", str(out)], capture_output=True).returncode == 0

@@ -31,17 +31,43 @@ def runs(tmp_path_factory):
         patch.setenv("VIEWSLAM_CACHE", str(tmp_path_factory.mktemp("cache")))
         scenario = cached_scenario("360_kidnap", frames=FRAMES, resolution=(320, 240), seed=0)
         for name, countdown in (("a", 0), ("b", 5)):
-            assert main(["record", str(scenario), "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
-                         "--param", f"Odom/ResetCountdown={countdown}", "--out", str(folder / f"{name}.rrd"),
-                         "--quiet"]) == 0
+            assert (
+                main(
+                    [
+                        "record",
+                        str(scenario),
+                        "--pipeline",
+                        "rtabmap",
+                        "--param",
+                        "Rtabmap/DetectionRate=5",
+                        "--param",
+                        f"Odom/ResetCountdown={countdown}",
+                        "--out",
+                        str(folder / f"{name}.rrd"),
+                        "--quiet",
+                    ]
+                )
+                == 0
+            )
     return folder
 
 
 @pytest.fixture(scope="module")
 def compared(runs):
-    result = subprocess.run([BIN / "viewslam", "diff", str(runs / "a.json"), str(runs / "b.json"),
-                             "--json", str(runs / "diff.json"), "--out", str(runs / "diff.rrd")],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [
+            BIN / "viewslam",
+            "diff",
+            str(runs / "a.json"),
+            str(runs / "b.json"),
+            "--json",
+            str(runs / "diff.json"),
+            "--out",
+            str(runs / "diff.rrd"),
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 0, result.stderr
     return json.loads((runs / "diff.json").read_text())["runs"][0], result.stdout
 
@@ -57,8 +83,11 @@ def test_the_frames_recovered_are_those_only_the_resetting_run_has_a_pose_for(ru
     assert len(comparison["frames_only_b"]) == len(b_stamps - a_stamps) > 0
     assert len(comparison["frames_only_a"]) == len(a_stamps - b_stamps)
     a, b = report(runs, "a"), report(runs, "b")
-    assert len(comparison["frames_only_b"]) - len(comparison["frames_only_a"]) == \
-        b["frames_with_pose"] - a["frames_with_pose"] == comparison["summary"]["poses"]["difference"]
+    assert (
+        len(comparison["frames_only_b"]) - len(comparison["frames_only_a"])
+        == b["frames_with_pose"] - a["frames_with_pose"]
+        == comparison["summary"]["poses"]["difference"]
+    )
     assert f"frames tracked by B only: {len(comparison['frames_only_b'])} (" in stdout
 
 
@@ -67,7 +96,7 @@ def test_coverage_and_penalised_ate_change_as_the_reports_say(runs, compared):
     a, b = report(runs, "a"), report(runs, "b")
     coverage = comparison["summary"]["coverage"]
     assert coverage["difference"] == pytest.approx(b["coverage"]["ratio"] - a["coverage"]["ratio"])
-    assert coverage["difference"] > 0                              # resetting keeps a pose for longer
+    assert coverage["difference"] > 0  # resetting keeps a pose for longer
     penalised = comparison["summary"]["penalised ATE RMSE [m]"]
     assert penalised["difference"] == pytest.approx(b["penalized_ate"]["rmse"] - a["penalized_ate"]["rmse"])
     assert f"{coverage['difference']:+.3f}" in stdout and f"{penalised['difference']:+.3f}" in stdout
@@ -79,9 +108,12 @@ def test_the_per_frame_errors_are_the_reports_ate_again(runs, compared):
         errors = np.array([e for e in comparison["per_frame"][f"ate_{side}"] if e is not None])
         expected = report(runs, side)["ate"]
         assert len(errors) == expected["n"]
-        assert np.sqrt(np.mean(errors ** 2)) == pytest.approx(expected["rmse"], abs=1e-5)
-    both = [(a, b) for a, b in zip(comparison["per_frame"]["ate_a"], comparison["per_frame"]["ate_b"])
-            if a is not None and b is not None]
+        assert np.sqrt(np.mean(errors**2)) == pytest.approx(expected["rmse"], abs=1e-5)
+    both = [
+        (a, b)
+        for a, b in zip(comparison["per_frame"]["ate_a"], comparison["per_frame"]["ate_b"])
+        if a is not None and b is not None
+    ]
     assert comparison["ate_difference"]["frames"] == len(both)
     assert comparison["ate_difference"]["mean"] == pytest.approx(np.mean([b - a for a, b in both]))
 
@@ -101,13 +133,23 @@ def test_the_diff_recording_holds_both_runs_and_the_difference_without_empty_chu
     chunks = list(RrdReader(recording).stream().to_chunks())
     assert all(chunk.num_rows > 0 for chunk in chunks)
     entities = {chunk.entity_path for chunk in chunks}
-    assert {"/world/groundtruth", "/world/A/rtabmap/trajectory", "/world/B/rtabmap/trajectory",
-            "/metrics/A/rtabmap/ate", "/metrics/B/rtabmap/ate", "/metrics/difference/rtabmap/ate",
-            "/metrics/A/rtabmap/pose", "/metrics/B/rtabmap/pose"} <= entities
-    difference_rows = sum(chunk.num_rows for chunk in chunks
-                          if chunk.entity_path == "/metrics/difference/rtabmap/ate" and not chunk.is_static)
+    assert {
+        "/world/groundtruth",
+        "/world/A/rtabmap/trajectory",
+        "/world/B/rtabmap/trajectory",
+        "/metrics/A/rtabmap/ate",
+        "/metrics/B/rtabmap/ate",
+        "/metrics/difference/rtabmap/ate",
+        "/metrics/A/rtabmap/pose",
+        "/metrics/B/rtabmap/pose",
+    } <= entities
+    difference_rows = sum(
+        chunk.num_rows
+        for chunk in chunks
+        if chunk.entity_path == "/metrics/difference/rtabmap/ate" and not chunk.is_static
+    )
     both = compared[0]["ate_difference"]["frames"]
-    assert both <= difference_rows <= both + 2                     # the values, and a break after each run of them
+    assert both <= difference_rows <= both + 2  # the values, and a break after each run of them
 
 
 def bad(arguments: list[str], capsys) -> str:

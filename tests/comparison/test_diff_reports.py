@@ -41,15 +41,19 @@ def field(key, value):
     return lambda data: data["pipelines"]["fake"].update({key: value})
 
 
-@pytest.mark.parametrize("edit, problem", [
-    (lambda data: [], "not a `viewslam record` report"),
-    (lambda data: 5, "not a `viewslam record` report"),
-    (lambda data: data.update(pipelines=[]), "not a `viewslam record` report"),
-    (run_block(5), "run 'fake' is int, not a run block"),
-    (field("tracking_lost", None), "tracking_lost is not a list of losses"),
-    (field("tracking_lost", [{"frame": "3"}]), "tracking_lost is not a list of losses"),
-    (field("parameters", [1, 2]), "parameters is not an object"),
-], ids=["list", "number", "pipelines-list", "block-number", "losses-null", "loss-frame-text", "parameters-list"])
+@pytest.mark.parametrize(
+    "edit, problem",
+    [
+        (lambda data: [], "not a `viewslam record` report"),
+        (lambda data: 5, "not a `viewslam record` report"),
+        (lambda data: data.update(pipelines=[]), "not a `viewslam record` report"),
+        (run_block(5), "run 'fake' is int, not a run block"),
+        (field("tracking_lost", None), "tracking_lost is not a list of losses"),
+        (field("tracking_lost", [{"frame": "3"}]), "tracking_lost is not a list of losses"),
+        (field("parameters", [1, 2]), "parameters is not an object"),
+    ],
+    ids=["list", "number", "pipelines-list", "block-number", "losses-null", "loss-frame-text", "parameters-list"],
+)
 def test_a_malformed_report_is_one_line_naming_it(report, tmp_path, capsys, edit, problem):
     other = edited(report, tmp_path, edit)
     assert main(["diff", str(report), str(other)]) == 2

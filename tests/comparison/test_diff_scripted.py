@@ -22,8 +22,21 @@ def reports(tmp_path, monkeypatch):
     folder = write_tum_folder(tmp_path / "tiny", frames=FRAMES)
     for name, params in (("a", ["lost_from=10"]), ("b", ["lost_from=15", "lost_until=20", "wobble_m=0.05"])):
         arguments = [argument for value in params for argument in ("--param", value)]
-        assert main(["record", str(folder), "--pipeline", "fake", *arguments, "--out", str(tmp_path / f"{name}.rrd"),
-                     "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "record",
+                    str(folder),
+                    "--pipeline",
+                    "fake",
+                    *arguments,
+                    "--out",
+                    str(tmp_path / f"{name}.rrd"),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     return tmp_path / "a.json", tmp_path / "b.json"
 
 
@@ -40,11 +53,11 @@ def test_per_frame_errors_and_their_difference(reports):
     (run,) = compare_reports(*reports).runs
     tracked_a = np.isfinite(run.ate_a)
     assert np.flatnonzero(tracked_a).tolist() == list(range(10))
-    np.testing.assert_allclose(run.ate_a[tracked_a], 0.0, atol=1e-5)   # exact up to a constant offset
+    np.testing.assert_allclose(run.ate_a[tracked_a], 0.0, atol=1e-5)  # exact up to a constant offset
     both = np.isfinite(run.ate_difference)
     assert np.flatnonzero(both).tolist() == list(range(10))
     np.testing.assert_allclose(run.ate_difference[both], run.ate_b[both] - run.ate_a[both])
-    assert np.all(run.ate_b[both] > 0.05)                                # the wobble is not aligned away
+    assert np.all(run.ate_b[both] > 0.05)  # the wobble is not aligned away
 
 
 def test_the_table_and_json_agree_with_the_comparison(reports, tmp_path, capsys):
@@ -74,10 +87,38 @@ def test_two_methods_of_one_report_are_compared_by_name(tmp_path, monkeypatch, c
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
     monkeypatch.setenv("VIEWSLAM_CACHE", str(tmp_path / "cache"))
     folder = write_tum_folder(tmp_path / "tiny", frames=FRAMES)
-    assert main(["record", str(folder), "--pipeline", "fake", "--param", "lost_from=10", "--out",
-                 str(tmp_path / "early.rrd"), "--quiet"]) == 0
-    assert main(["record", str(folder), "--pipeline", "fake", "--estimate", f"early={tmp_path / 'early.fake.txt'}",
-                 "--out", str(tmp_path / "both.rrd"), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                str(folder),
+                "--pipeline",
+                "fake",
+                "--param",
+                "lost_from=10",
+                "--out",
+                str(tmp_path / "early.rrd"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "record",
+                str(folder),
+                "--pipeline",
+                "fake",
+                "--estimate",
+                f"early={tmp_path / 'early.fake.txt'}",
+                "--out",
+                str(tmp_path / "both.rrd"),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     report, out = tmp_path / "both.json", tmp_path / "diff.json"
     assert main(["diff", str(report), str(report), "--runs", "fake:early", "--json", str(out)]) == 0

@@ -14,8 +14,15 @@ from viewer_slam.dataset.synth import SCENARIOS
 from viewer_slam.errors import InputError
 
 # The seven sequences of the study.
-STUDY = ("fr2/desk_with_person", "fr2/pioneer_360", "fr2/360_kidnap", "fr3/long_office_household",
-         "fr3/nostructure_notexture_near_withloop", "fr3/nostructure_texture_near_withloop", "fr3/sitting_static")
+STUDY = (
+    "fr2/desk_with_person",
+    "fr2/pioneer_360",
+    "fr2/360_kidnap",
+    "fr3/long_office_household",
+    "fr3/nostructure_notexture_near_withloop",
+    "fr3/nostructure_texture_near_withloop",
+    "fr3/sitting_static",
+)
 
 
 @pytest.fixture(autouse=True)
@@ -30,15 +37,25 @@ def test_tum_catalogue_names_aliases_and_archives():
     assert len(TUM_SEQUENCES) == 80
     assert len({info.name for info in TUM_SEQUENCES}) == len({info.alias for info in TUM_SEQUENCES}) == 80
     categories = Counter(info.category for info in TUM_SEQUENCES)
-    assert categories == {"testing": 4, "handheld": 11, "robot": 4, "structure_texture": 8, "dynamic": 9,
-                          "object_reconstruction": 11, "validation": 33}
+    assert categories == {
+        "testing": 4,
+        "handheld": 11,
+        "robot": 4,
+        "structure_texture": 8,
+        "dynamic": 9,
+        "object_reconstruction": 11,
+        "validation": 33,
+    }
     assert Counter(info.camera for info in TUM_SEQUENCES) == {"freiburg1": 16, "freiburg2": 25, "freiburg3": 39}
     kidnap = tum_sequence("fr2/360_kidnap")
     assert kidnap is tum_sequence("rgbd_dataset_freiburg2_360_kidnap") is tum_sequence("freiburg2_360_kidnap")
     assert (kidnap.camera, kidnap.category, kidnap.groundtruth_public) == ("freiburg2", "handheld", True)
     hidden = tum_sequence("fr3/walking_xyz_validation")
-    assert (hidden.name, hidden.category, hidden.groundtruth_public) == \
-           ("rgbd_dataset_freiburg3_walking_xyz_validation", "validation", False)
+    assert (hidden.name, hidden.category, hidden.groundtruth_public) == (
+        "rgbd_dataset_freiburg3_walking_xyz_validation",
+        "validation",
+        False,
+    )
     assert archive_url(kidnap) == "https://cvg.cit.tum.de/rgbd/dataset/freiburg2/rgbd_dataset_freiburg2_360_kidnap.tgz"
     assert archive_url(kidnap, "http://mirror/x/") == "http://mirror/x/freiburg2/rgbd_dataset_freiburg2_360_kidnap.tgz"
     assert TUM_MIRROR == "https://cvg.cit.tum.de/rgbd/dataset"
@@ -52,8 +69,11 @@ def test_folder_resolves_to_itself(tmp_path):
 
 
 def test_tum_name_needs_a_download_then_resolves(cache):
-    with pytest.raises(InputError, match=r"^fr2/360_kidnap: TUM sequence not downloaded; "
-                                         r"run `viewslam download fr2/360_kidnap`$"):
+    with pytest.raises(
+        InputError,
+        match=r"^fr2/360_kidnap: TUM sequence not downloaded; "
+        r"run `viewslam download fr2/360_kidnap`$",
+    ):
         resolve_sequence("fr2/360_kidnap")
     folder = write_tum_folder(cache / "tum" / "rgbd_dataset_freiburg2_360_kidnap", frames=2)
     assert resolve_sequence("fr2/360_kidnap") == folder == resolve_sequence("rgbd_dataset_freiburg2_360_kidnap")
@@ -78,8 +98,10 @@ def test_unknown_sequence_lists_the_valid_names(capsys):
 
 def test_misspelt_sequence_suggests_the_close_names(capsys):
     assert main(["record", "fr3/sitting_statc", "--quiet"]) == 2
-    assert "fr3/sitting_statc: not a folder, synthetic scenario or TUM sequence; did you mean fr3/sitting_static or " \
-           "sitting_static or fr3/sitting_xyz? scenarios: " in capsys.readouterr().err
+    assert (
+        "fr3/sitting_statc: not a folder, synthetic scenario or TUM sequence; did you mean fr3/sitting_static or "
+        "sitting_static or fr3/sitting_xyz? scenarios: " in capsys.readouterr().err
+    )
     with pytest.raises(InputError, match=r"; did you mean 360_kidnap or fr2/360_kidnap\? "):
         resolve_sequence("360_kidnapp")
     with pytest.raises(InputError, match=r"^fr1/xzy: unknown TUM sequence; did you mean fr1/xyz\? "):
@@ -91,8 +113,14 @@ def test_sequences_command_lists_scenarios_and_downloads(cache, capsys):
     assert main(["sequences"]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert all(f"  {name}" in lines for name in SCENARIOS)
-    rows = [line.split() for line in lines[2 + len(SCENARIOS):lines.index(
-        "frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either.")]]
+    rows = [
+        line.split()
+        for line in lines[
+            2 + len(SCENARIOS) : lines.index(
+                "frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either."
+            )
+        ]
+    ]
     assert ["fr1/xyz", "testing", "groundtruth", "downloaded"] in rows
     assert ["fr1/xyz_validation", "validation", "no-groundtruth"] in rows
     assert sum(row[-1] == "downloaded" for row in rows) == 1
@@ -109,6 +137,7 @@ def test_viewslam_data_is_where_tum_names_are_looked_up(monkeypatch, tmp_path, c
 
 def test_the_cache_follows_xdg_unless_viewslam_cache_is_set(tmp_path, monkeypatch):
     from viewer_slam.cache import cache_dir
+
     monkeypatch.delenv("VIEWSLAM_CACHE", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert cache_dir("synth") == tmp_path / "xdg" / "viewslam" / "synth"
@@ -131,10 +160,13 @@ def test_sequences_shows_the_cache_entry_by_entry_and_clears_all_but_the_downloa
     total = sum(path.stat().st_size for path in cache.rglob("*") if path.is_file())
     heading = next(i for i, line in enumerate(lines) if line.startswith("Cache "))
     assert lines[heading] == f"Cache {cache} ($VIEWSLAM_CACHE): {decimal(total)}"
-    entries = {line.split()[0]: " ".join(line.split()[1:]) for line in lines[heading + 1:-1]}
-    assert entries == {"benchmark": "500 bytes", "synth/360_kidnap-6-64x48-s0-v1": "3.0 kB",
-                       "synth/.360_kidnap-600-64x48-s0-v1.x1y2z3": "700 bytes",
-                       "tum/rgbd_dataset_freiburg1_xyz": decimal(total - 4200)}
+    entries = {line.split()[0]: " ".join(line.split()[1:]) for line in lines[heading + 1 : -1]}
+    assert entries == {
+        "benchmark": "500 bytes",
+        "synth/360_kidnap-6-64x48-s0-v1": "3.0 kB",
+        "synth/.360_kidnap-600-64x48-s0-v1.x1y2z3": "700 bytes",
+        "tum/rgbd_dataset_freiburg1_xyz": decimal(total - 4200),
+    }
     assert main(["sequences", "--clear-cache"]) == 0
     out = capsys.readouterr().out
     assert out.startswith("Removed 2 cache entries, 3.5 kB.\n")

@@ -53,7 +53,7 @@ class RangeHandler(http.server.BaseHTTPRequestHandler):
         self.end_headers()
         body = data[start:]
         if server.cut_after is not None:
-            body, server.cut_after = body[:server.cut_after], None
+            body, server.cut_after = body[: server.cut_after], None
         self.wfile.write(body)
         server.sent += len(body)
 
@@ -103,9 +103,9 @@ def download(dest, url, name="fr1/xyz"):
 
 
 def same_files(folder: Path, source: Path) -> bool:
-    return sorted(p.relative_to(folder) for p in folder.rglob("*")) == \
-        sorted(p.relative_to(source) for p in source.rglob("*")) and \
-        all(p.read_bytes() == (folder / p.relative_to(source)).read_bytes() for p in source.rglob("*") if p.is_file())
+    return sorted(p.relative_to(folder) for p in folder.rglob("*")) == sorted(
+        p.relative_to(source) for p in source.rglob("*")
+    ) and all(p.read_bytes() == (folder / p.relative_to(source)).read_bytes() for p in source.rglob("*") if p.is_file())
 
 
 def test_download_extracts_verifies_and_publishes_then_is_not_repeated(mirror, tmp_path, capsys):
@@ -153,12 +153,16 @@ def test_interrupted_download_resumes_where_it_stopped(mirror, tmp_path, capsys)
     part = tmp_path / "cache" / "tum" / f".{NAME}.tgz.part"
     assert main(["download", "fr1/xyz", "--mirror", mirror.url, "--quiet"]) == 2
     error = capsys.readouterr().err
-    assert error.count("\n") == 1 and f"download failed: connection closed after {cut:,} of {len(archive):,} bytes" \
-        in error and f"run the same `viewslam download` again to resume from the {cut:,} bytes in {part}" in error
+    assert (
+        error.count("\n") == 1
+        and f"download failed: connection closed after {cut:,} of {len(archive):,} bytes" in error
+        and f"run the same `viewslam download` again to resume from the {cut:,} bytes in {part}" in error
+    )
     assert part.read_bytes() == archive[:cut] and not (part.parent / NAME).exists()
     assert main(["sequences"]) == 0
-    assert ["fr1/xyz", "testing", "groundtruth", "partial"] in \
-        [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert ["fr1/xyz", "testing", "groundtruth", "partial"] in [
+        line.split() for line in capsys.readouterr().out.splitlines()
+    ]
 
     assert main(["download", "fr1/xyz", "--mirror", mirror.url, "--quiet"]) == 0
     assert mirror.ranges == [None, f"bytes={cut}-"]
@@ -166,11 +170,14 @@ def test_interrupted_download_resumes_where_it_stopped(mirror, tmp_path, capsys)
     assert same_files(part.parent / NAME, source) and not part.exists()
 
 
-@pytest.mark.parametrize("kept, honour_range, whole_archive_sent", [
-    pytest.param(lambda archive: archive, True, False, id="part-already-complete"),
-    pytest.param(lambda archive: archive + b"stale", True, True, id="part-longer-than-archive"),
-    pytest.param(lambda archive: archive[:100], False, True, id="server-ignores-range"),
-])
+@pytest.mark.parametrize(
+    "kept, honour_range, whole_archive_sent",
+    [
+        pytest.param(lambda archive: archive, True, False, id="part-already-complete"),
+        pytest.param(lambda archive: archive + b"stale", True, True, id="part-longer-than-archive"),
+        pytest.param(lambda archive: archive[:100], False, True, id="server-ignores-range"),
+    ],
+)
 def test_part_that_cannot_be_resumed_is_used_or_restarted(mirror, tmp_path, kept, honour_range, whole_archive_sent):
     source = write_tum_folder(tmp_path / "source", frames=6)
     archive = serve(mirror, archive_of(source))
@@ -203,18 +210,24 @@ INTACT = tgz(member(f"{NAME}/rgb.txt", random.Random(0).randbytes(50_000)))
 WRONG_CRC = INTACT[:-8] + bytes(byte ^ 0xFF for byte in INTACT[-8:-4]) + INTACT[-4:]
 
 
-@pytest.mark.parametrize("payload, message", [
-    pytest.param(None, "download failed: HTTP 404 Not Found; check the mirror", id="missing"),
-    pytest.param(b"this is not gzip", "truncated or corrupt archive (Not a gzipped file", id="not-gzip"),
-    pytest.param(INTACT[:len(INTACT) // 2], "truncated or corrupt archive", id="truncated"),
-    pytest.param(WRONG_CRC, "truncated or corrupt archive (CRC check failed", id="corrupt"),
-    pytest.param(tgz(member(f"{NAME}/../../escaped.txt")), "unsafe archive member", id="dot-dot"),
-    pytest.param(tgz(member("/tmp/viewslam-absolute.txt")), "unsafe archive member", id="absolute"),
-    pytest.param(tgz(member(f"{NAME}/rgb.txt", kind=tarfile.SYMTYPE, link="../../escaped.txt")),
-                 "unsafe archive member", id="link-outside"),
-    pytest.param(tgz(member(f"{NAME}/tty", kind=tarfile.CHRTYPE)), "unsafe archive member", id="device"),
-    pytest.param(tgz(member(f"{NAME}/README", b"no listings here")), "archive is not a TUM sequence", id="not-tum"),
-])
+@pytest.mark.parametrize(
+    "payload, message",
+    [
+        pytest.param(None, "download failed: HTTP 404 Not Found; check the mirror", id="missing"),
+        pytest.param(b"this is not gzip", "truncated or corrupt archive (Not a gzipped file", id="not-gzip"),
+        pytest.param(INTACT[: len(INTACT) // 2], "truncated or corrupt archive", id="truncated"),
+        pytest.param(WRONG_CRC, "truncated or corrupt archive (CRC check failed", id="corrupt"),
+        pytest.param(tgz(member(f"{NAME}/../../escaped.txt")), "unsafe archive member", id="dot-dot"),
+        pytest.param(tgz(member("/tmp/viewslam-absolute.txt")), "unsafe archive member", id="absolute"),
+        pytest.param(
+            tgz(member(f"{NAME}/rgb.txt", kind=tarfile.SYMTYPE, link="../../escaped.txt")),
+            "unsafe archive member",
+            id="link-outside",
+        ),
+        pytest.param(tgz(member(f"{NAME}/tty", kind=tarfile.CHRTYPE)), "unsafe archive member", id="device"),
+        pytest.param(tgz(member(f"{NAME}/README", b"no listings here")), "archive is not a TUM sequence", id="not-tum"),
+    ],
+)
 def test_bad_downloads_exit_2_and_leave_nothing(mirror, tmp_path, capsys, payload, message):
     if payload is not None:
         serve(mirror, payload)
@@ -227,12 +240,18 @@ def test_bad_downloads_exit_2_and_leave_nothing(mirror, tmp_path, capsys, payloa
     assert not (tmp_path / "escaped.txt").exists() and not Path("/tmp/viewslam-absolute.txt").exists()
 
 
-@pytest.mark.parametrize("damage, message", [
-    pytest.param(lambda image: image.unlink(), "image listed in the sequence is missing", id="image-missing"),
-    pytest.param(lambda image: image.write_bytes(image.read_bytes()[:-20]), "truncated PNG", id="image-truncated"),
-    pytest.param(lambda image: image.write_bytes(image.read_bytes()[:40] + b"\0" * 8 + image.read_bytes()[48:]),
-                 "corrupt PNG (bad checksum", id="image-corrupt"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        pytest.param(lambda image: image.unlink(), "image listed in the sequence is missing", id="image-missing"),
+        pytest.param(lambda image: image.write_bytes(image.read_bytes()[:-20]), "truncated PNG", id="image-truncated"),
+        pytest.param(
+            lambda image: image.write_bytes(image.read_bytes()[:40] + b"\0" * 8 + image.read_bytes()[48:]),
+            "corrupt PNG (bad checksum",
+            id="image-corrupt",
+        ),
+    ],
+)
 def test_an_archive_whose_images_are_missing_or_damaged_is_refused(mirror, tmp_path, capsys, damage, message):
     source = write_tum_folder(tmp_path / "source", frames=4)
     damage(sorted((source / "depth").iterdir())[2])
@@ -247,11 +266,15 @@ def test_an_archive_whose_images_are_missing_or_damaged_is_refused(mirror, tmp_p
 def test_unknown_name_suggests_close_names_before_downloading_anything(mirror, tmp_path, capsys):
     assert main(["download", "fr1/xyz", "fr2/360_kidnapp", "--dest", str(tmp_path), "--mirror", mirror.url]) == 2
     error = capsys.readouterr().err
-    assert error == "viewslam: error: fr2/360_kidnapp: unknown TUM sequence; did you mean fr2/360_kidnap? " \
-                    "`viewslam sequences` lists them all\n"
+    assert (
+        error == "viewslam: error: fr2/360_kidnapp: unknown TUM sequence; did you mean fr2/360_kidnap? "
+        "`viewslam sequences` lists them all\n"
+    )
     assert main(["download", "fr9/nothing", "--dest", str(tmp_path)]) == 2
-    assert capsys.readouterr().err == \
-        "viewslam: error: fr9/nothing: unknown TUM sequence; `viewslam sequences` lists them all\n"
+    assert (
+        capsys.readouterr().err
+        == "viewslam: error: fr9/nothing: unknown TUM sequence; `viewslam sequences` lists them all\n"
+    )
     assert mirror.ranges == [] and list(tmp_path.glob("*xyz*")) == []
 
 
@@ -262,7 +285,9 @@ def test_network_failure_says_what_to_retry(tmp_path, capsys):
     url = f"http://127.0.0.1:{port}"
     assert download(tmp_path, url) == 2
     error = capsys.readouterr().err
-    assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {url}/freiburg1/{NAME}.tgz: download failed: ")
+    assert error.count("\n") == 1 and error.startswith(
+        f"viewslam: error: {url}/freiburg1/{NAME}.tgz: download failed: "
+    )
     assert error.rstrip().endswith("; run the same `viewslam download` again")
     assert list(tmp_path.iterdir()) == []
 
@@ -299,16 +324,18 @@ def test_download_bag_fetches_the_bag_resumably_and_the_name_resolves_to_it(mirr
     error = capsys.readouterr().err
     assert error.startswith(f"viewslam: error: {mirror.url}/freiburg1/{NAME}.bag: download failed: ")
     assert f"to resume from the {cut:,} bytes in {tum / f'.{NAME}.bag.part'}" in error
-    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "partial"] in \
-        [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "partial"] in [
+        line.split() for line in capsys.readouterr().out.splitlines()
+    ]
 
     assert main(["download", "fr1/xyz", "--bag", "--mirror", mirror.url, "--quiet"]) == 0
     assert capsys.readouterr().out == f"fr1/xyz: {tum / f'{NAME}.bag'}\n"
     assert mirror.ranges == [None, f"bytes={cut}-"] and mirror.sent == len(bag)
     assert (tum / f"{NAME}.bag").read_bytes() == bag and [p.name for p in tum.iterdir()] == [f"{NAME}.bag"]
     assert resolve_sequence("fr1/xyz") == tum / f"{NAME}.bag" and len(open_source(tum / f"{NAME}.bag")) == 4
-    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "bag"] in \
-        [line.split() for line in capsys.readouterr().out.splitlines()]
+    assert main(["sequences"]) == 0 and ["fr1/xyz", "testing", "groundtruth", "bag"] in [
+        line.split() for line in capsys.readouterr().out.splitlines()
+    ]
 
 
 def test_a_downloaded_bag_that_does_not_open_is_discarded(mirror, tmp_path, capsys):
@@ -316,8 +343,12 @@ def test_a_downloaded_bag_that_does_not_open_is_discarded(mirror, tmp_path, caps
     dest = tmp_path / "dest"
     assert main(["download", "fr1/xyz", "--bag", "--dest", str(dest), "--mirror", mirror.url, "--quiet"]) == 2
     error = capsys.readouterr().err
-    assert error.startswith(f"viewslam: error: {mirror.url}/freiburg1/{NAME}.bag: download is not a usable ROS bag "
-                            f"(<download>: ") and error.count("\n") == 1
+    assert (
+        error.startswith(
+            f"viewslam: error: {mirror.url}/freiburg1/{NAME}.bag: download is not a usable ROS bag (<download>: "
+        )
+        and error.count("\n") == 1
+    )
     assert list(dest.iterdir()) == []  # nothing to resume: the retry downloads afresh
 
 

@@ -57,10 +57,12 @@ def every_triangle_for_every_ray(vertices, triangles, pose, pixels):
     caster = TriangleCaster(triangles, CAMERA)
     frame = caster.frame(vertices, pose)
     tiles = frame.tiles.start.size - 1
-    every = raycast.Tiles(np.arange(tiles + 1) * len(triangles), np.tile(np.arange(len(triangles)), tiles),
-                          frame.tiles.columns)
-    return raycast.CasterFrame(caster, frame.rotation, frame.centre, frame.origin, frame.edge1, frame.edge2,
-                               every).cast(pixels)
+    every = raycast.Tiles(
+        np.arange(tiles + 1) * len(triangles), np.tile(np.arange(len(triangles)), tiles), frame.tiles.columns
+    )
+    return raycast.CasterFrame(
+        caster, frame.rotation, frame.centre, frame.origin, frame.edge1, frame.edge2, every
+    ).cast(pixels)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -90,12 +92,39 @@ def machine_code(function) -> str:
     vertices = np.array([[-1.0, -1.0, 2.0], [1.0, -1.0, 2.0], [0.0, 1.0, 2.0]])
     frame = caster.frame(vertices, IDENTITY)
     if function is raycast._cast:
-        fresh(np.array([80.0]), np.array([60.0]), frame.rotation, frame.centre, CAMERA.fx, CAMERA.fy, CAMERA.cx,
-              CAMERA.cy, frame.origin, frame.edge1, frame.edge2, frame.tiles.start, frame.tiles.items,
-              frame.tiles.columns, TILE, NEAR)
+        fresh(
+            np.array([80.0]),
+            np.array([60.0]),
+            frame.rotation,
+            frame.centre,
+            CAMERA.fx,
+            CAMERA.fy,
+            CAMERA.cx,
+            CAMERA.cy,
+            frame.origin,
+            frame.edge1,
+            frame.edge2,
+            frame.tiles.start,
+            frame.tiles.items,
+            frame.tiles.columns,
+            TILE,
+            NEAR,
+        )
     else:
-        fresh(vertices, caster.triangles, frame.rotation, frame.centre, CAMERA.fx, CAMERA.fy, CAMERA.cx, CAMERA.cy,
-              8, 10, TILE, NEAR)
+        fresh(
+            vertices,
+            caster.triangles,
+            frame.rotation,
+            frame.centre,
+            CAMERA.fx,
+            CAMERA.fy,
+            CAMERA.cx,
+            CAMERA.cy,
+            8,
+            10,
+            TILE,
+            NEAR,
+        )
     return "\n".join(fresh.inspect_asm().values())
 
 

@@ -21,7 +21,9 @@ class Numbered:
 def test_rest_precedes_the_sequence_with_copies_of_its_first_frame():
     frames = list(RestingStart(Numbered(), 3).frames())
     assert [f.index for f in frames] == list(range(8))
-    np.testing.assert_allclose([f.timestamp for f in frames], [10 - 3 / 30, 10 - 2 / 30, 10 - 1 / 30, 10, 11, 12, 13, 14])
+    np.testing.assert_allclose(
+        [f.timestamp for f in frames], [10 - 3 / 30, 10 - 2 / 30, 10 - 1 / 30, 10, 11, 12, 13, 14]
+    )
     assert all(f.rgb[0, 0, 0] == 0 for f in frames[:4])
     assert len(RestingStart(Numbered(), 3)) == 8
 

@@ -41,8 +41,9 @@ def bag_path(folder: Path, ros: int) -> Path:
 
 @pytest.fixture(scope="module", params=[1, 2], ids=["ros1", "ros2"])
 def bag(request, excerpt, tmp_path_factory) -> Path:
-    return write_tum_bag(excerpt, bag_path(tmp_path_factory.mktemp(f"ros{request.param}"), request.param),
-                         request.param)
+    return write_tum_bag(
+        excerpt, bag_path(tmp_path_factory.mktemp(f"ros{request.param}"), request.param), request.param
+    )
 
 
 @needs_excerpt
@@ -87,14 +88,17 @@ def test_recording_the_bag_writes_the_folder_trajectory_byte_for_byte(excerpt, t
     outputs = {}
     for label, source in (("folder", excerpt), ("bag", bag)):
         out = tmp_path / label / "run.rrd"
-        assert main(["record", str(source), "--pipeline", "rgbdslam", "--max-frames", "5", "--out", str(out),
-                     "--quiet"]) == 0
+        assert (
+            main(["record", str(source), "--pipeline", "rgbdslam", "--max-frames", "5", "--out", str(out), "--quiet"])
+            == 0
+        )
         outputs[label] = out.with_name("run.rgbdslam.txt").read_bytes()
     assert outputs["bag"] == outputs["folder"] and outputs["bag"].count(b"\n") == 5
 
 
-def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
-                  more=lambda bag: None, tf: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def synthetic_bag(
+    path: Path, ros: int, topics: dict[str, str], frames: int = 3, more=lambda bag: None, tf: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
     """A 32x24 bag with a bgr8 topic and a 16UC1 millimetre topic (where ``topics`` names them),
     a /tf topic that never moves (unless ``tf`` is false), and what ``more(bag)`` writes."""
     rng = np.random.default_rng(0)
@@ -105,8 +109,9 @@ def synthetic_bag(path: Path, ros: int, topics: dict[str, str], frames: int = 3,
             stamp = 5 * 10**9 + k * 33_333_333
             if "colour" in topics:
                 bag.image(topics["colour"], stamp, "cam", bgr[k], "bgr8")
-                bag.camera_info("/cam/camera_info", stamp, "cam", 32, 24, (40.0, 41.0, 15.5, 11.5),
-                                (0.1, -0.2, 0.0, 0.0, 0.05))
+                bag.camera_info(
+                    "/cam/camera_info", stamp, "cam", 32, 24, (40.0, 41.0, 15.5, 11.5), (0.1, -0.2, 0.0, 0.0, 0.05)
+                )
             if "depth" in topics:
                 bag.image(topics["depth"], stamp + 1000, "cam", millimetres[k], "16UC1")
             if tf:
@@ -149,15 +154,21 @@ def test_a_camera_info_that_is_no_lens_is_one_line(tmp_path):
         bag.camera_info("/cam/camera_info", 4 * 10**9, "cam", 32, 24, (float("nan"), 41.0, 15.5, 11.5))
 
     synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=nan_intrinsics)
-    with pytest.raises(InputError, match=rf"^{path}: /cam/camera_info: bad camera calibration: fx must be a finite "
-                                         r"number, got nan$"):
+    with pytest.raises(
+        InputError,
+        match=rf"^{path}: /cam/camera_info: bad camera calibration: fx must be a finite "
+        r"number, got nan$",
+    ):
         open_bag(path)
 
 
-@pytest.mark.parametrize("pose, problem", [
-    (make_pose(np.eye(3), np.array([1e300, 0.0, 0.0])), "a position coordinate beyond 1e+08 m"),
-    (None, "zero quaternion"),
-])
+@pytest.mark.parametrize(
+    "pose, problem",
+    [
+        (make_pose(np.eye(3), np.array([1e300, 0.0, 0.0])), "a position coordinate beyond 1e+08 m"),
+        (None, "zero quaternion"),
+    ],
+)
 def test_a_pose_topic_with_no_pose_is_one_line_naming_the_message(tmp_path, pose, problem):
     path = tmp_path / "poses"
 
@@ -167,8 +178,15 @@ def test_a_pose_topic_with_no_pose_is_one_line_naming_the_message(tmp_path, pose
         types = bag.types
         point = types["geometry_msgs/msg/Point"](x=1e300 if pose is not None else 0.0, y=0.0, z=0.0)
         quaternion = types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0 if pose is not None else 0.0)
-        bag.add("/mocap/pose", "geometry_msgs/msg/PoseStamped", stamp, types["geometry_msgs/msg/PoseStamped"](
-            header=bag.header(stamp, "map"), pose=types["geometry_msgs/msg/Pose"](position=point, orientation=quaternion)))
+        bag.add(
+            "/mocap/pose",
+            "geometry_msgs/msg/PoseStamped",
+            stamp,
+            types["geometry_msgs/msg/PoseStamped"](
+                header=bag.header(stamp, "map"),
+                pose=types["geometry_msgs/msg/Pose"](position=point, orientation=quaternion),
+            ),
+        )
 
     synthetic_bag(path, 2, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, more=poses)
     with pytest.raises(InputError, match=rf"^{path}: /mocap/pose at 9.000000 s: {re.escape(problem)}$"):
@@ -177,7 +195,10 @@ def test_a_pose_topic_with_no_pose_is_one_line_naming_the_message(tmp_path, pose
 
 @pytest.mark.parametrize("ros", [1, 2])
 def test_groundtruth_from_a_pose_topic(tmp_path, ros):
-    expected = [make_pose(Rotation.from_rotvec(np.array([0.1 * k, 0.0, 0.2])).as_matrix(), np.array([k, 2.0 * k, 0.5])) for k in range(4)]
+    expected = [
+        make_pose(Rotation.from_rotvec(np.array([0.1 * k, 0.0, 0.2])).as_matrix(), np.array([k, 2.0 * k, 0.5]))
+        for k in range(4)
+    ]
 
     def poses(bag):
         write_poses(bag, "/mocap/pose", expected)
@@ -197,19 +218,43 @@ def test_a_ros1_bag_path_resolves_as_a_sequence(tmp_path):
     assert resolve_sequence(str(path)) == path and len(open_source(path)) == 3
 
 
-@pytest.mark.parametrize("topics, options, problem", [
-    pytest.param({}, {}, "no colour image topic (sensor_msgs/msg/Image in rgb8, bgr8, rgba8, bgra8, mono8); "
-                 "topics: /tf (tf2_msgs/msg/TFMessage)", id="no-image"),
-    pytest.param({"colour": "/cam/image_raw"}, {}, "no depth image topic", id="no-depth"),
-    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"rgb_topic": "/tf"},
-                 "--rgb-topic /tf: is tf2_msgs/msg/TFMessage, not an image (sensor_msgs/msg/Image)", id="not-image"),
-    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"rgb_topic": "/cam/depth_mm"},
-                 "--rgb-topic /cam/depth_mm: encoding '16UC1' is not a colour encoding", id="depth-as-colour"),
-    pytest.param({"colour": "/cam/image_raw", "depth": "/cam/depth_mm"}, {"depth_topic": "/nothing"},
-                 "--depth-topic /nothing: no such topic", id="missing-topic"),
-    pytest.param({"colour": "/a/image", "depth": "/cam/depth_mm", "second": "/b/image"}, {},
-                 "several colour image topics (/a/image, /b/image); choose one with --rgb-topic", id="ambiguous"),
-])
+@pytest.mark.parametrize(
+    "topics, options, problem",
+    [
+        pytest.param(
+            {},
+            {},
+            "no colour image topic (sensor_msgs/msg/Image in rgb8, bgr8, rgba8, bgra8, mono8); "
+            "topics: /tf (tf2_msgs/msg/TFMessage)",
+            id="no-image",
+        ),
+        pytest.param({"colour": "/cam/image_raw"}, {}, "no depth image topic", id="no-depth"),
+        pytest.param(
+            {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"},
+            {"rgb_topic": "/tf"},
+            "--rgb-topic /tf: is tf2_msgs/msg/TFMessage, not an image (sensor_msgs/msg/Image)",
+            id="not-image",
+        ),
+        pytest.param(
+            {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"},
+            {"rgb_topic": "/cam/depth_mm"},
+            "--rgb-topic /cam/depth_mm: encoding '16UC1' is not a colour encoding",
+            id="depth-as-colour",
+        ),
+        pytest.param(
+            {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"},
+            {"depth_topic": "/nothing"},
+            "--depth-topic /nothing: no such topic",
+            id="missing-topic",
+        ),
+        pytest.param(
+            {"colour": "/a/image", "depth": "/cam/depth_mm", "second": "/b/image"},
+            {},
+            "several colour image topics (/a/image, /b/image); choose one with --rgb-topic",
+            id="ambiguous",
+        ),
+    ],
+)
 def test_bags_without_usable_images_name_the_bag_and_the_problem(tmp_path, topics, options, problem):
     path = tmp_path / "bad"
 
@@ -228,8 +273,14 @@ def test_an_image_whose_data_do_not_fill_it_is_one_line(tmp_path):
 
     def truncated(bag):
         message = bag.types["sensor_msgs/msg/Image"](
-            header=bag.header(6 * 10**9, "cam"), height=24, width=32, encoding="bgr8", is_bigendian=0, step=96,
-            data=np.zeros(100, np.uint8))
+            header=bag.header(6 * 10**9, "cam"),
+            height=24,
+            width=32,
+            encoding="bgr8",
+            is_bigendian=0,
+            step=96,
+            data=np.zeros(100, np.uint8),
+        )
         bag.add("/cam/image_raw", "sensor_msgs/msg/Image", 6 * 10**9, message)
         bag.image("/cam/depth_mm", 6 * 10**9, "cam", np.zeros((24, 32), np.uint16), "16UC1")
 
@@ -259,8 +310,9 @@ def test_a_folder_that_is_not_a_bag_is_one_line(tmp_path):
 
 
 def evaluated(capsys, groundtruth: Path, estimate: Path, out: Path, *options: str) -> dict:
-    assert main(["evaluate", str(groundtruth), str(estimate), "--json", str(out), *options]) == 0, \
+    assert main(["evaluate", str(groundtruth), str(estimate), "--json", str(out), *options]) == 0, (
         capsys.readouterr().err
+    )
     capsys.readouterr()
     return json.loads(out.read_text())
 
@@ -292,8 +344,10 @@ def test_a_tum_bag_as_evaluate_groundtruth_scores_as_its_folder(bag, excerpt, tm
 
 @pytest.mark.parametrize("ros", [1, 2])
 def test_a_bag_of_poses_alone_is_groundtruth_as_the_same_poses_in_a_file(tmp_path, capsys, ros):
-    truth = [make_pose(Rotation.from_rotvec(np.array([0.0, 0.05 * k, 0.0])).as_matrix(), np.array([0.1 * k, 0.0, 0.02 * k]))
-             for k in range(30)]
+    truth = [
+        make_pose(Rotation.from_rotvec(np.array([0.0, 0.05 * k, 0.0])).as_matrix(), np.array([0.1 * k, 0.0, 0.02 * k]))
+        for k in range(30)
+    ]
     path = tmp_path / ("mocap.bag" if ros == 1 else "mocap")
     with BagWriter(path, ros) as bag:
         write_poses(bag, "/vrpn/camera/pose", truth, step_ns=50_000_000)
@@ -305,8 +359,9 @@ def test_a_bag_of_poses_alone_is_groundtruth_as_the_same_poses_in_a_file(tmp_pat
     expected = evaluate(Trajectory(stamps, np.array(truth)), read_tum(tmp_path / "estimate.txt")).to_dict()
     assert_same_scores(from_bag, json.loads(json.dumps(expected)))
     assert from_bag["ate"]["n"] == 30 and from_bag["ate"]["rmse"] > 0.005
-    named = evaluated(capsys, path, tmp_path / "estimate.txt", tmp_path / "named.json",
-                      "--groundtruth-topic", "/vrpn/camera/pose")
+    named = evaluated(
+        capsys, path, tmp_path / "estimate.txt", tmp_path / "named.json", "--groundtruth-topic", "/vrpn/camera/pose"
+    )
     assert named == from_bag
 
 
@@ -315,9 +370,11 @@ def test_a_bag_without_a_pose_topic_is_one_line_as_evaluate_groundtruth(tmp_path
     synthetic_bag(still, 1, {"colour": "/cam/image_raw", "depth": "/cam/depth_mm"})  # its tf never moves
     estimate = tmp_path / "estimate.txt"
     estimate.write_text("5.0 0 0 0 0 0 0 1\n5.1 0.1 0 0 0 0 0 1\n")
-    for arguments, problem, named in (([still], "no pose topic and no moving tf chain to the colour camera", still),
-                                      ([still, "--groundtruth-topic", "/cam/image_raw"], "not one of", still),
-                                      ([estimate, "--groundtruth-topic", "/pose"], "only for a ROS bag", estimate)):
+    for arguments, problem, named in (
+        ([still], "no pose topic and no moving tf chain to the colour camera", still),
+        ([still, "--groundtruth-topic", "/cam/image_raw"], "not one of", still),
+        ([estimate, "--groundtruth-topic", "/pose"], "only for a ROS bag", estimate),
+    ):
         assert main(["evaluate", str(arguments[0]), str(estimate), *map(str, arguments[1:])]) == 2
         error = capsys.readouterr().err.strip()
         assert problem in error and str(named) in error and "\n" not in error and "Traceback" not in error
@@ -326,8 +383,12 @@ def test_a_bag_without_a_pose_topic_is_one_line_as_evaluate_groundtruth(tmp_path
 @pytest.mark.parametrize("ros", [1, 2])
 def test_a_bag_as_an_estimate_is_its_pose_topic(tmp_path, capsys, ros):
     stamps = 5 + np.arange(30) * 0.05
-    truth = np.array([make_pose(Rotation.from_rotvec(np.array([0.02 * k, 0.0, 0.0])).as_matrix(), np.array([0.0, 0.1 * k, 0.0]))
-                      for k in range(30)])
+    truth = np.array(
+        [
+            make_pose(Rotation.from_rotvec(np.array([0.02 * k, 0.0, 0.0])).as_matrix(), np.array([0.0, 0.1 * k, 0.0]))
+            for k in range(30)
+        ]
+    )
     write_tum(tmp_path / "truth.txt", Trajectory(stamps, truth))
     estimate = truth.copy()
     estimate[:, :3, 3] += np.random.default_rng(7).normal(0.0, 0.01, (30, 3))

@@ -15,10 +15,20 @@ RESOLUTION = (320, 240)
 IDENTITY = np.eye(4)
 # Paths span the whole run, so short runs move fast: 100 frames for the events (coverings,
 # featureless stretch) and for the long round; 40 for the rest.
-FRAMES = {"360_kidnap": 100, "360_kidnap_norevisit": 100, "nostructure_notexture_near_withloop": 100, "nostructure_texture_near_withloop": 100,
-          "long_office_household": 100}
-TEXTURED = ("desk_with_person", "360_kidnap", "long_office_household", "nostructure_texture_near_withloop",
-            "sitting_static")
+FRAMES = {
+    "360_kidnap": 100,
+    "360_kidnap_norevisit": 100,
+    "nostructure_notexture_near_withloop": 100,
+    "nostructure_texture_near_withloop": 100,
+    "long_office_household": 100,
+}
+TEXTURED = (
+    "desk_with_person",
+    "360_kidnap",
+    "long_office_household",
+    "nostructure_texture_near_withloop",
+    "sitting_static",
+)
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +110,12 @@ def test_every_scenario_is_a_tum_sequence_with_its_description(generated):
         assert len(sequence) == frames
         info = read_info(folder)
         assert (info["scenario"], info["frames"], info["seed"], info["resolution"], info["camera"]) == (
-            name, frames, 0, list(RESOLUTION), "fr3")
+            name,
+            frames,
+            0,
+            list(RESOLUTION),
+            "fr3",
+        )
         assert isinstance(info["loop"], bool) and isinstance(info["covered_intervals"], list)
         camera = sequence.camera
         assert (camera.width, camera.height) == RESOLUTION
@@ -143,8 +158,10 @@ def colour_error(sequence, i, j, perturbation=IDENTITY):
     uv_i, _ = project(sequence, points, sequence.timestamps[i], perturbation)
     uv_j, _ = project(sequence, points, sequence.timestamps[j])
     # Slightly blurred, so that the error grows with the misalignment instead of saturating on fine text.
-    grey_i, grey_j = (cv2.GaussianBlur(cv2.cvtColor(sequence.frame(k).rgb, cv2.COLOR_RGB2GRAY).astype(np.float32),
-                                       (0, 0), 1.5) for k in (i, j))
+    grey_i, grey_j = (
+        cv2.GaussianBlur(cv2.cvtColor(sequence.frame(k).rgb, cv2.COLOR_RGB2GRAY).astype(np.float32), (0, 0), 1.5)
+        for k in (i, j)
+    )
     gradient = np.hypot(cv2.Sobel(grey_j, cv2.CV_32F, 1, 0), cv2.Sobel(grey_j, cv2.CV_32F, 0, 1))
     use = ~np.isnan(uv_i[:, 0]) & ~np.isnan(uv_j[:, 0])
     use[use] = sample(gradient, uv_j[use]) > 20
@@ -159,7 +176,12 @@ def test_colour_warped_with_groundtruth_agrees(generated, name):
     error = colour_error(sequence, i, i + 2)
     assert error < 8.0
     # A pose turned by one degree breaks the agreement: the comparison can tell right from wrong.
-    assert colour_error(sequence, i, i + 2, make_pose(Rotation.from_rotvec([0.0, np.radians(1.0), 0.0]).as_matrix(), np.zeros(3))) > 2 * error
+    assert (
+        colour_error(
+            sequence, i, i + 2, make_pose(Rotation.from_rotvec([0.0, np.radians(1.0), 0.0]).as_matrix(), np.zeros(3))
+        )
+        > 2 * error
+    )
 
 
 def test_kidnap_is_covered_exactly_in_its_intervals_and_moved_elsewhere(generated):
@@ -207,8 +229,7 @@ def test_after_each_covering_the_first_view_returns_unless_the_variant_says_not(
 
 def orb_counts(sequence):
     orb = cv2.ORB_create(nfeatures=500)
-    return np.array([len(orb.detect(cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY), None))
-                     for frame in sequence.frames()])
+    return np.array([len(orb.detect(cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY), None)) for frame in sequence.frames()])
 
 
 def test_orb_finds_far_fewer_features_without_texture(generated):
@@ -230,7 +251,7 @@ def test_same_arguments_give_identical_files_and_another_seed_does_not(tmp_path)
     second = files(generate_scenario("desk_with_person", tmp_path / "b", frames=12, resolution=(96, 72), seed=3))
     assert first == second
     # A preview renders the same frame as the run writes.
-    (index, rgb, depth), = preview_frames("desk_with_person", [0.5], frames=12, resolution=(96, 72), seed=3)
+    ((index, rgb, depth),) = preview_frames("desk_with_person", [0.5], frames=12, resolution=(96, 72), seed=3)
     sequence = open_source(tmp_path / "a")
     assert index == 6 and np.array_equal(sequence.frame(index).rgb, rgb)
     assert np.allclose(sequence.frame(index).depth, depth, atol=1e-4)
@@ -251,10 +272,16 @@ def test_the_office_and_household_desks_do_not_look_alike_from_opposite_sides():
     plan = SCENARIOS_BY_NAME["long_office_household"].build(np.random.default_rng(0), 1200)
 
     def clutter(y_from, y_to):
-        return np.concatenate([s.vertices for s in plan.scene.static
-                               if (s.vertices[:, 2] > 0.7405).all() and (s.vertices[:, 2] < 1.5).all()
-                               and ((s.vertices[:, 0] > 3.15) & (s.vertices[:, 0] < 4.85)).all()
-                               and ((s.vertices[:, 1] > y_from) & (s.vertices[:, 1] < y_to)).all()])
+        return np.concatenate(
+            [
+                s.vertices
+                for s in plan.scene.static
+                if (s.vertices[:, 2] > 0.7405).all()
+                and (s.vertices[:, 2] < 1.5).all()
+                and ((s.vertices[:, 0] > 3.15) & (s.vertices[:, 0] < 4.85)).all()
+                and ((s.vertices[:, 1] > y_from) & (s.vertices[:, 1] < y_to)).all()
+            ]
+        )
 
     office, household = clutter(2.65, 3.5), clutter(3.5, 4.35)
     turned = np.column_stack([8.0 - office[:, 0], 7.0 - office[:, 1], office[:, 2]])

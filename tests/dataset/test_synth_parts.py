@@ -25,7 +25,7 @@ def test_depth_noise_grows_with_the_square_of_distance():
     # Disparity is quantised to 1/8 pixel: at 3 m only a few depth levels occur, 2-3 cm apart.
     levels = np.unique(measure(3.0)[measure(3.0) > 0])
     assert 2 <= len(levels) <= 12
-    assert np.diff(levels).min() == pytest.approx(3.0 ** 2 / (8 * BASELINE_FOCAL), rel=0.1)
+    assert np.diff(levels).min() == pytest.approx(3.0**2 / (8 * BASELINE_FOCAL), rel=0.1)
 
 
 def test_no_depth_out_of_range_or_at_grazing_angles():
@@ -56,7 +56,7 @@ def test_colour_noise_is_small_and_seeded():
 def test_rotation_from_angles_points_the_optical_axis():
     R = rotation_from_angles(np.array([0.0, np.pi / 2]), np.array([0.0, np.pi / 2]), np.array([0.0, 0.0]))
     assert np.allclose(R[0], [[0, 0, 1], [-1, 0, 0], [0, -1, 0]])  # x right = -y world, y down = -z world
-    assert np.allclose(R[1][:, 2], [0, 0, -1], atol=1e-12)          # looking straight down
+    assert np.allclose(R[1][:, 2], [0, 0, -1], atol=1e-12)  # looking straight down
     assert np.allclose(np.linalg.det(R), 1.0)
 
 
@@ -98,7 +98,7 @@ def test_a_wall_facing_the_camera_renders_at_its_distance_and_the_right_way_roun
     assert np.allclose(depth, 3.0, atol=1e-5)
     colour, _ = renderer.colour(pose, 0.0)
     wall_centre = int(round(camera.cx))  # the texture's middle lies on the optical axis
-    assert colour[:, : wall_centre - 4].max() < 1 and colour[:, wall_centre + 4:].min() > 254
+    assert colour[:, : wall_centre - 4].max() < 1 and colour[:, wall_centre + 4 :].min() > 254
     assert np.allclose(cos[60, 80], 1.0, atol=1e-3)
 
 

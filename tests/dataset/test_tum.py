@@ -20,8 +20,9 @@ def rpy():
     return open_tum(TUM_RPY)
 
 
-def make_sequence(folder: Path, frames: int = 4, size=(32, 24), camera: Camera | None = None,
-                  groundtruth_span=None) -> Path:
+def make_sequence(
+    folder: Path, frames: int = 4, size=(32, 24), camera: Camera | None = None, groundtruth_span=None
+) -> Path:
     """A tiny TUM folder: colour i has value 10*i, depth i is (i+1) metres, 30 Hz."""
     (folder / "rgb").mkdir(parents=True)
     (folder / "depth").mkdir()
@@ -46,8 +47,9 @@ def make_sequence(folder: Path, frames: int = 4, size=(32, 24), camera: Camera |
 
 
 def test_colour_and_depth_are_associated_as_tums_tool_does(rpy):
-    expected = tum_associate(list(read_tum_file_list(TUM_RPY / "rgb.txt")),
-                             list(read_tum_file_list(TUM_RPY / "depth.txt")), 0.0, 0.02)
+    expected = tum_associate(
+        list(read_tum_file_list(TUM_RPY / "rgb.txt")), list(read_tum_file_list(TUM_RPY / "depth.txt")), 0.0, 0.02
+    )
     assert len(rpy) == len(expected) == 87
     assert list(zip(rpy.timestamps.tolist(), rpy.depth_timestamps.tolist())) == expected
     assert rpy.duration_s == pytest.approx(1305031232.393714 - 1305031229.528748)
@@ -100,8 +102,9 @@ def test_every_frame_of_the_excerpt_has_groundtruth_and_stamps_beyond_it_do_not(
 
 
 def test_frames_outside_groundtruth_are_reported(tmp_path):
-    sequence = open_tum(make_sequence(tmp_path / "freiburg3_x", frames=6, size=(640, 480),
-                                           groundtruth_span=(10.0, 10.105)))
+    sequence = open_tum(
+        make_sequence(tmp_path / "freiburg3_x", frames=6, size=(640, 480), groundtruth_span=(10.0, 10.105))
+    )
     assert sequence.frames_outside_groundtruth().tolist() == [4, 5]  # stamps 10.133, 10.167
 
 
@@ -183,8 +186,10 @@ def test_a_folder_without_rgb_and_depth_lists_is_not_a_sequence(tmp_path):
         open_tum(tmp_path / "absent")
 
 
-@pytest.mark.parametrize(("content", "problem"), [(b"not a png at all", "not a readable image"),
-                                                  (None, "truncated PNG"), (b"", "not a readable image")])
+@pytest.mark.parametrize(
+    ("content", "problem"),
+    [(b"not a png at all", "not a readable image"), (None, "truncated PNG"), (b"", "not a readable image")],
+)
 def test_an_unreadable_png_names_the_file(tmp_path, content, problem):
     folder = make_sequence(tmp_path / "seq", camera=Camera(30, 30, 16, 12, 32, 24))
     broken = sorted((folder / "rgb").iterdir())[1]

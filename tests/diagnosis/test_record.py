@@ -20,8 +20,24 @@ def recorded(tmp_path_factory):
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("VIEWSLAM_CACHE", str(tmp_path_factory.mktemp("cache")))
         scenario = cached_scenario("360_kidnap", frames=120, resolution=(320, 240), seed=0)
-        assert main(["record", str(scenario), "--pipeline", "rtabmap", "--param", "Rtabmap/DetectionRate=5",
-                     "--param", "Odom/ResetCountdown=5", "--out", str(out), "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "record",
+                    str(scenario),
+                    "--pipeline",
+                    "rtabmap",
+                    "--param",
+                    "Rtabmap/DetectionRate=5",
+                    "--param",
+                    "Odom/ResetCountdown=5",
+                    "--out",
+                    str(out),
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
         info = json.loads((scenario / "scenario.json").read_text())
     return out, info
 
@@ -84,8 +100,14 @@ def test_a_sink_that_stalls_never_holds_the_causes_back(tmp_path):
     stream.send_columns = lambda path, **columns: logged.append(path)
     loss = {"frame": 3, "timestamp": 0.3, "cause": Cause.TOO_FEW_FEATURES.value, "text": "lost", "reason": "few"}
     columns = {name: np.zeros(5) for name in FrameSignals.__dataclass_fields__}
-    signals = FrameSignals(**{**columns, "frame_indices": np.arange(5), "timestamps": np.arange(5) / 10,
-                              "tracked": np.array([True, True, True, False, True])})
+    signals = FrameSignals(
+        **{
+            **columns,
+            "frame_indices": np.arange(5),
+            "timestamps": np.arange(5) / 10,
+            "tracked": np.array([True, True, True, False, True]),
+        }
+    )
     loss_causes.log_loss_causes(stream, "rgbdslam", [loss], signals)
     assert waits == [loss_causes.FLUSH_WAIT_S] and layout.text_log("rgbdslam") in logged
     del stream.flush

@@ -38,8 +38,9 @@ def cache(tmp_path_factory):
 def diagnosed(sequence, pipeline: str, max_frames: int | None = None, **overrides) -> list[dict]:
     recorder = SignalRecorder()
     params = apply_overrides(pipeline_class(pipeline).Params(), overrides, "test")
-    run = run_pipeline(sequence, pipeline, params, max_frames=max_frames, sinks=[recorder],
-                       frame_sinks=[recorder.frame])
+    run = run_pipeline(
+        sequence, pipeline, params, max_frames=max_frames, sinks=[recorder], frame_sinks=[recorder.frame]
+    )
     return diagnose_losses(pipeline, run.tracking_lost, recorder.signals(), run.tracking_minimum, sequence.groundtruth)
 
 
@@ -64,7 +65,7 @@ def test_the_texture_less_plane_has_too_few_features(cache):
     losses = diagnosed(sequence, "rtabmap", **FAST)
     assert losses and losses[0]["cause"] == "too few features"
     evidence = losses[0]["evidence"]
-    assert evidence["corners"] < evidence["minimum"] <= evidence["keypoints"]   # detector found only noise
+    assert evidence["corners"] < evidence["minimum"] <= evidence["keypoints"]  # detector found only noise
     assert evidence["valid_depth_share"] > 0.9 and "sensor blocked" not in losses[0]["causes"]
 
 
@@ -104,7 +105,8 @@ def test_an_imported_estimate_with_a_gap_over_blanked_frames_is_a_blocked_sensor
     poses, covered = sequence.groundtruth_at(sequence.timestamps[kept])
     estimate = tmp_path / "estimate.txt"
     write_tum(estimate, Trajectory(sequence.timestamps[kept][covered], poses[covered]))
-    losses = score_run(sequence, estimate_replay(sequence, estimate, max_frames=45), "other",
-                       max_frames=45).run.tracking_lost
+    losses = score_run(
+        sequence, estimate_replay(sequence, estimate, max_frames=45), "other", max_frames=45
+    ).run.tracking_lost
     assert [loss["frame"] for loss in losses] == [BLANKED[0]]
     assert losses[0]["cause"] == "sensor blocked" and "keypoints" not in losses[0]["evidence"]

@@ -26,7 +26,7 @@ def test_a_black_frame_without_depth_is_uniform_cornerless_and_depthless():
 
 def test_a_textured_frame_has_corners_spread_and_the_depth_share_it_holds():
     depth = DEPTH.copy()
-    depth[:, :80] = 0.0      # a quarter without measurement
+    depth[:, :80] = 0.0  # a quarter without measurement
     depth[:60, 80:] = np.nan
     signals = measure_image(frame(0, TEXTURED, depth))
     assert signals.corners > 100 and signals.color_std > 20 and signals.uniform_share < 0.2
@@ -36,7 +36,7 @@ def test_a_textured_frame_has_corners_spread_and_the_depth_share_it_holds():
 def test_groundtruth_motion_is_speed_and_rotation_rate_between_frames():
     stamps = np.arange(5) / 10.0
     poses = np.tile(np.eye(4), (5, 1, 1))
-    poses[:, 0, 3] = 0.2 * np.arange(5)                                  # 2 m/s along x
+    poses[:, 0, 3] = 0.2 * np.arange(5)  # 2 m/s along x
     poses[:, :3, :3] = Rotation.from_rotvec(np.outer(0.05 * np.arange(5), [0, 0, 1])).as_matrix()  # 0.5 rad/s
     speed, rotation_rate = groundtruth_motion(Trajectory(stamps, poses), stamps)
     assert np.isnan(speed[0]) and np.isnan(rotation_rate[0])
@@ -46,9 +46,16 @@ def test_groundtruth_motion_is_speed_and_rotation_rate_between_frames():
 
 
 def tracked(index: int, pose: bool, features=500, matches=200, inliers=100, metrics=None) -> FrameTracked:
-    return FrameTracked(index, 10.0 + index / 30, np.eye(4) if pose else None,
-                        TrackingStatus.OK if pose else TrackingStatus.LOST, features, matches, inliers,
-                        metrics=metrics or {})
+    return FrameTracked(
+        index,
+        10.0 + index / 30,
+        np.eye(4) if pose else None,
+        TrackingStatus.OK if pose else TrackingStatus.LOST,
+        features,
+        matches,
+        inliers,
+        metrics=metrics or {},
+    )
 
 
 def recorded(frames, events) -> SignalRecorder:
@@ -61,8 +68,10 @@ def recorded(frames, events) -> SignalRecorder:
 
 
 def test_the_recorder_keeps_one_row_per_frame_with_the_tracker_counts_and_residual_share():
-    recorder = recorded([frame(i) for i in (0, 2, 4)],
-                        [tracked(0, True, metrics={DYNAMIC_SHARE_METRIC: 0.4}), tracked(2, False, 30, 10, 0)])
+    recorder = recorded(
+        [frame(i) for i in (0, 2, 4)],
+        [tracked(0, True, metrics={DYNAMIC_SHARE_METRIC: 0.4}), tracked(2, False, 30, 10, 0)],
+    )
     signals = recorder.signals()
     assert signals.frame_indices.tolist() == [0, 2, 4]
     assert signals.keypoints[:2].tolist() == [500, 30] and np.isnan(signals.keypoints[2])
@@ -73,10 +82,16 @@ def test_the_recorder_keeps_one_row_per_frame_with_the_tracker_counts_and_residu
 
 def test_the_window_stops_at_the_next_pose_and_the_medians_are_over_lost_frames_only():
     blank = np.zeros_like(TEXTURED)
-    frames = [frame(i) for i in range(3)] + [frame(i, blank, np.zeros_like(DEPTH)) for i in range(3, 6)] + \
-        [frame(i) for i in range(6, 12)]
-    events = [tracked(i, True) for i in range(3)] + [tracked(i, False, 0, 0, 0) for i in range(3, 6)] + \
-        [tracked(i, True) for i in range(6, 12)]
+    frames = (
+        [frame(i) for i in range(3)]
+        + [frame(i, blank, np.zeros_like(DEPTH)) for i in range(3, 6)]
+        + [frame(i) for i in range(6, 12)]
+    )
+    events = (
+        [tracked(i, True) for i in range(3)]
+        + [tracked(i, False, 0, 0, 0) for i in range(3, 6)]
+        + [tracked(i, True) for i in range(6, 12)]
+    )
     signals = recorded(frames, events).signals()
     loss = {"frame": 3, "timestamp": 10.1, "reason": "test"}
     (entry,) = diagnose_losses("p", [loss], signals, 25, None)
@@ -84,7 +99,7 @@ def test_the_window_stops_at_the_next_pose_and_the_medians_are_over_lost_frames_
     assert entry["cause"] == "sensor blocked" and entry["causes"][0] == "sensor blocked"
     assert entry["text"] == "p lost at 0.1 s: sensor blocked (colour 100% uniform, 0% valid depth)"
     assert {key: entry[key] for key in loss} == loss
-    assert "speed" not in entry["evidence"]      # no groundtruth, no motion evidence
+    assert "speed" not in entry["evidence"]  # no groundtruth, no motion evidence
 
 
 def test_a_loss_far_faster_than_the_run_is_fast_motion():
@@ -93,10 +108,15 @@ def test_a_loss_far_faster_than_the_run_is_fast_motion():
     stamps = 10.0 + np.arange(20) / 30
     poses = np.tile(np.eye(4), (20, 1, 1))
     steps = np.full(20, 0.01)
-    steps[12] = 0.1                                       # one jump ten times the usual step
+    steps[12] = 0.1  # one jump ten times the usual step
     poses[:, 0, 3] = np.cumsum(steps)
-    (entry,) = diagnose_losses("p", [{"frame": 12, "timestamp": stamps[12], "reason": ""}],
-                               recorded(frames, events).signals(), None, Trajectory(stamps, poses))
+    (entry,) = diagnose_losses(
+        "p",
+        [{"frame": 12, "timestamp": stamps[12], "reason": ""}],
+        recorded(frames, events).signals(),
+        None,
+        Trajectory(stamps, poses),
+    )
     assert entry["causes"] == ["fast motion", "too few inliers"]
     assert entry["evidence"]["speed_ratio"] == pytest.approx(10.0, rel=1e-6)
 
@@ -122,5 +142,5 @@ def test_a_run_that_never_reports_a_count_has_no_tracker_signals():
     assert np.all(np.isnan(signals.keypoints)) and np.all(np.isnan(signals.inliers))
     (entry,) = diagnose_losses("estimate", [{"frame": 5, "timestamp": 10.2, "reason": "gap"}], signals, None, None)
     assert "keypoints" not in entry["evidence"] and entry["evidence"]["minimum"] == 20
-    assert entry["cause"] == "too few features"            # from the image: a black frame has no corners
+    assert entry["cause"] == "too few features"  # from the image: a black frame has no corners
     assert entry["text"].endswith("(0 corners of contrast 20, minimum 20)")

@@ -23,8 +23,12 @@ REAL_PAIRS = [
 def test_pairs_on_real_files_are_tums(groundtruth_name, estimate_name, offset, max_difference):
     groundtruth = read_tum(TRAJECTORIES / groundtruth_name)
     estimate = read_tum(TRAJECTORIES / estimate_name)
-    expected = tum_associate(list(read_tum_file_list(TRAJECTORIES / groundtruth_name)),
-                             list(read_tum_file_list(TRAJECTORIES / estimate_name)), offset, max_difference)
+    expected = tum_associate(
+        list(read_tum_file_list(TRAJECTORIES / groundtruth_name)),
+        list(read_tum_file_list(TRAJECTORIES / estimate_name)),
+        offset,
+        max_difference,
+    )
     i, j = associate(groundtruth.timestamps, estimate.timestamps, offset, max_difference)
     assert list(zip(groundtruth.timestamps[i].tolist(), estimate.timestamps[j].tolist())) == expected
 

@@ -65,8 +65,11 @@ def test_an_empty_estimate_has_zero_coverage_and_null_error_blocks():
     evaluation = evaluate(GROUNDTRUTH, Trajectory.empty())
     blocks = evaluation.to_dict()
     start, end = GROUNDTRUTH.timestamps[0], GROUNDTRUTH.timestamps[-1]
-    assert blocks["coverage"] == {"ratio": 0.0, "lost_intervals": [[start, end]],
-                                  "span": {"start": start, "end": end, "rule": "groundtruth"}}
+    assert blocks["coverage"] == {
+        "ratio": 0.0,
+        "lost_intervals": [[start, end]],
+        "span": {"start": start, "end": end, "rule": "groundtruth"},
+    }
     assert blocks["ate"] is None and blocks["penalized_ate"] is None
     assert blocks["rpe"]["trans"] is None and blocks["rpe"]["rot"] is None
 

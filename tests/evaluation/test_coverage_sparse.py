@@ -33,8 +33,9 @@ def test_one_node_a_second_is_sparse_and_not_lost_even_at_the_frame_rate():
 
 def test_nodes_that_stop_while_the_camera_moves_on_are_lost():
     sparse = nodes(GROUNDTRUTH, skip=slice(15, 25))  # no node from 15 s to 25 s
-    evaluation = evaluate(GROUNDTRUTH, sparse, frame_period=1 / 30,
-                          span=(GROUNDTRUTH.timestamps[0], GROUNDTRUTH.timestamps[-1]))
+    evaluation = evaluate(
+        GROUNDTRUTH, sparse, frame_period=1 / 30, span=(GROUNDTRUTH.timestamps[0], GROUNDTRUTH.timestamps[-1])
+    )
     assert len(evaluation.coverage.lost_intervals) == 1
     start, end = evaluation.coverage.lost_intervals[0]
     assert (start - GROUNDTRUTH.timestamps[0], end - GROUNDTRUTH.timestamps[0]) == pytest.approx((14.0, 25.0))
@@ -46,7 +47,7 @@ def test_no_node_while_the_camera_rests_is_not_lost():
     poses = GROUNDTRUTH.poses.copy()
     rest = slice(14 * 30, 25 * 30)
     poses[rest] = poses[14 * 30]
-    poses[25 * 30:] = poses[14 * 30] @ np.linalg.inv(GROUNDTRUTH.poses[25 * 30]) @ GROUNDTRUTH.poses[25 * 30:]
+    poses[25 * 30 :] = poses[14 * 30] @ np.linalg.inv(GROUNDTRUTH.poses[25 * 30]) @ GROUNDTRUTH.poses[25 * 30 :]
     resting = Trajectory(GROUNDTRUTH.timestamps, poses)
     sparse = nodes(resting, skip=slice(15, 25))
     covered = coverage((resting.timestamps[0], resting.timestamps[-1]), sparse.timestamps, 1 / 30, resting)
@@ -56,7 +57,7 @@ def test_no_node_while_the_camera_rests_is_not_lost():
 
 
 def test_a_per_frame_trajectory_keeps_the_frame_rate_rule():
-    dense = GROUNDTRUTH.subset(np.r_[0:300, 310:len(GROUNDTRUTH)])  # 10 frames (0.33 s) missing
+    dense = GROUNDTRUTH.subset(np.r_[0:300, 310 : len(GROUNDTRUTH)])  # 10 frames (0.33 s) missing
     evaluation = evaluate(GROUNDTRUTH, dense, frame_period=1 / 30)
     assert len(evaluation.coverage.lost_intervals) == 1
 
@@ -74,6 +75,9 @@ def test_the_study_rtabmap_kidnap_run_is_lost_after_the_kidnap_only():
 
 def test_a_keyframe_trajectory_is_not_lost_between_keyframes():
     """ORB-SLAM's monocular keyframes on fr2/desk (spacing 0.04 to 3.4 s as it culls keyframes)."""
-    evaluation = evaluate(read_tum(TRAJECTORIES / "fr2_desk_groundtruth.txt"),
-                          read_tum(TRAJECTORIES / "fr2_desk_ORB_kf_mono.txt"), align="sim3")
+    evaluation = evaluate(
+        read_tum(TRAJECTORIES / "fr2_desk_groundtruth.txt"),
+        read_tum(TRAJECTORIES / "fr2_desk_ORB_kf_mono.txt"),
+        align="sim3",
+    )
     assert evaluation.coverage.lost_intervals == [] and evaluation.coverage.ratio == 1.0

@@ -26,7 +26,9 @@ def random_pair(seed: int) -> tuple[Trajectory, Trajectory]:
     groundtruth = random_walk(300, seed)
     estimate = perturbed(groundtruth, seed + 1)
     rng = np.random.default_rng(seed)
-    moved = make_pose(Rotation.from_rotvec(rng.normal(size=3)).as_matrix(), rng.normal(scale=3.0, size=3))  # the estimate's own frame
+    moved = make_pose(
+        Rotation.from_rotvec(rng.normal(size=3)).as_matrix(), rng.normal(scale=3.0, size=3)
+    )  # the estimate's own frame
     return groundtruth, Trajectory(estimate.timestamps, moved @ estimate.poses)
 
 
@@ -34,8 +36,10 @@ def evo_errors(groundtruth: Trajectory, estimate: Trajectory) -> dict[str, np.nd
     reference = PoseTrajectory3D(poses_se3=list(groundtruth.poses), timestamps=groundtruth.timestamps)
     estimated = PoseTrajectory3D(poses_se3=list(estimate.poses), timestamps=estimate.timestamps)
     errors = {}
-    for name, relation in (("trans", metrics.PoseRelation.translation_part),
-                           ("rot", metrics.PoseRelation.rotation_angle_deg)):
+    for name, relation in (
+        ("trans", metrics.PoseRelation.translation_part),
+        ("rot", metrics.PoseRelation.rotation_angle_deg),
+    ):
         rpe = metrics.RPE(relation, delta=1, delta_unit=metrics.Unit.frames, all_pairs=True)
         rpe.process_data((reference, estimated))
         errors[name] = rpe.error

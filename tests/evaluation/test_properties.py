@@ -21,8 +21,7 @@ def rigid(rotation_vector, translation) -> np.ndarray:
 
 
 @settings(max_examples=40, deadline=None)
-@given(seed=seeds, rotation_vector=rotation_vectors, translation=translations,
-       scale=st.floats(0.1, 10.0))
+@given(seed=seeds, rotation_vector=rotation_vectors, translation=translations, scale=st.floats(0.1, 10.0))
 def test_an_estimate_in_another_frame_has_zero_ate(seed, rotation_vector, translation, scale):
     groundtruth = random_walk(60, seed)
     motion = rigid(rotation_vector, translation)
@@ -31,17 +30,24 @@ def test_an_estimate_in_another_frame_has_zero_ate(seed, rotation_vector, transl
 
     scaled = moved.poses.copy()
     scaled[:, :3, 3] *= scale
-    similar = evaluate(groundtruth, Trajectory(groundtruth.timestamps, scaled), scale=True, delta=1,
-                       delta_unit="frames")
+    similar = evaluate(
+        groundtruth, Trajectory(groundtruth.timestamps, scaled), scale=True, delta=1, delta_unit="frames"
+    )
     assert similar.ate.stats()["max"] < 1e-9
     assert similar.rpe_trans.stats()["max"] < 1e-9  # RPE sees the estimate at the fitted scale
 
 
 @settings(max_examples=30, deadline=None)
-@given(quarter_turns=st.integers(2, 30), radius=st.floats(0.5, 5.0), offset=st.floats(0.001, 0.3),
-       rotation_vector=rotation_vectors, translation=translations)
-def test_a_constant_offset_no_alignment_can_absorb_gives_that_error(quarter_turns, radius, offset,
-                                                                    rotation_vector, translation):
+@given(
+    quarter_turns=st.integers(2, 30),
+    radius=st.floats(0.5, 5.0),
+    offset=st.floats(0.001, 0.3),
+    rotation_vector=rotation_vectors,
+    translation=translations,
+)
+def test_a_constant_offset_no_alignment_can_absorb_gives_that_error(
+    quarter_turns, radius, offset, rotation_vector, translation
+):
     """A circle whose estimate sits ``offset`` above and below it, alternately, has ATE = offset.
 
     Alternating signs on evenly spaced points leave the centroid and the best rotation
@@ -59,8 +65,11 @@ def test_a_constant_offset_no_alignment_can_absorb_gives_that_error(quarter_turn
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=seeds, drift_rotation=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3).map(np.array),
-       drift_translation=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3).map(np.array))
+@given(
+    seed=seeds,
+    drift_rotation=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3).map(np.array),
+    drift_translation=st.lists(st.floats(-0.05, 0.05), min_size=3, max_size=3).map(np.array),
+)
 def test_a_constant_error_per_frame_is_the_rpe(seed, drift_rotation, drift_translation):
     """P_{i+1} = P_i (Q_i^-1 Q_{i+1}) D gives E_i = D for every consecutive pair."""
     groundtruth = random_walk(50, seed)
@@ -68,16 +77,22 @@ def test_a_constant_error_per_frame_is_the_rpe(seed, drift_rotation, drift_trans
     poses = [groundtruth.poses[0]]
     for before, after in zip(groundtruth.poses[:-1], groundtruth.poses[1:]):
         poses.append(poses[-1] @ np.linalg.inv(before) @ after @ drift)
-    evaluation = evaluate(groundtruth, Trajectory(groundtruth.timestamps, np.array(poses)), delta=1,
-                          delta_unit="frames")
+    evaluation = evaluate(
+        groundtruth, Trajectory(groundtruth.timestamps, np.array(poses)), delta=1, delta_unit="frames"
+    )
     np.testing.assert_allclose(evaluation.rpe_trans.errors, np.linalg.norm(drift_translation), rtol=1e-6, atol=1e-12)
-    np.testing.assert_allclose(evaluation.rpe_rot.errors, np.degrees(rotation_angle(drift[:3, :3])),
-                               rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(
+        evaluation.rpe_rot.errors, np.degrees(rotation_angle(drift[:3, :3])), rtol=1e-6, atol=1e-9
+    )
 
 
 @settings(max_examples=30, deadline=None)
-@given(seed=seeds, rotation_vector=rotation_vectors, translation=translations,
-       delta=st.sampled_from([(1, "frames"), (4, "frames"), (0.5, "seconds")]))
+@given(
+    seed=seeds,
+    rotation_vector=rotation_vectors,
+    translation=translations,
+    delta=st.sampled_from([(1, "frames"), (4, "frames"), (0.5, "seconds")]),
+)
 def test_rpe_is_invariant_to_a_global_rigid_motion(seed, rotation_vector, translation, delta):
     groundtruth = random_walk(60, seed)
     estimate = random_walk(60, seed + 1)

@@ -13,7 +13,9 @@ from viewer_slam.geometry.trajectory import Trajectory
 
 GROUNDTRUTH = random_walk(300, seed=11)  # 10 s at 30 Hz
 NOISE_M = 0.002
-OFFSET = make_pose(Rotation.from_rotvec(np.array([0.2, -0.4, 0.9])).as_matrix(), np.array([0.8, -0.5, 0.3]))  # a second map's frame
+OFFSET = make_pose(
+    Rotation.from_rotvec(np.array([0.2, -0.4, 0.9])).as_matrix(), np.array([0.8, -0.5, 0.3])
+)  # a second map's frame
 
 
 def split_estimate(gap: slice, moved: slice, seed: int = 1) -> Trajectory:
@@ -65,8 +67,10 @@ def test_a_segment_too_short_to_align_takes_the_previous_segments_transform():
     short = np.isin(evaluation.segment_ate.timestamps, GROUNDTRUTH.timestamps[110:112])
     assert short.sum() == 2 < MIN_SEGMENT_PAIRS
     # Laid with segment 0's transform (frame A undone), the two poses sit where OFFSET put them.
-    expected = np.linalg.norm(transform_points(invert(frame_a) @ OFFSET, GROUNDTRUTH.positions[110:112])
-                              - GROUNDTRUTH.positions[110:112], axis=1)
+    expected = np.linalg.norm(
+        transform_points(invert(frame_a) @ OFFSET, GROUNDTRUTH.positions[110:112]) - GROUNDTRUTH.positions[110:112],
+        axis=1,
+    )
     np.testing.assert_allclose(evaluation.segment_ate.errors[short], expected, rtol=1e-9)
     assert evaluation.segment_ate.errors[~short].max() < 1e-9
 
@@ -76,8 +80,9 @@ def test_a_short_first_segment_takes_the_next_fitted_segments_transform():
     poses[2:] = OFFSET @ poses[2:]  # the two first poses stay in the groundtruth frame
     kept = np.r_[0:2, 20:300]
     evaluation = evaluate(GROUNDTRUTH, Trajectory(GROUNDTRUTH.timestamps[kept], poses[kept]))
-    expected = np.linalg.norm(transform_points(invert(OFFSET), GROUNDTRUTH.positions[:2]) - GROUNDTRUTH.positions[:2],
-                              axis=1)
+    expected = np.linalg.norm(
+        transform_points(invert(OFFSET), GROUNDTRUTH.positions[:2]) - GROUNDTRUTH.positions[:2], axis=1
+    )
     np.testing.assert_allclose(evaluation.segment_ate.errors[:2], expected, rtol=1e-9)
     assert evaluation.segment_ate.errors[2:].max() < 1e-9
 
@@ -88,8 +93,9 @@ def test_align_segments_scores_ate_and_the_penalty_per_segment():
     assert segments.to_dict()["alignment"] == "segments" and segments.alignment is None
     np.testing.assert_array_equal(segments.ate.errors, rigid.segment_ate.errors)
     assert segments.penalized_ate.stats()["rmse"] < rigid.penalized_ate.stats()["rmse"]
-    np.testing.assert_allclose(segments.aligned_positions(estimate), GROUNDTRUTH.positions[np.r_[0:140, 160:300]],
-                               atol=5 * NOISE_M)
+    np.testing.assert_allclose(
+        segments.aligned_positions(estimate), GROUNDTRUTH.positions[np.r_[0:140, 160:300]], atol=5 * NOISE_M
+    )
 
 
 def test_origin_alignment_lays_the_first_poses_onto_each_other():
@@ -99,8 +105,9 @@ def test_origin_alignment_lays_the_first_poses_onto_each_other():
     np.testing.assert_allclose(origin.alignment, invert(OFFSET), atol=1e-12)
     assert origin.ate.stats()["max"] < 1e-9
     unaligned = evaluate(GROUNDTRUTH, estimate, align="none")
-    np.testing.assert_allclose(unaligned.ate.errors, np.linalg.norm(estimate.positions - GROUNDTRUTH.positions,
-                                                                    axis=1), rtol=1e-12)
+    np.testing.assert_allclose(
+        unaligned.ate.errors, np.linalg.norm(estimate.positions - GROUNDTRUTH.positions, axis=1), rtol=1e-12
+    )
     # RPE never depends on the alignment.
     np.testing.assert_array_equal(origin.rpe_trans.errors, unaligned.rpe_trans.errors)
 

@@ -16,15 +16,23 @@ from viewer_slam.geometry.trajectory import read_tum
 
 STUDY = SHARED_DATA / "study_kasar2018"
 # (folder, system folder, trajectory file, result log) of the four shared sequences' eight runs
-RUNS = [(folder, system, trajectory, log)
-        for folder in ("freiburg2_360_kidnap", "freiburg3_long_office_household",
-                       "freiburg3_no_structure_no_texture", "freiburg3_sitting_static")
-        for system, trajectory, log in (
-            ("rgbd", "rgbd_poses.txt", "rgbdresult.txt" if folder == "freiburg3_sitting_static" else "rgbd_result.txt"),
-            ("rtab", "rtabmap_poses.txt", "rtabmap_result.txt"))]
+RUNS = [
+    (folder, system, trajectory, log)
+    for folder in (
+        "freiburg2_360_kidnap",
+        "freiburg3_long_office_household",
+        "freiburg3_no_structure_no_texture",
+        "freiburg3_sitting_static",
+    )
+    for system, trajectory, log in (
+        ("rgbd", "rgbd_poses.txt", "rgbdresult.txt" if folder == "freiburg3_sitting_static" else "rgbd_result.txt"),
+        ("rtab", "rtabmap_poses.txt", "rtabmap_result.txt"),
+    )
+]
 
 
 # -- Python 2.7's generator ----------------------------------------------------------------
+
 
 def test_mersenne_twister_seeding_and_floats_are_cpythons():
     """Integer seeding (init_by_array of the 32-bit words of |seed|) and the 53-bit float are the
@@ -32,15 +40,21 @@ def test_mersenne_twister_seeding_and_floats_are_cpythons():
     for seed in (0, 1, 42, 12345, 2**32 - 1, 2**32, 2**70 + 3, -7):
         ours, theirs = Python27Random(seed), random.Random(seed)
         assert [ours.random() for _ in range(1500)] == [theirs.random() for _ in range(1500)]  # crosses a twist
-        assert [ours.getrandbits(k) for k in (1, 7, 31, 32, 33, 64, 95)] == \
-               [theirs.getrandbits(k) for k in (1, 7, 31, 32, 33, 64, 95)]
+        assert [ours.getrandbits(k) for k in (1, 7, 31, 32, 33, 64, 95)] == [
+            theirs.getrandbits(k) for k in (1, 7, 31, 32, 33, 64, 95)
+        ]
 
 
 def test_known_first_outputs_of_seed_0_and_42():
     """The documented first floats of ``random.seed(0)`` and ``random.seed(42)`` (identical in 2.7 and 3)."""
     generator = Python27Random(0)
-    assert [generator.random() for _ in range(5)] == [0.8444218515250481, 0.7579544029403025, 0.420571580830845,
-                                                      0.25891675029296335, 0.5112747213686085]
+    assert [generator.random() for _ in range(5)] == [
+        0.8444218515250481,
+        0.7579544029403025,
+        0.420571580830845,
+        0.25891675029296335,
+        0.5112747213686085,
+    ]
     assert Python27Random(42).random() == 0.6394267984578837
 
 
@@ -79,10 +93,12 @@ def test_sample_follows_2_7s_two_algorithms():
 
 # -- the script's pairs and search ----------------------------------------------------------
 
+
 def test_under_100_poses_every_ordered_pair_else_10000_draws():
     first, second = pair_indices(15)
-    assert len(first) == 225 and set(zip(first.tolist(), second.tolist())) == {(i, j) for i in range(15)
-                                                                                for j in range(15)}
+    assert len(first) == 225 and set(zip(first.tolist(), second.tolist())) == {
+        (i, j) for i in range(15) for j in range(15)
+    }
     first, second = pair_indices(100)
     generator = Python27Random(0)
     draws = [generator.randint(0, 99) for _ in range(20000)]
@@ -118,9 +134,10 @@ def test_pairs_far_from_any_groundtruth_stamp_are_dropped():
 
 # -- the study's published figures -----------------------------------------------------------
 
+
 def published(log_text: str) -> dict[str, float]:
     """The printed RPE block of an evaluate_rpe.py log (the lines after the last ``RPE``)."""
-    block = log_text[log_text.rindex("RPE"):]
+    block = log_text[log_text.rindex("RPE") :]
     figures = dict(re.findall(r"^(\w+\.\w+) ([\d.]+)", block, re.MULTILINE))
     figures["pairs"] = re.search(r"compared_pose_pairs (\d+)", block).group(1)
     return {key: float(value) for key, value in figures.items()}
@@ -136,11 +153,15 @@ def test_the_study_rpe_is_reproduced_to_every_printed_digit(folder, system, traj
     assert len(trans) == figures["pairs"]
     printed = {
         "translational_error.rmse": np.sqrt(np.dot(trans, trans) / len(trans)),
-        "translational_error.mean": np.mean(trans), "translational_error.median": np.median(trans),
-        "translational_error.std": np.std(trans), "translational_error.max": np.max(trans),
+        "translational_error.mean": np.mean(trans),
+        "translational_error.median": np.median(trans),
+        "translational_error.std": np.std(trans),
+        "translational_error.max": np.max(trans),
         "rotational_error.rmse": np.sqrt(np.dot(rot, rot) / len(rot)) * 180 / np.pi,
-        "rotational_error.mean": np.mean(rot) * 180 / np.pi, "rotational_error.median": np.median(rot) * 180 / np.pi,
-        "rotational_error.std": np.std(rot) * 180 / np.pi, "rotational_error.max": np.max(rot) * 180 / np.pi,
+        "rotational_error.mean": np.mean(rot) * 180 / np.pi,
+        "rotational_error.median": np.median(rot) * 180 / np.pi,
+        "rotational_error.std": np.std(rot) * 180 / np.pi,
+        "rotational_error.max": np.max(rot) * 180 / np.pi,
     }
     for key, value in printed.items():
         assert f"{value:f}" == f"{figures[key]:f}", key
@@ -151,8 +172,17 @@ def test_the_study_rpe_is_reproduced_to_every_printed_digit(folder, system, traj
 
 def test_evaluate_names_the_tum_mode(capsys, tmp_path):
     base = STUDY / "freiburg2_360_kidnap" / "rtab"
-    code = main(["evaluate", str(base / "groundtruth.txt"), str(base / "rtabmap_poses.txt"), "--rpe-mode", "tum",
-                 "--json", str(tmp_path / "e.json")])
+    code = main(
+        [
+            "evaluate",
+            str(base / "groundtruth.txt"),
+            str(base / "rtabmap_poses.txt"),
+            "--rpe-mode",
+            "tum",
+            "--json",
+            str(tmp_path / "e.json"),
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0
     assert "TUM evaluate_rpe.py's default" in out and "0.4496" in out
@@ -160,6 +190,14 @@ def test_evaluate_names_the_tum_mode(capsys, tmp_path):
 
     rpe = json.loads((tmp_path / "e.json").read_text())["rpe"]
     assert rpe["mode"] == "tum" and rpe["trans"]["n"] == 225 and f"{rpe['trans']['rmse']:f}" == "0.449568"
-    code = main(["evaluate", str(TRAJECTORIES / "freiburg1_xyz-groundtruth.txt"),
-                 str(TRAJECTORIES / "freiburg1_xyz-rgbdslam.txt"), "--rpe-mode", "tum", "--all-deltas"])
+    code = main(
+        [
+            "evaluate",
+            str(TRAJECTORIES / "freiburg1_xyz-groundtruth.txt"),
+            str(TRAJECTORIES / "freiburg1_xyz-rgbdslam.txt"),
+            "--rpe-mode",
+            "tum",
+            "--all-deltas",
+        ]
+    )
     assert code == 2 and "--rpe-mode tum" in capsys.readouterr().err

@@ -52,7 +52,7 @@ def test_a_cell_with_too_few_keypoints_lowers_its_threshold_by_0_7_per_try():
     blank = np.zeros((100, 100), np.uint8)
     detector = AdjustedDetector("ORB", 67, 100, iterations=5)
     assert len(detector.detect(blank)) == 0
-    assert detector.threshold == pytest.approx(20 * 0.7 ** 5)  # five tries from v2's start of 20
+    assert detector.threshold == pytest.approx(20 * 0.7**5)  # five tries from v2's start of 20
     detector.detect(blank)
     detector.detect(blank)  # 20 * 0.7^7 < 2: held at the floor of 2, where adjusting stops
     assert detector.threshold == 2
@@ -72,8 +72,9 @@ def test_grid_shares_the_keypoint_budget_between_cells():
 
 
 def test_blank_image_gives_no_features():
-    features = FeatureExtractor("GFTT_ORB", 500, CAMERA).extract(np.zeros((240, 320, 3), np.uint8),
-                                                                 np.zeros((240, 320), np.float32))
+    features = FeatureExtractor("GFTT_ORB", 500, CAMERA).extract(
+        np.zeros((240, 320, 3), np.uint8), np.zeros((240, 320), np.float32)
+    )
     assert len(features) == 0
     assert match_descriptors(features.descriptors, features.descriptors, True, 0.8)[0].size == 0
 
@@ -84,8 +85,15 @@ def test_surf_is_refused_with_the_reason():
 
 
 def test_distorted_keypoints_are_backprojected_along_the_undistorted_ray():
-    distorted = Camera(fx=517.3, fy=516.5, cx=318.6, cy=255.3, width=640, height=480,
-                       distortion=(0.2624, -0.9531, -0.0054, 0.0026, 1.1633))
+    distorted = Camera(
+        fx=517.3,
+        fy=516.5,
+        cx=318.6,
+        cy=255.3,
+        width=640,
+        height=480,
+        distortion=(0.2624, -0.9531, -0.0054, 0.0026, 1.1633),
+    )
     rng = np.random.default_rng(2)
     points = np.column_stack([rng.uniform(-1, 1, 50), rng.uniform(-0.7, 0.7, 50), rng.uniform(1, 3, 50)])
     pixels, _ = cv2.projectPoints(points, np.zeros(3), np.zeros(3), distorted.K, np.array(distorted.distortion))

@@ -49,29 +49,33 @@ def test_guided_matching_picks_among_the_train_rows_within_the_radius():
     # 30 px; radius 20 px: the 0-bit row is outside, the 3-bit one is nearest
     # (3 < 0.8 * 10 passes the ratio test)
     train_positions = np.array([[1.0, 0.0], [2.0, 2.0], [5.0, -3.0], [30.0, 0.0]])
-    picked = nearest_within_radius(np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 3, 0),
-                                   20.0, 0.8)
+    picked = nearest_within_radius(
+        np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 3, 0), 20.0, 0.8
+    )
     assert picked.tolist() == [2]
-    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 9, 0),
-                                 20.0, 0.8).tolist() == [-1]          # 9 < 0.8 * 10 fails
+    assert nearest_within_radius(
+        np.zeros((1, 2)), descriptors(0), train_positions, descriptors(50, 10, 9, 0), 20.0, 0.8
+    ).tolist() == [-1]  # 9 < 0.8 * 10 fails
 
 
 def test_the_radius_is_a_circle_open_at_its_edge():
     # (15, 15) is 21.2 px away, outside; (20, 0) lies on the circle, outside; (12, 16) is
     # 20 px away too; (11.9, 16) inside and alone: taken without a test, whatever its distance
     outside = np.array([[15.0, 15.0], [20.0, 0.0], [12.0, 16.0]])
-    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), outside, descriptors(0, 0, 0),
-                                 20.0, 0.8).tolist() == [-1]
+    assert nearest_within_radius(
+        np.zeros((1, 2)), descriptors(0), outside, descriptors(0, 0, 0), 20.0, 0.8
+    ).tolist() == [-1]
     lone = np.vstack([outside, [[11.9, 16.0]]])
-    assert nearest_within_radius(np.zeros((1, 2)), descriptors(0), lone, descriptors(0, 0, 0, 200),
-                                 20.0, 0.8).tolist() == [3]
+    assert nearest_within_radius(
+        np.zeros((1, 2)), descriptors(0), lone, descriptors(0, 0, 0, 200), 20.0, 0.8
+    ).tolist() == [3]
 
 
 def test_equal_nearest_distances_are_ambiguous_and_every_query_picks_on_its_own():
     train_positions = np.array([[9.0, 0.0], [3.0, 0.0], [0.0, 15.0]])
     positions = np.array([[0.0, 0.0], [6.0, 0.0]])
     picked = nearest_within_radius(positions, descriptors(0, 0), train_positions, descriptors(0, 0, 40), 20.0, 1.0)
-    assert picked.tolist() == [-1, -1]         # 0 < 1.0 * 0 fails
+    assert picked.tolist() == [-1, -1]  # 0 < 1.0 * 0 fails
     # both queries pick row 1 (0 bits against 1): what to do with a row picked twice is the caller's
     picked = nearest_within_radius(positions, descriptors(0, 0), train_positions, descriptors(1, 0, 40), 20.0, 0.8)
     assert picked.tolist() == [1, 1]
@@ -86,16 +90,20 @@ def brute_force_nearest(query: np.ndarray, train: np.ndarray, bound: int) -> lis
 
 def test_packed_descriptors_match_as_the_raw_ones_and_as_counted_by_hand_ties_included():
     rng = np.random.default_rng(3)
-    for query, train in [(rng.integers(0, 256, (300, 32), dtype=np.uint8), rng.integers(0, 256, (250, 32), dtype=np.uint8)),
-                         (rng.integers(0, 2, (120, 32), dtype=np.uint8), rng.integers(0, 2, (90, 32), dtype=np.uint8)),
-                         (rng.integers(0, 256, (40, 61), dtype=np.uint8), rng.integers(0, 256, (2, 61), dtype=np.uint8))]:
+    for query, train in [
+        (rng.integers(0, 256, (300, 32), dtype=np.uint8), rng.integers(0, 256, (250, 32), dtype=np.uint8)),
+        (rng.integers(0, 2, (120, 32), dtype=np.uint8), rng.integers(0, 2, (90, 32), dtype=np.uint8)),
+        (rng.integers(0, 256, (40, 61), dtype=np.uint8), rng.integers(0, 256, (2, 61), dtype=np.uint8)),
+    ]:
         packed_query, packed_train = PackedDescriptors.of(query), PackedDescriptors.of(train)
         assert len(packed_query) == len(query) and len(packed_train) == len(train)
         nearest = hamming_nearest_matches(packed_query, packed_train, 8 * query.shape[1] // 2)
-        assert list(zip(*(part.tolist() for part in nearest))) == brute_force_nearest(query, train, 8 * query.shape[1] // 2)
+        assert list(zip(*(part.tolist() for part in nearest))) == brute_force_nearest(
+            query, train, 8 * query.shape[1] // 2
+        )
         raw = hamming_nearest_matches(query, train, 8 * query.shape[1] // 2)
         assert all(np.array_equal(a, b) for a, b in zip(raw, nearest))
-        for ratio in (0.8, 1.0):   # the low-entropy pair has many equal distances: ties decide
+        for ratio in (0.8, 1.0):  # the low-entropy pair has many equal distances: ties decide
             by_ratio = hamming_ratio_matches(packed_query, packed_train, ratio)
             opencv = match_with_ratios(query, train, True, ratio)
             assert all(np.array_equal(a, b) for a, b in zip(by_ratio, opencv))

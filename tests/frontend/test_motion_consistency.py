@@ -40,7 +40,7 @@ def test_a_threshold_per_point_scales_with_each_pair():
 def test_pairs_without_depth_are_left_out_and_none_left_is_nan():
     moved = STATIC.copy()
     moved[0] += [1.0, 0.0, 0.0]  # inconsistent
-    moved[1] = np.nan            # no depth in the second frame
+    moved[1] = np.nan  # no depth in the second frame
     assert inconsistent_share(SOURCE, moved, QUARTER_TURN, threshold=0.05) == pytest.approx(1 / 3)
     assert math.isnan(inconsistent_share(SOURCE, np.full_like(STATIC, np.nan), QUARTER_TURN, threshold=0.05))
     assert math.isnan(inconsistent_share(np.zeros((0, 3)), np.zeros((0, 3)), QUARTER_TURN, threshold=0.05))
@@ -59,6 +59,16 @@ def test_the_share_reaches_the_diagnosis_as_a_dynamic_scene_at_its_threshold():
         target[:moving, 1] += 0.5
         share = inconsistent_share(points, target, np.eye(4), threshold=0.05)
         assert share == moving / 10
-        signals = LossSignals(frames=1, minimum=20, corners=500, color_std=40, uniform_share=0.1,
-                              valid_depth_share=0.9, keypoints=500, matches=300, inliers=200, dynamic_share=share)
+        signals = LossSignals(
+            frames=1,
+            minimum=20,
+            corners=500,
+            color_std=40,
+            uniform_share=0.1,
+            valid_depth_share=0.9,
+            keypoints=500,
+            matches=300,
+            inliers=200,
+            dynamic_share=share,
+        )
         assert (Cause.DYNAMIC_SCENE in [finding.cause for finding in classify(signals)]) is holds

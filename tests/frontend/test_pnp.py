@@ -53,11 +53,17 @@ def test_the_samples_are_drawn_as_opencvs_generator_draws_them():
     assert distinct_samples(10, len(expected)).tolist() == expected
 
 
-@pytest.mark.parametrize("distortion", [None, (0.2624, -0.9531, -0.0054, 0.0026, 1.1633), (0.1, -0.2, 0.001, 0.002),
-                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004),
-                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4),
-                                        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4,
-                                         0.01, -0.02)])
+@pytest.mark.parametrize(
+    "distortion",
+    [
+        None,
+        (0.2624, -0.9531, -0.0054, 0.0026, 1.1633),
+        (0.1, -0.2, 0.001, 0.002),
+        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004),
+        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4),
+        (0.05, -0.1, 0.001, -0.002, 0.03, 0.01, -0.02, 0.004, 1e-3, -2e-3, 5e-4, 1e-4, 0.01, -0.02),
+    ],
+)
 def test_reprojection_errors_are_opencvs_to_the_bit(distortion):
     """The errors RANSAC compares with its threshold: cv2.projectPoints's pixels rounded to
     float32, their offsets in float32, the distances rounded to float32, for every lens model
@@ -80,9 +86,9 @@ def test_reprojection_errors_are_opencvs_to_the_bit(distortion):
 def test_iterations_shrink_as_ransac_update_num_iters_says():
     # log(1 - 0.99) / log(1 - 0.5^6) = -4.6052 / -0.015748 = 292.4
     assert iterations_needed(0.99, 0.5, 6, 300) == 292
-    assert iterations_needed(0.99, 0.5, 6, 100) == 100      # capped by the iterations still allowed
-    assert iterations_needed(0.99, 0.0, 6, 300) == 0        # every correspondence agrees: done
-    assert iterations_needed(0.99, 0.2, 6, 300) == 15       # -4.6052 / log(1 - 0.8^6) = -4.6052 / -0.3040 = 15.1
+    assert iterations_needed(0.99, 0.5, 6, 100) == 100  # capped by the iterations still allowed
+    assert iterations_needed(0.99, 0.0, 6, 300) == 0  # every correspondence agrees: done
+    assert iterations_needed(0.99, 0.2, 6, 300) == 15  # -4.6052 / log(1 - 0.8^6) = -4.6052 / -0.3040 = 15.1
 
 
 def test_the_global_generator_does_not_change_the_result():
@@ -94,8 +100,9 @@ def test_the_global_generator_does_not_change_the_result():
     for global_seed in (0, 7, 12345):
         cv2.setRNGSeed(global_seed)
         results.append(solve_pnp_ransac(points, noisy, K, reprojection_error=2.0, iterations=300, min_inliers=4))
-    assert all(np.array_equal(r.pose, results[0].pose) and np.array_equal(r.inliers, results[0].inliers)
-               for r in results)
+    assert all(
+        np.array_equal(r.pose, results[0].pose) and np.array_equal(r.inliers, results[0].inliers) for r in results
+    )
 
 
 def test_distorted_pixels_give_the_true_pose():
@@ -103,8 +110,9 @@ def test_distorted_pixels_give_the_true_pose():
     points, _, pose = scene(outliers=0)
     in_camera = transform_points(invert(pose), points)
     pixels = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, np.array(distortion))[0].reshape(-1, 2)
-    result = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20,
-                              distortion=distortion)
+    result = solve_pnp_ransac(
+        points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20, distortion=distortion
+    )
     assert np.abs(result.pose - pose).max() < 1e-6
     ignored = solve_pnp_ransac(points, pixels, K, reprojection_error=2.0, iterations=300, min_inliers=20)
     assert ignored is None or np.abs(ignored.pose - pose).max() > 1e-3
@@ -121,7 +129,7 @@ def test_points_on_one_plane_give_the_best_samples_pose():
     for _ in range(20):
         pixels = rng.uniform([0, 0], [320, 240], (120, 2))
         rays = np.c_[(pixels - [160, 120]) / 267.7, np.ones(len(pixels))]
-        points = rays * (0.95 / (rays @ normal))[:, None]              # in the first camera
+        points = rays * (0.95 / (rays @ normal))[:, None]  # in the first camera
         pose = make_pose(Rotation.from_rotvec(rng.normal(0, 0.01, 3)).as_matrix(), rng.normal(0, 0.01, 3))
         in_camera = transform_points(invert(pose), points)
         seen = in_camera[:, :2] / in_camera[:, 2:] * 267.7 + [160, 120] + rng.normal(0, 0.3, (len(points), 2))
@@ -137,8 +145,16 @@ def test_refinement_moves_the_samples_pose_onto_all_inliers_and_keeps_ransacs_in
     points, pixels, pose = scene(outliers=60, seed=5)
     noisy = pixels + np.random.default_rng(2).normal(0, 0.7, pixels.shape)
     sample = solve_pnp_ransac(points, noisy, K, reprojection_error=4.0, iterations=300, min_inliers=20)
-    refined = solve_pnp_ransac(points, noisy, K, reprojection_error=4.0, iterations=300, min_inliers=20,
-                               refine_iterations=1, refine_distance=2.0)
+    refined = solve_pnp_ransac(
+        points,
+        noisy,
+        K,
+        reprojection_error=4.0,
+        iterations=300,
+        min_inliers=20,
+        refine_iterations=1,
+        refine_distance=2.0,
+    )
     assert np.array_equal(refined.inliers, sample.inliers)
     error = [np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) for result in (sample, refined)]
     assert error[1] < 0.5 * error[0] and error[1] < 0.005

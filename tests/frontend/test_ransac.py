@@ -18,17 +18,19 @@ def distance(source, target, transform=IDENTITY, sigma_depth=0.01):
 
 
 def test_lateral_error_is_weighed_by_the_raster_variance_of_both_points():
-    assert distance([0, 0, 1], [0.01, 0, 1]) == pytest.approx(0.01 ** 2 / (2 * RASTER_X * 1.0))
+    assert distance([0, 0, 1], [0.01, 0, 1]) == pytest.approx(0.01**2 / (2 * RASTER_X * 1.0))
 
 
 def test_depth_error_is_weighed_by_the_kinect_depth_variance():
     # sigma_z = 0.01 z^2: 0.04 m at 2 m and 0.042025 m at 2.05 m
-    assert distance([0, 0, 2], [0, 0, 2.05]) == pytest.approx(0.05 ** 2 / (0.04 ** 2 + 0.042025 ** 2))
+    assert distance([0, 0, 2], [0, 0, 2.05]) == pytest.approx(0.05**2 / (0.04**2 + 0.042025**2))
 
 
 def test_source_covariance_is_turned_with_the_rotation():
-    quarter_turn = make_pose(Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix(), [0, 0, 0])  # x and y raster variances swap
-    assert distance([0, 0, 1], [0.01, 0, 1], quarter_turn) == pytest.approx(0.01 ** 2 / (RASTER_Y + RASTER_X))
+    quarter_turn = make_pose(
+        Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix(), [0, 0, 0]
+    )  # x and y raster variances swap
+    assert distance([0, 0, 1], [0.01, 0, 1], quarter_turn) == pytest.approx(0.01**2 / (RASTER_Y + RASTER_X))
 
 
 def test_pairs_beyond_the_shortcut_bound_are_outliers_outright():
@@ -55,8 +57,15 @@ def scene(rng, count=300, outliers=150):
 
 def test_ransac_finds_the_motion_among_half_outliers_and_flags_them():
     source, target, truth = scene(np.random.default_rng(1))
-    result = ransac_rigid(source, target, iterations=200, max_mahalanobis=3.0, min_inliers=20, sigma_depth=0.01,
-                          rng=np.random.default_rng(0))
+    result = ransac_rigid(
+        source,
+        target,
+        iterations=200,
+        max_mahalanobis=3.0,
+        min_inliers=20,
+        sigma_depth=0.01,
+        rng=np.random.default_rng(0),
+    )
     assert result is not None
     assert result.inliers[150:].all() and result.inliers[:150].sum() <= 3
     np.testing.assert_allclose(result.transform, truth, atol=1e-6)
@@ -65,14 +74,34 @@ def test_ransac_finds_the_motion_among_half_outliers_and_flags_them():
 def test_ransac_refuses_pure_noise():
     rng = np.random.default_rng(2)
     source, target = rng.uniform(0.5, 3.0, (200, 3)), rng.uniform(0.5, 3.0, (200, 3))
-    assert ransac_rigid(source, target, iterations=200, max_mahalanobis=3.0, min_inliers=20, sigma_depth=0.01,
-                        rng=np.random.default_rng(0)) is None
+    assert (
+        ransac_rigid(
+            source,
+            target,
+            iterations=200,
+            max_mahalanobis=3.0,
+            min_inliers=20,
+            sigma_depth=0.01,
+            rng=np.random.default_rng(0),
+        )
+        is None
+    )
 
 
 def test_ransac_is_deterministic_for_a_seed():
     source, target, _ = scene(np.random.default_rng(3))
-    first, second = (ransac_rigid(source, target, iterations=100, max_mahalanobis=3.0, min_inliers=20,
-                                  sigma_depth=0.01, rng=np.random.default_rng(7)) for _ in range(2))
+    first, second = (
+        ransac_rigid(
+            source,
+            target,
+            iterations=100,
+            max_mahalanobis=3.0,
+            min_inliers=20,
+            sigma_depth=0.01,
+            rng=np.random.default_rng(7),
+        )
+        for _ in range(2)
+    )
     np.testing.assert_array_equal(first.transform, second.transform)
     np.testing.assert_array_equal(first.inliers, second.inliers)
 
@@ -80,8 +109,15 @@ def test_ransac_is_deterministic_for_a_seed():
 def test_required_inliers_drop_to_three_quarters_of_few_matches():
     # 22 matches, 18 true: min_matches 20 becomes int(0.75 * 22) = 16, so 18 inliers suffice (v2).
     source, target, truth = scene(np.random.default_rng(4), count=22, outliers=4)
-    result = ransac_rigid(source, target, iterations=200, max_mahalanobis=3.0, min_inliers=20, sigma_depth=0.01,
-                          rng=np.random.default_rng(0))
+    result = ransac_rigid(
+        source,
+        target,
+        iterations=200,
+        max_mahalanobis=3.0,
+        min_inliers=20,
+        sigma_depth=0.01,
+        rng=np.random.default_rng(0),
+    )
     assert result is not None and result.inlier_count == 18
     assert invert(result.transform) @ truth == pytest.approx(np.eye(4), abs=1e-6)
 
@@ -92,7 +128,14 @@ def test_points_on_a_plane_give_the_proper_rotation_not_a_reflection():
     source = np.column_stack([rng.uniform(-1, 1, (60, 2)), np.full(60, 2.0)])
     truth = make_pose(Rotation.from_rotvec([0, 0, np.pi / 2]).as_matrix(), [0.05, 0.0, 0.1])
     target = source @ truth[:3, :3].T + truth[:3, 3]
-    result = ransac_rigid(source, target, iterations=200, max_mahalanobis=3.0, min_inliers=20, sigma_depth=0.01,
-                          rng=np.random.default_rng(0))
+    result = ransac_rigid(
+        source,
+        target,
+        iterations=200,
+        max_mahalanobis=3.0,
+        min_inliers=20,
+        sigma_depth=0.01,
+        rng=np.random.default_rng(0),
+    )
     assert result is not None and result.inliers.all()
     np.testing.assert_allclose(result.transform, truth, atol=1e-9)

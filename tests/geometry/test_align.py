@@ -25,15 +25,19 @@ def test_recovers_a_known_rigid_and_similarity_transform(seed, scale):
 def test_the_least_squares_fit_of_noisy_points_beats_nearby_transforms():
     rng = np.random.default_rng(1)
     source = rng.normal(size=(200, 3))
-    target = transform_points(make_pose(Rotation.from_rotvec([0.3, -0.2, 1.0]).as_matrix(), [1, 2, 3]), source) + rng.normal(scale=0.05,
-                                                                                                        size=(200, 3))
+    target = transform_points(
+        make_pose(Rotation.from_rotvec([0.3, -0.2, 1.0]).as_matrix(), [1, 2, 3]), source
+    ) + rng.normal(scale=0.05, size=(200, 3))
     best = align_umeyama(source, target)
 
     def cost(transform):
         return np.sum((transform_points(transform, source) - target) ** 2)
 
     for _ in range(20):
-        nudged = make_pose(Rotation.from_rotvec(rng.normal(scale=1e-3, size=3)).as_matrix(), rng.normal(scale=1e-3, size=3)) @ best
+        nudged = (
+            make_pose(Rotation.from_rotvec(rng.normal(scale=1e-3, size=3)).as_matrix(), rng.normal(scale=1e-3, size=3))
+            @ best
+        )
         assert cost(nudged) > cost(best)
 
 

@@ -42,13 +42,18 @@ def test_camera_json_round_trip(tmp_path):
 def test_camera_json_missing_key_names_file(tmp_path):
     path = tmp_path / "camera.json"
     path.write_text('{"fx": 1, "fy": 1, "cx": 0}')
-    with pytest.raises(InputError, match=r"camera.json: camera calibration lacks width, height, cy|camera.json: camera calibration lacks cy, width, height"):
+    with pytest.raises(
+        InputError,
+        match=r"camera.json: camera calibration lacks width, height, cy|camera.json: camera calibration lacks cy, width, height",
+    ):
         Camera.load(path)
 
 
 def test_tum_round_trip_keeps_micrometres(tmp_path):
     rng = np.random.default_rng(3)
-    poses = np.stack([make_pose(Rotation.from_rotvec(rng.normal(size=3)).as_matrix(), rng.normal(size=3)) for _ in range(20)])
+    poses = np.stack(
+        [make_pose(Rotation.from_rotvec(rng.normal(size=3)).as_matrix(), rng.normal(size=3)) for _ in range(20)]
+    )
     stamps = 1305031102.160407 + np.arange(20) / 30
     write_tum(tmp_path / "t.txt", Trajectory(stamps, poses))
     back = read_tum(tmp_path / "t.txt")

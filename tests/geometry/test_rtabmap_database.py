@@ -19,13 +19,13 @@ from viewer_slam.geometry.rtabmap_database import read_rtabmap_database
 from viewer_slam.geometry.trajectory_formats import TrajectoryFormat, detect_format, read_trajectory
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "rtabmap"
-ROS_RULE = DATA / "360_kidnap-rosrule.db"     # one map: the tool exports the database's own graph
-TOOL_RULE = DATA / "360_kidnap-toolrule.db"   # four maps joined by loop closures and proximity links
-FLOAT32_M = 2e-6                              # the poses are float32, the export prints 6 decimals
+ROS_RULE = DATA / "360_kidnap-rosrule.db"  # one map: the tool exports the database's own graph
+TOOL_RULE = DATA / "360_kidnap-toolrule.db"  # four maps joined by loop closures and proximity links
+FLOAT32_M = 2e-6  # the poses are float32, the export prints 6 decimals
 # The tool optimises the whole graph once more before its export; on the four-map run its poses
 # differ from the database's last saved graph by 3.9 mm at most.
 REOPTIMISED_M = 0.01
-NOT_ZLIB = b"not zlib data" + bytes(12)       # a compressed blob's place: data, then the matrix header
+NOT_ZLIB = b"not zlib data" + bytes(12)  # a compressed blob's place: data, then the matrix header
 
 
 def tool_export(database: Path) -> np.ndarray:
@@ -53,12 +53,16 @@ def test_maps_links_and_statistics_are_the_databases():
     kinds = [link.kind for link in database.links]
     # each link is stored in both directions and read once
     assert {kind: kinds.count(kind) for kind in set(kinds)} == {
-        "neighbor": stored[0] // 2, "global_loop": stored[1] // 2, "local_space": stored[2] // 2}
+        "neighbor": stored[0] // 2,
+        "global_loop": stored[1] // 2,
+        "local_space": stored[2] // 2,
+    }
     assert all(link.from_id < link.to_id for link in database.links)
     assert [node.stamp for node in database.nodes] == sorted(node.stamp for node in database.nodes)
     assert all(node.statistics["Odometry/Inliers/"] >= 20 for node in database.nodes[1:])  # Vis/MinInliers
-    np.testing.assert_allclose(database.trajectory().poses[:, :3, 3], tool_export(TOOL_RULE)[:, 1:4],
-                               rtol=0, atol=REOPTIMISED_M)
+    np.testing.assert_allclose(
+        database.trajectory().poses[:, :3, 3], tool_export(TOOL_RULE)[:, 1:4], rtol=0, atol=REOPTIMISED_M
+    )
     odometry = database.trajectory(optimised=False)
     assert np.abs(odometry.poses - database.trajectory().poses).max() > REOPTIMISED_M  # the maps were moved
 
@@ -78,13 +82,16 @@ def broken(tmp_path: Path, change: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("change, problem", [
-    ("DROP TABLE Node", "not an RTAB-Map database (no Node table)"),
-    ("DELETE FROM Node", "holds no node"),
-    ("UPDATE Node SET pose = zeroblob(8) WHERE id = 3", "node 3: no pose"),
-    ("UPDATE Statistics SET data = ? WHERE id = 2", "statistics of node 2: damaged compressed data"),
-    ("UPDATE Admin SET opt_poses = ?", "Admin.opt_poses: damaged compressed data"),
-])
+@pytest.mark.parametrize(
+    "change, problem",
+    [
+        ("DROP TABLE Node", "not an RTAB-Map database (no Node table)"),
+        ("DELETE FROM Node", "holds no node"),
+        ("UPDATE Node SET pose = zeroblob(8) WHERE id = 3", "node 3: no pose"),
+        ("UPDATE Statistics SET data = ? WHERE id = 2", "statistics of node 2: damaged compressed data"),
+        ("UPDATE Admin SET opt_poses = ?", "Admin.opt_poses: damaged compressed data"),
+    ],
+)
 def test_a_damaged_database_is_refused_naming_it(tmp_path, change, problem):
     path = broken(tmp_path, change)
     with pytest.raises(InputError, match=re.escape(problem)) as error:

@@ -48,6 +48,7 @@ def test_interpolation_slerps_between_poses():
     trajectory = Trajectory(np.array([0.0, 0.1]), np.stack([np.eye(4), turned]))
     poses, covered = interpolate_poses(trajectory, np.array([0.05, 0.1]))
     assert covered.all()
-    np.testing.assert_allclose(poses[0], make_pose(Rotation.from_rotvec([0, 0, 0.6]).as_matrix(), [0.5, 1.0, 0.0]),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        poses[0], make_pose(Rotation.from_rotvec([0, 0, 0.6]).as_matrix(), [0.5, 1.0, 0.0]), atol=1e-12
+    )
     np.testing.assert_array_equal(poses[1], turned)

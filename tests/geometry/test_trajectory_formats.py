@@ -1,6 +1,5 @@
 """TUM, KITTI and EuRoC/ASL trajectory files: detection, exact reading, and one-line errors."""
 
-
 import numpy as np
 import pytest
 from fixtures_eval import perturbed, random_walk
@@ -12,10 +11,12 @@ from viewer_slam.geometry.se3 import pose_to_tq
 from viewer_slam.geometry.trajectory import Trajectory, write_tum
 from viewer_slam.geometry.trajectory_formats import read_trajectory
 
-EUROC_GROUNDTRUTH_HEADER = ("#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
-                            "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], "
-                            "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
-                            "b_a_RS_S_z [m s^-2]")
+EUROC_GROUNDTRUTH_HEADER = (
+    "#timestamp, p_RS_R_x [m], p_RS_R_y [m], p_RS_R_z [m], q_RS_w [], q_RS_x [], q_RS_y [], "
+    "q_RS_z [], v_RS_R_x [m s^-1], v_RS_R_y [m s^-1], v_RS_R_z [m s^-1], b_w_RS_S_x [rad s^-1], "
+    "b_w_RS_S_y [rad s^-1], b_w_RS_S_z [rad s^-1], b_a_RS_S_x [m s^-2], b_a_RS_S_y [m s^-2], "
+    "b_a_RS_S_z [m s^-2]"
+)
 
 
 @pytest.fixture
@@ -31,8 +32,9 @@ def estimate(truth):
 def test_kitti_and_euroc_of_the_same_trajectory_give_the_same_ate_as_tum(tmp_path, truth, estimate):
     write_tum(tmp_path / "estimate.txt", estimate)
     tum, tum_format = read_trajectory(tmp_path / "estimate.txt")
-    kitti, kitti_format = read_trajectory(write_kitti(tmp_path / "estimate.kitti", estimate),
-                                          timestamps=estimate.timestamps)
+    kitti, kitti_format = read_trajectory(
+        write_kitti(tmp_path / "estimate.kitti", estimate), timestamps=estimate.timestamps
+    )
     euroc, euroc_format = read_trajectory(write_euroc(tmp_path / "estimate.csv", estimate))
     assert (tum_format, kitti_format, euroc_format) == ("tum", "kitti", "euroc")
     scores = [evaluate(truth, trajectory) for trajectory in (kitti, euroc)]
@@ -65,8 +67,10 @@ def test_euroc_groundtruth_columns_are_found_by_name_and_stamps_kept_to_the_nano
 
 def test_euroc_columns_in_another_order(tmp_path, estimate):
     t, q = pose_to_tq(estimate.poses)
-    rows = [f"{ns},{r[3]:.17g},{r[0]:.17g},{r[1]:.17g},{r[2]:.17g},{p[0]:.17g},{p[1]:.17g},{p[2]:.17g}"
-            for ns, p, r in zip(nanoseconds(estimate.timestamps), t, q)]
+    rows = [
+        f"{ns},{r[3]:.17g},{r[0]:.17g},{r[1]:.17g},{r[2]:.17g},{p[0]:.17g},{p[1]:.17g},{p[2]:.17g}"
+        for ns, p, r in zip(nanoseconds(estimate.timestamps), t, q)
+    ]
     path = tmp_path / "reordered.csv"
     path.write_text("timestamp,qw,qx,qy,qz,x,y,z\n" + "\n".join(rows) + "\n")
     trajectory, _ = read_trajectory(path)
@@ -84,32 +88,75 @@ GOOD_KITTI = "1 0 0 0 0 1 0 0 0 0 1 0\n"
 EUROC = "#timestamp [ns],tx,ty,tz,qw,qx,qy,qz\n"
 
 
-@pytest.mark.parametrize("name, text, options, where, problem", [
-    pytest.param("t.txt", "1 0 0 0 0 0 0 1\n", {"format": "orb"}, "", "unknown trajectory format 'orb'; "
-                 "valid: tum, kitti, euroc", id="unknown-format"),
-    pytest.param("t.txt", "1 0 0 0 0 0 0 1\n2 0 0 0 0 0 1\n", {}, ":2", "expected 8 fields", id="tum-columns"),
-    pytest.param("t.txt", "2 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n", {}, ":2", "does not increase", id="tum-order"),
-    pytest.param("t.txt", "1 0 0 0 0 0 0 1\n2 0 nan 0 0 0 0 1\n", {}, ":2", "NaN or infinite", id="tum-nan"),
-    pytest.param("k.txt", GOOD_KITTI + "1 0 0 0 0 1 0 0 0 0 1\n", {"format": "kitti", "timestamps": [0, 1]}, ":2",
-                 "expected 12 fields", id="kitti-columns"),
-    pytest.param("k.txt", GOOD_KITTI + GOOD_KITTI.replace("1 0 0 0", "1 0 0 nan", 1),
-                 {"timestamps": [0, 1]}, ":2", "NaN or infinite", id="kitti-nan"),
-    pytest.param("k.txt", GOOD_KITTI + "2 0 0 0 0 1 0 0 0 0 1 0\n", {"timestamps": [0, 1]}, ":2",
-                 "not a rotation matrix", id="kitti-not-rotation"),
-    pytest.param("k.txt", GOOD_KITTI, {}, "", "KITTI poses carry no timestamps", id="kitti-no-stamps"),
-    pytest.param("k.txt", GOOD_KITTI * 2, {"timestamps": [0.0]}, "", "2 KITTI poses but 1 timestamps",
-                 id="kitti-count"),
-    pytest.param("e.csv", EUROC + "1,0,0,0,1,0,0,0\n3,0,0\n", {}, ":3", "expected 8 fields as the header names",
-                 id="euroc-columns"),
-    pytest.param("e.csv", EUROC + "5,0,0,0,1,0,0,0\n5,0,0,0,1,0,0,0\n", {}, ":3", "does not increase",
-                 id="euroc-order"),
-    pytest.param("e.csv", EUROC + "1,0,0,0,nan,0,0,0\n", {}, ":2", "NaN or infinite", id="euroc-nan"),
-    pytest.param("e.csv", "#timestamp [ns],tx,ty,tz,a,b,c,d\n1,0,0,0,1,0,0,0\n", {}, ":1",
-                 "the header names no quaternion x column", id="euroc-header"),
-    pytest.param("e.csv", "1 0 0 0 0 0 0 1\n", {"format": "euroc"}, ":1", "not an EuRoC/ASL CSV", id="euroc-forced"),
-    pytest.param("missing.txt", None, {}, "", "no such file", id="missing"),
-    pytest.param("binary.txt", b"\xff\xfe\x00garbage", {}, "", "cannot read", id="unreadable"),
-])
+@pytest.mark.parametrize(
+    "name, text, options, where, problem",
+    [
+        pytest.param(
+            "t.txt",
+            "1 0 0 0 0 0 0 1\n",
+            {"format": "orb"},
+            "",
+            "unknown trajectory format 'orb'; valid: tum, kitti, euroc",
+            id="unknown-format",
+        ),
+        pytest.param("t.txt", "1 0 0 0 0 0 0 1\n2 0 0 0 0 0 1\n", {}, ":2", "expected 8 fields", id="tum-columns"),
+        pytest.param("t.txt", "2 0 0 0 0 0 0 1\n1 0 0 0 0 0 0 1\n", {}, ":2", "does not increase", id="tum-order"),
+        pytest.param("t.txt", "1 0 0 0 0 0 0 1\n2 0 nan 0 0 0 0 1\n", {}, ":2", "NaN or infinite", id="tum-nan"),
+        pytest.param(
+            "k.txt",
+            GOOD_KITTI + "1 0 0 0 0 1 0 0 0 0 1\n",
+            {"format": "kitti", "timestamps": [0, 1]},
+            ":2",
+            "expected 12 fields",
+            id="kitti-columns",
+        ),
+        pytest.param(
+            "k.txt",
+            GOOD_KITTI + GOOD_KITTI.replace("1 0 0 0", "1 0 0 nan", 1),
+            {"timestamps": [0, 1]},
+            ":2",
+            "NaN or infinite",
+            id="kitti-nan",
+        ),
+        pytest.param(
+            "k.txt",
+            GOOD_KITTI + "2 0 0 0 0 1 0 0 0 0 1 0\n",
+            {"timestamps": [0, 1]},
+            ":2",
+            "not a rotation matrix",
+            id="kitti-not-rotation",
+        ),
+        pytest.param("k.txt", GOOD_KITTI, {}, "", "KITTI poses carry no timestamps", id="kitti-no-stamps"),
+        pytest.param(
+            "k.txt", GOOD_KITTI * 2, {"timestamps": [0.0]}, "", "2 KITTI poses but 1 timestamps", id="kitti-count"
+        ),
+        pytest.param(
+            "e.csv",
+            EUROC + "1,0,0,0,1,0,0,0\n3,0,0\n",
+            {},
+            ":3",
+            "expected 8 fields as the header names",
+            id="euroc-columns",
+        ),
+        pytest.param(
+            "e.csv", EUROC + "5,0,0,0,1,0,0,0\n5,0,0,0,1,0,0,0\n", {}, ":3", "does not increase", id="euroc-order"
+        ),
+        pytest.param("e.csv", EUROC + "1,0,0,0,nan,0,0,0\n", {}, ":2", "NaN or infinite", id="euroc-nan"),
+        pytest.param(
+            "e.csv",
+            "#timestamp [ns],tx,ty,tz,a,b,c,d\n1,0,0,0,1,0,0,0\n",
+            {},
+            ":1",
+            "the header names no quaternion x column",
+            id="euroc-header",
+        ),
+        pytest.param(
+            "e.csv", "1 0 0 0 0 0 0 1\n", {"format": "euroc"}, ":1", "not an EuRoC/ASL CSV", id="euroc-forced"
+        ),
+        pytest.param("missing.txt", None, {}, "", "no such file", id="missing"),
+        pytest.param("binary.txt", b"\xff\xfe\x00garbage", {}, "", "cannot read", id="unreadable"),
+    ],
+)
 def test_bad_trajectory_files_name_the_file_line_and_problem(tmp_path, name, text, options, where, problem):
     path = tmp_path / name
     if isinstance(text, bytes):

@@ -20,7 +20,9 @@ from viewer_slam.geometry.trajectory import read_tum
 ROS1_TF = "tf/msg/tfMessage"  # the type name in TUM's (ROS Fuerte) bags
 ROS2_TF = "tf2_msgs/msg/TFMessage"
 OPTICAL_FRAME = "/openni_rgb_optical_frame"
-KINECT_TO_OPTICAL = make_pose(Rotation.from_rotvec(np.array([0.3, -1.2, 0.5])).as_matrix(), np.array([0.02, -0.05, 0.1]))
+KINECT_TO_OPTICAL = make_pose(
+    Rotation.from_rotvec(np.array([0.3, -1.2, 0.5])).as_matrix(), np.array([0.02, -0.05, 0.1])
+)
 
 
 class BagWriter:
@@ -65,22 +67,48 @@ class BagWriter:
         height, width = pixels.shape[:2]
         data = np.ascontiguousarray(pixels).view(np.uint8).reshape(-1)
         message = self.types["sensor_msgs/msg/Image"](
-            header=self.header(stamp_ns, frame_id), height=height, width=width, encoding=encoding,
-            is_bigendian=0, step=len(data) // height, data=data)
+            header=self.header(stamp_ns, frame_id),
+            height=height,
+            width=width,
+            encoding=encoding,
+            is_bigendian=0,
+            step=len(data) // height,
+            data=data,
+        )
         self.add(topic, "sensor_msgs/msg/Image", stamp_ns, message)
 
-    def camera_info(self, topic: str, stamp_ns: int, frame_id: str, width: int, height: int,
-                    k: tuple[float, float, float, float], distortion=(0.0,) * 5) -> None:
+    def camera_info(
+        self,
+        topic: str,
+        stamp_ns: int,
+        frame_id: str,
+        width: int,
+        height: int,
+        k: tuple[float, float, float, float],
+        distortion=(0.0,) * 5,
+    ) -> None:
         fx, fy, cx, cy = k
-        matrices = {"d": np.array(distortion, float), "k": np.array([fx, 0, cx, 0, fy, cy, 0, 0, 1], float),
-                    "r": np.eye(3).reshape(-1), "p": np.array([fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0], float)}
+        matrices = {
+            "d": np.array(distortion, float),
+            "k": np.array([fx, 0, cx, 0, fy, cy, 0, 0, 1], float),
+            "r": np.eye(3).reshape(-1),
+            "p": np.array([fx, 0, cx, 0, 0, fy, cy, 0, 0, 0, 1, 0], float),
+        }
         if self.ros == 1:
             matrices = {name.upper(): value for name, value in matrices.items()}
-        roi = self.types["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0,
-                                                              do_rectify=False)
+        roi = self.types["sensor_msgs/msg/RegionOfInterest"](
+            x_offset=0, y_offset=0, height=0, width=0, do_rectify=False
+        )
         message = self.types["sensor_msgs/msg/CameraInfo"](
-            header=self.header(stamp_ns, frame_id), height=height, width=width, distortion_model="plumb_bob",
-            binning_x=0, binning_y=0, roi=roi, **matrices)
+            header=self.header(stamp_ns, frame_id),
+            height=height,
+            width=width,
+            distortion_model="plumb_bob",
+            binning_x=0,
+            binning_y=0,
+            roi=roi,
+            **matrices,
+        )
         self.add(topic, "sensor_msgs/msg/CameraInfo", stamp_ns, message)
 
     def transform(self, stamp_ns: int, parent: str, child: str, pose: np.ndarray) -> None:
@@ -88,8 +116,10 @@ class BagWriter:
         vector = self.types["geometry_msgs/msg/Vector3"](x=t[0], y=t[1], z=t[2])
         rotation = self.types["geometry_msgs/msg/Quaternion"](x=q[0], y=q[1], z=q[2], w=q[3])
         stamped = self.types["geometry_msgs/msg/TransformStamped"](
-            header=self.header(stamp_ns, parent), child_frame_id=child,
-            transform=self.types["geometry_msgs/msg/Transform"](translation=vector, rotation=rotation))
+            header=self.header(stamp_ns, parent),
+            child_frame_id=child,
+            transform=self.types["geometry_msgs/msg/Transform"](translation=vector, rotation=rotation),
+        )
         msgtype = ROS1_TF if self.ros == 1 else ROS2_TF
         self.add("/tf", msgtype, stamp_ns, self.types[msgtype](transforms=[stamped]))
 
@@ -101,8 +131,11 @@ def nanoseconds(stamp: str) -> int:
 
 
 def listing(folder: Path, name: str) -> list[tuple[str, str]]:
-    return [tuple(line.split()[:2]) for line in (folder / name).read_text().splitlines()
-            if line.strip() and not line.startswith("#")]
+    return [
+        tuple(line.split()[:2])
+        for line in (folder / name).read_text().splitlines()
+        if line.strip() and not line.startswith("#")
+    ]
 
 
 def write_tum_bag(folder: Path, path: Path, ros: int = 1) -> Path:
@@ -113,16 +146,31 @@ def write_tum_bag(folder: Path, path: Path, ros: int = 1) -> Path:
         for stamp, name in rgb:
             image = cv2.cvtColor(cv2.imread(str(folder / name), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
             bag.image("/camera/rgb/image_color", nanoseconds(stamp), OPTICAL_FRAME, image, "rgb8")
-            bag.camera_info("/camera/rgb/camera_info", nanoseconds(stamp), OPTICAL_FRAME, image.shape[1],
-                            image.shape[0], (525.0, 525.0, 319.5, 239.5))
+            bag.camera_info(
+                "/camera/rgb/camera_info",
+                nanoseconds(stamp),
+                OPTICAL_FRAME,
+                image.shape[1],
+                image.shape[0],
+                (525.0, 525.0, 319.5, 239.5),
+            )
         for stamp, name in depth:
             metres = (cv2.imread(str(folder / name), cv2.IMREAD_UNCHANGED) / TUM_DEPTH_FACTOR).astype(np.float32)
             metres[metres == 0] = np.nan  # as the OpenNI driver publishes no measurement
             bag.image("/camera/depth/image", nanoseconds(stamp), "/openni_depth_optical_frame", metres, "32FC1")
-            bag.camera_info("/camera/depth/camera_info", nanoseconds(stamp), "/openni_depth_optical_frame",
-                            metres.shape[1], metres.shape[0], (570.3, 570.3, 319.5, 239.5))
-        groundtruth_lines = [line.split()[0] for line in (folder / "groundtruth.txt").read_text().splitlines()
-                             if line.strip() and not line.startswith("#")]
+            bag.camera_info(
+                "/camera/depth/camera_info",
+                nanoseconds(stamp),
+                "/openni_depth_optical_frame",
+                metres.shape[1],
+                metres.shape[0],
+                (570.3, 570.3, 319.5, 239.5),
+            )
+        groundtruth_lines = [
+            line.split()[0]
+            for line in (folder / "groundtruth.txt").read_text().splitlines()
+            if line.strip() and not line.startswith("#")
+        ]
         truth = read_tum(folder / "groundtruth.txt")
         for stamp, pose in zip(groundtruth_lines, truth.poses):
             ns = nanoseconds(stamp)
@@ -140,7 +188,9 @@ def write_poses(bag: BagWriter, topic: str, poses, start_ns: int = 5 * 10**9, st
         stamp = start_ns + k * step_ns
         message = types["geometry_msgs/msg/PoseStamped"](
             header=bag.header(stamp, "map"),
-            pose=types["geometry_msgs/msg/Pose"](position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
-                                                 orientation=types["geometry_msgs/msg/Quaternion"](
-                                                     x=qx, y=qy, z=qz, w=qw)))
+            pose=types["geometry_msgs/msg/Pose"](
+                position=types["geometry_msgs/msg/Point"](x=x, y=y, z=z),
+                orientation=types["geometry_msgs/msg/Quaternion"](x=qx, y=qy, z=qz, w=qw),
+            ),
+        )
         bag.add(topic, "geometry_msgs/msg/PoseStamped", stamp, message)

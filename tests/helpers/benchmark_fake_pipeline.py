@@ -38,7 +38,9 @@ START_S = 1000.0
 def groundtruth_pose(t: float) -> np.ndarray:
     """A camera walking along x while turning slowly about y."""
     dt = t - START_S
-    return make_pose(Rotation.from_rotvec(np.array([0.0, 0.2 * dt, 0.0])).as_matrix(), np.array([0.5 * dt, 0.1 * np.sin(dt), 0.0]))
+    return make_pose(
+        Rotation.from_rotvec(np.array([0.0, 0.2 * dt, 0.0])).as_matrix(), np.array([0.5 * dt, 0.1 * np.sin(dt), 0.0])
+    )
 
 
 def write_tum_folder(folder: Path, frames: int = 30, size: tuple[int, int] = (32, 24)) -> Path:
@@ -72,7 +74,8 @@ class FakeParams(PipelineParams):
     lost_from: int = Field(-1, description="First frame without a pose (-1: never lost).")
     lost_until: int = Field(-1, description="First frame with a pose again (-1: never recovers).")
     fail: Literal["", "raise", "exit", "sys.exit", "hang", "hang_where_doomed"] = Field(
-        "", description="How to fail on the first frame.")
+        "", description="How to fail on the first frame."
+    )
 
 
 class FakePipeline(Pipeline):

@@ -11,8 +11,14 @@ from viewer_slam.geometry.trajectory import Trajectory
 
 # The shared data sits beside the checkout (``/work/shared`` for ``/work/main``, also for a
 # worktree deeper down): the nearest ancestor that has it.
-SHARED_DATA = next((parent / "shared" / "data" for parent in Path(__file__).resolve().parents
-                    if (parent / "shared" / "data").is_dir()), Path(__file__).resolve().parents[3] / "shared" / "data")
+SHARED_DATA = next(
+    (
+        parent / "shared" / "data"
+        for parent in Path(__file__).resolve().parents
+        if (parent / "shared" / "data").is_dir()
+    ),
+    Path(__file__).resolve().parents[3] / "shared" / "data",
+)
 TRAJECTORIES = SHARED_DATA / "trajectories"
 TUM_RPY = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy"
 
@@ -24,7 +30,9 @@ def random_walk(count: int, seed: int, rate_hz: float = 30.0, start: float = 100
     pose = np.eye(4)
     for i in range(count):
         poses[i] = pose
-        step = make_pose(Rotation.from_rotvec(rng.normal(scale=0.02, size=3)).as_matrix(), rng.normal(scale=0.01, size=3))
+        step = make_pose(
+            Rotation.from_rotvec(rng.normal(scale=0.02, size=3)).as_matrix(), rng.normal(scale=0.01, size=3)
+        )
         pose = pose @ step
     return Trajectory(start + np.arange(count) / rate_hz, poses)
 
@@ -32,8 +40,12 @@ def random_walk(count: int, seed: int, rate_hz: float = 30.0, start: float = 100
 def perturbed(trajectory: Trajectory, seed: int, sigma_m: float = 0.005, sigma_rad: float = 0.005) -> Trajectory:
     """The same stamps with every pose disturbed independently."""
     rng = np.random.default_rng(seed)
-    noise = [make_pose(Rotation.from_rotvec(rng.normal(scale=sigma_rad, size=3)).as_matrix(), rng.normal(scale=sigma_m, size=3))
-             for _ in range(len(trajectory))]
+    noise = [
+        make_pose(
+            Rotation.from_rotvec(rng.normal(scale=sigma_rad, size=3)).as_matrix(), rng.normal(scale=sigma_m, size=3)
+        )
+        for _ in range(len(trajectory))
+    ]
     return Trajectory(trajectory.timestamps, trajectory.poses @ np.array(noise))
 
 
@@ -58,7 +70,7 @@ def tum_associate(first: list[float], second: list[float], offset: float, max_di
     a_all, b_all = np.array(first_keys), np.array(second_keys)
     potential_matches = []
     for block in range(0, len(a_all), 1000):
-        a = a_all[block:block + 1000]
+        a = a_all[block : block + 1000]
         difference = np.abs(a[:, None] - (b_all[None, :] + offset))
         rows, cols = np.nonzero(difference < max_difference)
         potential_matches += [(float(difference[r, c]), float(a[r]), float(b_all[c])) for r, c in zip(rows, cols)]

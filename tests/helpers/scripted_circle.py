@@ -68,8 +68,9 @@ def write_tum_folder(folder: Path) -> Path:
     (folder / "depth.txt").write_text("".join(f"{s:.6f} depth/{s:.6f}.png\n" for s in stamps))
     gt_stamps = START - 0.5 + np.arange(int((FRAMES / RATE_HZ + 1) * 100)) / 100.0
     t, q = pose_to_tq(np.stack([true_pose(s) for s in gt_stamps]))
-    (folder / "groundtruth.txt").write_text("".join(
-        f"{s:.4f} {' '.join(f'{v:.6f}' for v in (*ti, *qi))}\n" for s, ti, qi in zip(gt_stamps, t, q)))
+    (folder / "groundtruth.txt").write_text(
+        "".join(f"{s:.4f} {' '.join(f'{v:.6f}' for v in (*ti, *qi))}\n" for s, ti, qi in zip(gt_stamps, t, q))
+    )
     CAMERA.save(folder / "camera.json")
     return folder
 
@@ -113,29 +114,91 @@ class ScriptedPipeline(Pipeline):
             points = pose[:3, 3] + self.rng.normal(0.0, 0.3, (200, 3))
             events.append(MapUpdated(frame.index, points, np.full((200, 3), 128, np.uint8)))
             if keyframe_id == 6:
-                events.append(GraphEdge(frame.index, 6, 0, accepted=True, reason="geometric check passed",
-                                        kind=EdgeKind.LOOP, score=0.9, inliers=40))
-                events.append(GraphEdge(frame.index, 6, 2, accepted=False, reason="too few inliers",
-                                        kind=EdgeKind.LOOP, score=0.2, inliers=4))
-                events.append(GraphEdge(frame.index, 6, 1, accepted=True, reason="geometric check passed",
-                                        kind=EdgeKind.LOOP, score=0.8, inliers=30))
+                events.append(
+                    GraphEdge(
+                        frame.index,
+                        6,
+                        0,
+                        accepted=True,
+                        reason="geometric check passed",
+                        kind=EdgeKind.LOOP,
+                        score=0.9,
+                        inliers=40,
+                    )
+                )
+                events.append(
+                    GraphEdge(
+                        frame.index,
+                        6,
+                        2,
+                        accepted=False,
+                        reason="too few inliers",
+                        kind=EdgeKind.LOOP,
+                        score=0.2,
+                        inliers=4,
+                    )
+                )
+                events.append(
+                    GraphEdge(
+                        frame.index,
+                        6,
+                        1,
+                        accepted=True,
+                        reason="geometric check passed",
+                        kind=EdgeKind.LOOP,
+                        score=0.8,
+                        inliers=30,
+                    )
+                )
             if keyframe_id > 0:  # the odometry edge, and one to a recent keyframe
-                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 1, accepted=True, reason="odometry",
-                                        kind=EdgeKind.SEQUENTIAL, inliers=15, detection="predecessor"))
+                events.append(
+                    GraphEdge(
+                        frame.index,
+                        keyframe_id,
+                        keyframe_id - 1,
+                        accepted=True,
+                        reason="odometry",
+                        kind=EdgeKind.SEQUENTIAL,
+                        inliers=15,
+                        detection="predecessor",
+                    )
+                )
             if keyframe_id > 1:
-                events.append(GraphEdge(frame.index, keyframe_id, keyframe_id - 2, accepted=True,
-                                        reason="matched", kind=EdgeKind.LOCAL, inliers=12, detection="neighbour"))
+                events.append(
+                    GraphEdge(
+                        frame.index,
+                        keyframe_id,
+                        keyframe_id - 2,
+                        accepted=True,
+                        reason="matched",
+                        kind=EdgeKind.LOCAL,
+                        inliers=12,
+                        detection="neighbour",
+                    )
+                )
         status = TrackingStatus.RELOCALISED if frame.index == LOST[-1] + 1 else TrackingStatus.OK
-        return events + [FrameTracked(frame.index, frame.timestamp, pose, status, features=40, matches=20,
-                                      inliers=15, timings_ms={"features": 2.0, "ransac": 1.0})]
+        return events + [
+            FrameTracked(
+                frame.index,
+                frame.timestamp,
+                pose,
+                status,
+                features=40,
+                matches=20,
+                inliers=15,
+                timings_ms={"features": 2.0, "ransac": 1.0},
+            )
+        ]
 
     def finish(self):
         indices, stamps, poses = (np.array(values) for values in zip(*self.tracked))
         odometry = poses.copy()
         odometry[:, :3, 3] += np.linspace(0, 0.2, len(poses))[:, None]  # drift that loop closure removed
         keyframes = np.stack(self.keyframe_poses)
-        return [GraphOptimized(int(indices[-1]), np.arange(len(keyframes)), keyframes, 2.0, 0.1),
-                TrajectoryFinal(indices, stamps, poses, odometry)]
+        return [
+            GraphOptimized(int(indices[-1]), np.arange(len(keyframes)), keyframes, 2.0, 0.1),
+            TrajectoryFinal(indices, stamps, poses, odometry),
+        ]
 
 
 def serve_scripted_pipeline(monkeypatch) -> None:

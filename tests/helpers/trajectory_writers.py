@@ -18,10 +18,13 @@ def nanoseconds(stamps: np.ndarray) -> list[int]:
     return [round(stamp * 1e9) for stamp in stamps]
 
 
-def write_euroc(path: Path, trajectory: Trajectory, header: str = "#timestamp [ns],tx,ty,tz,qw,qx,qy,qz",
-                extra_columns: int = 0) -> Path:
+def write_euroc(
+    path: Path, trajectory: Trajectory, header: str = "#timestamp [ns],tx,ty,tz,qw,qx,qy,qz", extra_columns: int = 0
+) -> Path:
     t, q = pose_to_tq(trajectory.poses)
-    rows = [",".join([str(ns), *(f"{v:.17g}" for v in (*p, r[3], r[0], r[1], r[2])), *["0.5"] * extra_columns])
-            for ns, p, r in zip(nanoseconds(trajectory.timestamps), t, q)]
+    rows = [
+        ",".join([str(ns), *(f"{v:.17g}" for v in (*p, r[3], r[0], r[1], r[2])), *["0.5"] * extra_columns])
+        for ns, p, r in zip(nanoseconds(trajectory.timestamps), t, q)
+    ]
     path.write_text(header + "\n" + "\n".join(rows) + "\n")
     return path

@@ -16,8 +16,16 @@ from fixtures_eval import SHARED_DATA
 
 TUM_RPY_200 = SHARED_DATA / "tum" / "rgbd_dataset_freiburg1_rpy_200"
 REFERENCE_RUNS = Path(__file__).resolve().parents[1] / "reference_runs"  # `python -m scripts.reference_runs` writes it
-ONE_THREAD = {name: "1" for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                                     "NUMBA_NUM_THREADS", "OPENCV_FOR_THREADS_NUM")}
+ONE_THREAD = {
+    name: "1"
+    for name in (
+        "OMP_NUM_THREADS",
+        "OPENBLAS_NUM_THREADS",
+        "MKL_NUM_THREADS",
+        "NUMBA_NUM_THREADS",
+        "OPENCV_FOR_THREADS_NUM",
+    )
+}
 
 
 pytestmark = [pytest.mark.slow, pytest.mark.skipif(not TUM_RPY_200.is_dir(), reason="shared TUM excerpt not present")]
@@ -25,9 +33,25 @@ pytestmark = [pytest.mark.slow, pytest.mark.skipif(not TUM_RPY_200.is_dir(), rea
 
 def record(out: Path, threads: dict[str, str]) -> None:
     environment = {name: value for name, value in os.environ.items() if name not in ONE_THREAD}
-    subprocess.run([sys.executable, "-m", "viewer_slam", "record", str(TUM_RPY_200), "--pipeline", "both",
-                    "--out", str(out), "--seed", "0", "--quiet"], env={**environment, **threads}, check=True,
-                   capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "viewer_slam",
+            "record",
+            str(TUM_RPY_200),
+            "--pipeline",
+            "both",
+            "--out",
+            str(out),
+            "--seed",
+            "0",
+            "--quiet",
+        ],
+        env={**environment, **threads},
+        check=True,
+        capture_output=True,
+    )
 
 
 def test_trajectories_are_byte_identical_on_one_thread_and_on_two_with_the_other_core_busy(tmp_path):

@@ -32,7 +32,7 @@ def test_node_ate_scores_the_nodes_as_the_original_exports_them():
     stamps = np.asarray(sequence.timestamps)
     node_frames = [int(np.argmin(np.abs(stamps - t))) for t in nodes.timestamps]
     poses = np.repeat(np.eye(4)[None], len(stamps), axis=0)
-    poses[:, 0, 3] = np.arange(len(stamps))            # every other frame far off: must not count
+    poses[:, 0, 3] = np.arange(len(stamps))  # every other frame far off: must not count
     poses[node_frames] = nodes.poses
     run = PipelineRun("rtabmap", {}, 0)
     for frame in node_frames:
@@ -47,8 +47,9 @@ def test_node_ate_scores_the_nodes_as_the_original_exports_them():
 def test_odometry_ate_of_the_original_matches_its_own_figure():
     sequence = open_source(TUM_200)
     expected = json.loads((PER_FRAME / "summary.json").read_text())["ate_db_odom_poses"]["rmse"]
-    assert evaluate(sequence.groundtruth, read_tum(PER_FRAME / "db_poses_odom_tum.txt")).ate.stats()["rmse"] \
-        == pytest.approx(expected, abs=1e-5)
+    assert evaluate(sequence.groundtruth, read_tum(PER_FRAME / "db_poses_odom_tum.txt")).ate.stats()[
+        "rmse"
+    ] == pytest.approx(expected, abs=1e-5)
 
 
 def test_links_counted_by_detection_as_the_original_counts_them():
@@ -65,9 +66,12 @@ def test_links_counted_by_detection_as_the_original_counts_them():
     with open(PER_FRAME / "links.csv", newline="") as file:
         for link in csv.DictReader(file):
             a, b = int(link["from_id"]), int(link["to_id"])
-            run.observe(GraphEdge(max(a, b) - 1, a, b, True, "", classifier.kind(a, b),
-                                  detection=detection[link["type_name"]]))
-    assert run.edges_by_detection == {"odometry": {"accepted": 199, "rejected": 0},
-                                      "appearance": {"accepted": 75, "rejected": 0},
-                                      "proximity": {"accepted": 105, "rejected": 0}}
+            run.observe(
+                GraphEdge(max(a, b) - 1, a, b, True, "", classifier.kind(a, b), detection=detection[link["type_name"]])
+            )
+    assert run.edges_by_detection == {
+        "odometry": {"accepted": 199, "rejected": 0},
+        "appearance": {"accepted": 75, "rejected": 0},
+        "proximity": {"accepted": 105, "rejected": 0},
+    }
     assert run.loop_closures_accepted == 0 and run.edges["loop"] == 0

@@ -26,7 +26,7 @@ def test_a_rebuilt_map_holds_the_poses_it_was_made_at_not_those_it_is_read_at():
 
 
 def test_a_rebuilt_map_is_thinned_evenly_to_its_limit_and_counts_its_points_before_building():
-    event = rebuilt_map(0, clouds(3, points=101), max_points=100)   # 303 points, every 4th kept
+    event = rebuilt_map(0, clouds(3, points=101), max_points=100)  # 303 points, every 4th kept
     assert event.point_count == 76
     assert len(event.points) == len(event.colors) == 76
     assert rebuilt_map(0, [], max_points=100).point_count == 0
@@ -39,6 +39,7 @@ def test_the_recorders_map_builds_only_the_updates_it_still_holds_when_read():
         def build():
             built.append(offset)
             return np.full((5, 3), offset), np.zeros((5, 3), np.uint8)
+
         return MapUpdated.deferred(0, build, 5, replace=True)
 
     cloud = VoxelMap(voxel_size=0.01)

@@ -41,26 +41,40 @@ TYPES = {"odometry": OdometryParams, "graph": GraphParams}
 
 
 def test_keys_and_conversion():
-    params = apply_overrides(OdometryParams(), {"Odom/ResetCountdown": "5", "Vis/CorNNDR": "0.7",
-                                                "RGBD/ProximityBySpace": "false"}, "--param", text=True)
-    assert params.model_dump(by_alias=True) == {"Odom/ResetCountdown": 5, "Vis/CorNNDR": 0.7,
-                                      "RGBD/ProximityBySpace": False, "Kp/Detector": "GFTT_ORB"}
+    params = apply_overrides(
+        OdometryParams(),
+        {"Odom/ResetCountdown": "5", "Vis/CorNNDR": "0.7", "RGBD/ProximityBySpace": "false"},
+        "--param",
+        text=True,
+    )
+    assert params.model_dump(by_alias=True) == {
+        "Odom/ResetCountdown": 5,
+        "Vis/CorNNDR": 0.7,
+        "RGBD/ProximityBySpace": False,
+        "Kp/Detector": "GFTT_ORB",
+    }
 
 
-@pytest.mark.parametrize("key, value, message", [
-    ("Odom/ResetCountdown", "1.5", "expects an integer"),
-    ("Vis/CorNNDR", "high", "expects a number"),
-    ("RGBD/ProximityBySpace", "maybe", "expects true or false"),
-    ("Kp/Detector", "SURF", "must be one of GFTT_ORB, GFTT_BRIEF"),
-])
+@pytest.mark.parametrize(
+    "key, value, message",
+    [
+        ("Odom/ResetCountdown", "1.5", "expects an integer"),
+        ("Vis/CorNNDR", "high", "expects a number"),
+        ("RGBD/ProximityBySpace", "maybe", "expects true or false"),
+        ("Kp/Detector", "SURF", "must be one of GFTT_ORB, GFTT_BRIEF"),
+    ],
+)
 def test_wrong_types_are_rejected(key, value, message):
     with pytest.raises(InputError, match=message):
         apply_overrides(OdometryParams(), {key: value}, "--param", text=True)
 
 
 def test_every_integer_is_a_c_int_without_declaring_it():
-    with pytest.raises(InputError, match=rf"^--param: parameter predecessor_candidates must be less than or equal to "
-                                         rf"{INT_MAX}, got {INT_MAX + 1}$"):
+    with pytest.raises(
+        InputError,
+        match=rf"^--param: parameter predecessor_candidates must be less than or equal to "
+        rf"{INT_MAX}, got {INT_MAX + 1}$",
+    ):
         apply_overrides(GraphParams(), {"predecessor_candidates": str(INT_MAX + 1)}, "--param", text=True)
     assert bounds_of(keyed_fields(GraphParams)["predecessor_candidates"]) == {}
 
@@ -113,7 +127,9 @@ def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
     resolved = resolve_params(types, ["min_matches=400", "max_matches=500"])["rgbdslam"]
     assert (resolved.min_matches, resolved.max_matches) == (400, 500)
     assert resolve_params(types, ["minimum_depth=5", "maximum_depth=0"])["rgbdslam"].minimum_depth == 5
-    with pytest.raises(InputError, match=r"^--param: parameter max_matches must be at least min_matches \(400\), got 300$"):
+    with pytest.raises(
+        InputError, match=r"^--param: parameter max_matches must be at least min_matches \(400\), got 300$"
+    ):
         resolve_params(types, ["min_matches=400"])
     with pytest.raises(InputError, match="maximum_depth must be above minimum_depth"):
         apply_overrides(RgbdSlamParams(), {"minimum_depth": 1.0, "maximum_depth": 1.0}, "benchmark")
@@ -122,8 +138,11 @@ def test_a_relation_is_checked_on_the_final_values_and_an_off_value_lifts_it():
 # --param and --config accept exactly the same values, for every parameter of every pipeline.
 
 PIPELINES = {"rgbdslam": RgbdSlamParams, "rtabmap": RtabmapParams}
-DECLARED = [(pipeline, key, kind_of(field), field) for pipeline, kind in PIPELINES.items()
-            for key, field in keyed_fields(kind).items()]
+DECLARED = [
+    (pipeline, key, kind_of(field), field)
+    for pipeline, kind in PIPELINES.items()
+    for key, field in keyed_fields(kind).items()
+]
 
 
 def as_text(value) -> str:
@@ -132,16 +151,28 @@ def as_text(value) -> str:
 
 
 def as_toml(value) -> str:
-    return str(value).lower() if isinstance(value, bool) else json.dumps(value) if isinstance(value, str) else repr(value)
+    return (
+        str(value).lower() if isinstance(value, bool) else json.dumps(value) if isinstance(value, str) else repr(value)
+    )
 
 
 def limits(kind: type, field) -> tuple[float, float, bool, bool]:
     """(low, high, low included, high included) of a number parameter, the C int range included."""
     bounds = bounds_of(field)
-    low, low_in = (bounds["ge"], True) if "ge" in bounds else (bounds["gt"], False) if "gt" in bounds else \
-        ((-INT_MAX, True) if kind is int else (-math.inf, False))
-    high, high_in = (bounds["le"], True) if "le" in bounds else (bounds["lt"], False) if "lt" in bounds else \
-        ((INT_MAX, True) if kind is int else (math.inf, False))
+    low, low_in = (
+        (bounds["ge"], True)
+        if "ge" in bounds
+        else (bounds["gt"], False)
+        if "gt" in bounds
+        else ((-INT_MAX, True) if kind is int else (-math.inf, False))
+    )
+    high, high_in = (
+        (bounds["le"], True)
+        if "le" in bounds
+        else (bounds["lt"], False)
+        if "lt" in bounds
+        else ((INT_MAX, True) if kind is int else (math.inf, False))
+    )
     return low, high, low_in, high_in
 
 
@@ -167,8 +198,10 @@ def refused_values(kind: type, field) -> list:
     if kind in (int, float):
         low, high, low_in, high_in = limits(kind, field)
         step = (lambda x, towards: x + (1 if towards > x else -1)) if kind is int else math.nextafter
-        refused += [kind(step(low, -math.inf) if low_in else low) if math.isfinite(low) else None,
-                    kind(step(high, math.inf) if high_in else high) if math.isfinite(high) else None]
+        refused += [
+            kind(step(low, -math.inf) if low_in else low) if math.isfinite(low) else None,
+            kind(step(high, math.inf) if high_in else high) if math.isfinite(high) else None,
+        ]
     return [value for value in refused if value is not None]
 
 
@@ -189,8 +222,10 @@ def both_ways(pipeline: str, key: str, value) -> tuple:
     return tuple(outcomes)
 
 
-@pytest.mark.parametrize("pipeline, key, value",
-                         [(p, key, value) for p, key, kind, field in DECLARED for value in allowed_values(kind, field)])
+@pytest.mark.parametrize(
+    "pipeline, key, value",
+    [(p, key, value) for p, key, kind, field in DECLARED for value in allowed_values(kind, field)],
+)
 def test_every_allowed_value_and_bound_edge_is_accepted_alike_by_param_and_config(pipeline, key, value):
     by_param, by_config = both_ways(pipeline, key, value)
     assert by_param == by_config
@@ -199,8 +234,10 @@ def test_every_allowed_value_and_bound_edge_is_accepted_alike_by_param_and_confi
         assert type(dumped[key]) is type(value) and dumped[key] == value
 
 
-@pytest.mark.parametrize("pipeline, key, value",
-                         [(p, key, value) for p, key, kind, field in DECLARED for value in refused_values(kind, field)])
+@pytest.mark.parametrize(
+    "pipeline, key, value",
+    [(p, key, value) for p, key, kind, field in DECLARED for value in refused_values(kind, field)],
+)
 def test_every_value_past_a_bound_or_choice_is_refused_alike_by_param_and_config(pipeline, key, value):
     by_param, by_config = both_ways(pipeline, key, value)
     assert isinstance(by_param, str) and by_param == by_config and by_param.startswith(f"parameter {key} ")
@@ -216,8 +253,9 @@ def values_of(kind: type, field):
     low, high, low_in, high_in = limits(kind, field)
     if kind is int:
         return st.integers(-INT_MAX - 10, INT_MAX + 10)
-    return st.floats(allow_nan=False, allow_infinity=False) | st.floats(min_value=max(low, -1e6),
-                                                                       max_value=min(high, 1e6))
+    return st.floats(allow_nan=False, allow_infinity=False) | st.floats(
+        min_value=max(low, -1e6), max_value=min(high, 1e6)
+    )
 
 
 @st.composite

@@ -24,16 +24,32 @@ def site(tmp_path_factory) -> Path:
     work = tmp_path_factory.mktemp("plugins")
     source = shutil.copytree(PLUGINS / "viewslam-stationary", work / "viewslam-stationary")
     target = work / "site"
-    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation",
-                    "--no-index", "--target", str(target), str(source)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--quiet",
+            "--no-deps",
+            "--no-build-isolation",
+            "--no-index",
+            "--target",
+            str(target),
+            str(source),
+        ],
+        check=True,
+        capture_output=True,
+    )
     return target
 
 
 def viewslam(site: Path | None, tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
     paths = [str(site)] if site is not None else []
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([*paths, str(ROOT)]), "VIEWSLAM_CACHE": str(tmp_path / "cache")}
-    return subprocess.run([sys.executable, "-m", "viewer_slam", *args], env=env, cwd=tmp_path, capture_output=True,
-                          text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "viewer_slam", *args], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
 
 
 def test_installed_plugin_is_listed_with_its_parameters_and_broken_ones_do_not_hide_the_rest(site, tmp_path):
@@ -42,10 +58,31 @@ def test_installed_plugin_is_listed_with_its_parameters_and_broken_ones_do_not_h
     lines = listing.stdout.splitlines()
     headers = [line.split(" (")[0] for line in lines if not line.startswith(" ")]
     assert headers == ["rgbdslam", "rtabmap", "stationary"]
-    assert "stationary (plugin from viewslam-stationary 0.1.0): Every frame at the identity pose: the score of not " \
-           "tracking at all." in lines
-    assert lines[-1].split() == ["report_every", "=", "1", "(int,", ">=", "1)", "give", "a", "pose", "on", "every",
-                                 "N-th", "frame", "only;", "the", "frames", "between", "are", "lost"]
+    assert (
+        "stationary (plugin from viewslam-stationary 0.1.0): Every frame at the identity pose: the score of not "
+        "tracking at all." in lines
+    )
+    assert lines[-1].split() == [
+        "report_every",
+        "=",
+        "1",
+        "(int,",
+        ">=",
+        "1)",
+        "give",
+        "a",
+        "pose",
+        "on",
+        "every",
+        "N-th",
+        "frame",
+        "only;",
+        "the",
+        "frames",
+        "between",
+        "are",
+        "lost",
+    ]
     warnings = listing.stderr.splitlines()
     assert sorted(warnings) == [
         "viewslam: warning: pipeline plugin 'not_a_pipeline' (viewslam_stationary:StationaryParams): <class "
@@ -66,8 +103,21 @@ def test_without_the_plugins_only_the_built_in_pipelines_are_listed(tmp_path):
 
 def test_a_plugin_records_like_a_built_in_pipeline(site, tmp_path):
     folder = write_tum_folder(tmp_path / "tiny", frames=8)
-    done = viewslam(site, tmp_path, "record", str(folder), "--pipeline", "stationary", "--max-frames", "5",
-                    "--param", "report_every=2", "--out", "out/tiny.rrd", "--quiet")
+    done = viewslam(
+        site,
+        tmp_path,
+        "record",
+        str(folder),
+        "--pipeline",
+        "stationary",
+        "--max-frames",
+        "5",
+        "--param",
+        "report_every=2",
+        "--out",
+        "out/tiny.rrd",
+        "--quiet",
+    )
     assert done.returncode == 0, done.stderr
     report = json.loads((tmp_path / "out/tiny.json").read_text())
     block = report["pipelines"]["stationary"]
@@ -78,10 +128,13 @@ def test_a_plugin_records_like_a_built_in_pipeline(site, tmp_path):
     assert (tmp_path / "out/tiny.rrd").stat().st_size > 0
 
 
-@pytest.mark.parametrize("plugin, problem", [
-    ("unimportable", "cannot be imported: ModuleNotFoundError"),
-    ("not_a_pipeline", "is not a subclass of viewer_slam.pipelines.base.Pipeline"),
-])
+@pytest.mark.parametrize(
+    "plugin, problem",
+    [
+        ("unimportable", "cannot be imported: ModuleNotFoundError"),
+        ("not_a_pipeline", "is not a subclass of viewer_slam.pipelines.base.Pipeline"),
+    ],
+)
 def test_selecting_a_broken_plugin_is_one_line_and_exit_2(site, tmp_path, plugin, problem):
     folder = write_tum_folder(tmp_path / "tiny", frames=3)
     done = viewslam(site, tmp_path, "record", str(folder), "--pipeline", plugin, "--out", "out/x.rrd", "--quiet")
@@ -92,8 +145,20 @@ def test_selecting_a_broken_plugin_is_one_line_and_exit_2(site, tmp_path, plugin
 
 def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     folder = write_tum_folder(tmp_path / "tiny", frames=6)
-    done = viewslam(site, tmp_path, "benchmark", str(folder), "--pipeline", "rgbdslam,stationary", "--jobs", "1",
-                    "--no-cache", "--out", "results", "--quiet")
+    done = viewslam(
+        site,
+        tmp_path,
+        "benchmark",
+        str(folder),
+        "--pipeline",
+        "rgbdslam,stationary",
+        "--jobs",
+        "1",
+        "--no-cache",
+        "--out",
+        "results",
+        "--quiet",
+    )
     assert done.returncode == 0, done.stderr
     rows = {row["pipeline"]: row for row in json.loads((tmp_path / "results/results.json").read_text())}
     assert set(rows) == {"rgbdslam", "stationary"} and rows["stationary"]["status"] == "ok"
@@ -101,23 +166,46 @@ def test_a_plugin_runs_in_the_benchmark(site, tmp_path):
     assert "stationary" in (tmp_path / "results/report.md").read_text()
 
 
-@pytest.mark.parametrize("name, value, problem", [
-    ("rgbdslam", "benchmark_fake_pipeline:FakePipeline", "the name is taken by a built-in pipeline"),
-    ("half", "broken_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
-    ("bare", "broken_plugins:UnparametrisedPipeline", "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams"),
-    ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
-    ("raising", "broken_plugins:no_such_name", "cannot be imported: AttributeError: "),
-    ("nodefault", "broken_plugins:NoDefaultPipeline",
-     "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every parameter needs one)"),
-    ("outofbounds", "broken_plugins:DefaultOutOfBoundsPipeline",
-     "DefaultOutOfBoundsPipeline.Params: the default of parameter window must be greater than or equal to 1, got -1"),
-    ("rule", "broken_plugins:RaisingDefaultsPipeline",
-     "RaisingDefaultsPipeline.Params: its defaults cannot be built: ZeroDivisionError: a bug in the plugin's own rule"),
-    ("earlier", "earlier_api_plugin:StationaryParams",
-     "cannot be imported: ImportError: viewer_slam.pipelines.params.param is gone: pipeline parameters are a pydantic "
-     "model now; use a field of a PipelineParams subclass"),
-    ("orb/3", "benchmark_fake_pipeline:FakePipeline", "a pipeline's name holds letters, digits, '_', '-' and '.' only"),
-])
+@pytest.mark.parametrize(
+    "name, value, problem",
+    [
+        ("rgbdslam", "benchmark_fake_pipeline:FakePipeline", "the name is taken by a built-in pipeline"),
+        ("half", "broken_plugins:HalfPipeline", "HalfPipeline does not implement finish"),
+        (
+            "bare",
+            "broken_plugins:UnparametrisedPipeline",
+            "UnparametrisedPipeline.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams",
+        ),
+        ("value", "benchmark_fake_pipeline:MODULE", "'benchmark_fake_pipeline' is not a subclass of viewer_slam"),
+        ("raising", "broken_plugins:no_such_name", "cannot be imported: AttributeError: "),
+        (
+            "nodefault",
+            "broken_plugins:NoDefaultPipeline",
+            "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every parameter needs one)",
+        ),
+        (
+            "outofbounds",
+            "broken_plugins:DefaultOutOfBoundsPipeline",
+            "DefaultOutOfBoundsPipeline.Params: the default of parameter window must be greater than or equal to 1, got -1",
+        ),
+        (
+            "rule",
+            "broken_plugins:RaisingDefaultsPipeline",
+            "RaisingDefaultsPipeline.Params: its defaults cannot be built: ZeroDivisionError: a bug in the plugin's own rule",
+        ),
+        (
+            "earlier",
+            "earlier_api_plugin:StationaryParams",
+            "cannot be imported: ImportError: viewer_slam.pipelines.params.param is gone: pipeline parameters are a pydantic "
+            "model now; use a field of a PipelineParams subclass",
+        ),
+        (
+            "orb/3",
+            "benchmark_fake_pipeline:FakePipeline",
+            "a pipeline's name holds letters, digits, '_', '-' and '.' only",
+        ),
+    ],
+)
 def test_what_a_plugin_must_be(name, value, problem):
     with pytest.raises(InputError) as raised:
         load_plugin(EntryPoint(name, value, ENTRY_POINT_GROUP))
@@ -135,9 +223,11 @@ def test_a_plugin_whose_declaration_is_broken_is_one_line_naming_it_and_the_fiel
     point = EntryPoint("nodefault", "broken_plugins:NoDefaultPipeline", ENTRY_POINT_GROUP)
     monkeypatch.setattr(base, "plugin_entry_points", lambda: {"nodefault": point})
     assert main(["record", str(tmp_path / "any"), "--pipeline", "nodefault", "--out", str(tmp_path / "r.rrd")]) == 2
-    assert capsys.readouterr().err == ("viewslam: error: pipeline plugin 'nodefault' (broken_plugins:NoDefaultPipeline): "
-                                       "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every "
-                                       "parameter needs one)\n")
+    assert capsys.readouterr().err == (
+        "viewslam: error: pipeline plugin 'nodefault' (broken_plugins:NoDefaultPipeline): "
+        "NoDefaultPipeline.Params: parameter 'Odom/Window' has no default (every "
+        "parameter needs one)\n"
+    )
     assert list(tmp_path.iterdir()) == []
 
 

@@ -34,8 +34,9 @@ RESOLUTION = (320, 240)
 def run(path, frames=None, seed=0, params=None):
     sequence = open_source(path)
     events = []
-    result = run_pipeline(sequence, "rgbdslam", params or RgbdSlamParams(), seed=seed, max_frames=frames,
-                          sinks=[events.append])
+    result = run_pipeline(
+        sequence, "rgbdslam", params or RgbdSlamParams(), seed=seed, max_frames=frames, sinks=[events.append]
+    )
     return sequence, result, events
 
 
@@ -75,7 +76,7 @@ def kidnap():
 
 def frame_mask(sequence, result, intervals):
     """(has a pose, inside one of ``intervals``) per frame."""
-    stamps = sequence.timestamps[:result.frames]
+    stamps = sequence.timestamps[: result.frames]
     inside = np.zeros(len(stamps), bool)
     for start, end in intervals:
         inside |= (stamps >= start - 1e-6) & (stamps <= end + 1e-6)
@@ -153,8 +154,9 @@ def test_without_a_revisit_no_pose_follows_the_first_covering_and_keep_all_nodes
     # registers the first frame after the covering with the last node before it (23 inliers)
     # and tracks on from there, a metre off (docs/pipelines/rgbdslam.md).
     frames = FRAMES // 2
-    sequence, result, _, scenario = kidnap_run("360_kidnap_norevisit", RgbdSlamParams(matcher_type="BRUTEFORCE_OPENCV"),
-                                               frames)
+    sequence, result, _, scenario = kidnap_run(
+        "360_kidnap_norevisit", RgbdSlamParams(matcher_type="BRUTEFORCE_OPENCV"), frames
+    )
     has_pose, _, stamps = frame_mask(sequence, result, scenario["covered_intervals"])
     first_cover = scenario["covered_intervals"][0][0]
     assert has_pose[stamps < first_cover].all() and not has_pose[stamps >= first_cover].any()
@@ -178,8 +180,10 @@ def test_same_sequence_and_seed_give_identical_trajectory_files(tmp_path):
 def test_features_extracted_ahead_on_their_own_thread_give_the_same_run():
     # v2's concurrent_node_construction: the detector thresholds adapt from frame to frame,
     # so the extraction ahead must keep the frames' order exactly.
-    runs = [run(textured_loop_path(), frames=40, params=RgbdSlamParams(concurrent_node_construction=concurrent))
-            for concurrent in (True, False)]
+    runs = [
+        run(textured_loop_path(), frames=40, params=RgbdSlamParams(concurrent_node_construction=concurrent))
+        for concurrent in (True, False)
+    ]
     assert np.array_equal(runs[0][1].trajectory.poses, runs[1][1].trajectory.poses)
     timed = [e for e in runs[0][2] if isinstance(e, FrameTracked)]
     assert len(timed) == 40 and all(e.timings_ms["features"] > 0 for e in timed)

@@ -31,8 +31,9 @@ from viewer_slam.pipelines.rgbdslam.pipeline import no_motion_information
 from viewer_slam.pipelines.rgbdslam.segments import Segments
 
 CAMERA = Camera(262.5, 262.5, 159.5, 119.5, 320, 240)
-EMPTY = Features(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros(0, np.float32),
-                 np.zeros((0, 3)), True)
+EMPTY = Features(
+    np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros(0, np.float32), np.zeros((0, 3)), True
+)
 
 
 def chain_graph(count):
@@ -48,15 +49,31 @@ def test_registered_under_its_name_with_v2_defaults():
     defaults = RgbdSlamParams().model_dump(by_alias=True)
     # parameter_server.cpp's defaults
     assert defaults["feature_detector_type"] == "ORB"
-    assert (defaults["max_keypoints"], defaults["max_matches"], defaults["ransac_iterations"],
-            defaults["min_matches"]) == (600, 300, 200, 20)
-    assert (defaults["predecessor_candidates"], defaults["neighbor_candidates"],
-            defaults["min_sampled_candidates"], defaults["geodesic_depth"]) == (4, 4, 4, 3)
+    assert (
+        defaults["max_keypoints"],
+        defaults["max_matches"],
+        defaults["ransac_iterations"],
+        defaults["min_matches"],
+    ) == (600, 300, 200, 20)
+    assert (
+        defaults["predecessor_candidates"],
+        defaults["neighbor_candidates"],
+        defaults["min_sampled_candidates"],
+        defaults["geodesic_depth"],
+    ) == (4, 4, 4, 3)
     assert (defaults["min_translation_meter"], defaults["min_rotation_degree"]) == (0.0, 0.0)
-    assert (defaults["nn_distance_ratio"], defaults["sigma_depth"], defaults["adjuster_max_iterations"]) == (0.95, 0.01, 5)
+    assert (defaults["nn_distance_ratio"], defaults["sigma_depth"], defaults["adjuster_max_iterations"]) == (
+        0.95,
+        0.01,
+        5,
+    )
     assert defaults["matcher_type"] == "FLANN"
     assert defaults["keep_all_nodes"] is False and defaults["observability_threshold"] <= 0
-    assert (defaults["optimizer_iterations"], defaults["optimizer_skip_step"], defaults["backend_solver"]) == (0.01, 1, "pcg")
+    assert (defaults["optimizer_iterations"], defaults["optimizer_skip_step"], defaults["backend_solver"]) == (
+        0.01,
+        1,
+        "pcg",
+    )
     assert all(defaults[k] == 0 for k in defaults if k.startswith("viewslam_"))  # ours: off
 
 
@@ -123,8 +140,15 @@ def chain_of_nodes(graph: NodeGraph, count: int) -> None:
     """``count`` featureless nodes 0.1 m apart along x, in one segment, without edges."""
     graph.segments.add(0)
     for node_id in range(count):
-        node = Node.from_frame(node_id, node_id, float(node_id), MeasuredFeatures(EMPTY), np.zeros((8, 8, 3), np.uint8),
-                               np.zeros((8, 8), np.float32), 0)
+        node = Node.from_frame(
+            node_id,
+            node_id,
+            float(node_id),
+            MeasuredFeatures(EMPTY),
+            np.zeros((8, 8, 3), np.uint8),
+            np.zeros((8, 8), np.float32),
+            0,
+        )
         graph.add(node, make_pose(np.eye(3), [0.1 * node_id, 0, 0]), np.eye(4))
 
 
@@ -133,10 +157,10 @@ def test_edges_with_large_errors_are_pruned_as_v2_does():
     chain_of_nodes(graph, 3)
     information = np.diag([1e6] * 3 + [1000.0] * 3)
     step = make_pose(np.eye(3), [0.1, 0, 0])
-    graph.connect(0, 1, step, information)                                  # exact: chi2 0
-    graph.connect(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), information)     # 0.1 m off: chi2 10 > 5
-    graph.connect(0, 2, make_pose(np.eye(3), [0.25, 0, 0]), information)    # 0.05 m off: chi2 2.5
-    graph.connect(0, 2, make_pose(np.eye(3), [0.3, 0, 0]), information)     # 0.1 m off, not consecutive
+    graph.connect(0, 1, step, information)  # exact: chi2 0
+    graph.connect(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), information)  # 0.1 m off: chi2 10 > 5
+    graph.connect(0, 2, make_pose(np.eye(3), [0.25, 0, 0]), information)  # 0.05 m off: chi2 2.5
+    graph.connect(0, 2, make_pose(np.eye(3), [0.3, 0, 0]), information)  # 0.1 m off, not consecutive
     assert graph.prune_edges_with_error_above(5.0) == 2
     kept = {(e.from_id, e.to_id, round(float(e.relative[0, 3]), 3)) for e in graph.poses.edges}
     assert kept == {(0, 1, 0.1), (0, 2, 0.25), (1, 2, 0.0)}  # the consecutive one became no motion
@@ -181,8 +205,9 @@ def test_joining_segments_moves_the_newer_one_onto_the_older():
     relative = make_pose(Rotation.from_rotvec([0.1, 0.0, 0.0]).as_matrix(), [0.0, 0.2, 0.0])  # node 1 sees node 3 here
     assert segments.join(graph, node_segment, 1, 3, relative)
     np.testing.assert_allclose(invert(graph.poses[1]) @ graph.poses[3], relative, atol=1e-12)
-    np.testing.assert_allclose(invert(graph.poses[2]) @ graph.poses[3],
-                               make_pose(np.eye(3), [0.1, 0.0, 0.0]), atol=1e-12)  # rigidly moved
+    np.testing.assert_allclose(
+        invert(graph.poses[2]) @ graph.poses[3], make_pose(np.eye(3), [0.1, 0.0, 0.0]), atol=1e-12
+    )  # rigidly moved
     np.testing.assert_array_equal(graph.poses[1], old)  # the older segment stays
     assert 2 not in graph.priors and 0 in graph.priors
     assert segments.root(2) == 0
@@ -212,8 +237,9 @@ def measured(points=None, descriptor_rows=None):
     count = len(points if points is not None else descriptor_rows)
     points = np.ones((count, 3)) if points is None else points
     descriptor_rows = np.zeros((count, 32), np.uint8) if descriptor_rows is None else descriptor_rows
-    return MeasuredFeatures.from_features(Features(np.zeros((count, 2), np.float32), descriptor_rows,
-                                                   np.ones(count, np.float32), points, True))
+    return MeasuredFeatures.from_features(
+        Features(np.zeros((count, 2), np.float32), descriptor_rows, np.ones(count, np.float32), points, True)
+    )
 
 
 def test_v2s_default_orb_matching_takes_each_nearest_neighbour_within_half_the_bits_nearest_first():
@@ -226,7 +252,9 @@ def test_v2s_default_orb_matching_takes_each_nearest_neighbour_within_half_the_b
     assert frame_index.tolist() == [2, 0, 4, 1, 3] and node_index.tolist() == [0, 1, 1, 0, 1]
     # half of the 256 bits or more apart is no match: 227 bits is 127 from 100, 228 is 128
     pair, defaults = measured(descriptor_rows=descriptors(0, 100)), RgbdSlamParams()
-    assert match(measured(descriptor_rows=descriptors(227)), pair, defaults, np.random.default_rng(0))[1].tolist() == [1]
+    assert match(measured(descriptor_rows=descriptors(227)), pair, defaults, np.random.default_rng(0))[1].tolist() == [
+        1
+    ]
     assert match(measured(descriptor_rows=descriptors(228)), pair, defaults, np.random.default_rng(0))[0].size == 0
     capped = apply_overrides(RgbdSlamParams(), {"max_matches": 4, "min_matches": 3}, "--param")
     assert match(frame, node, capped, np.random.default_rng(0))[0].tolist() == [2, 0, 4, 1]
@@ -245,9 +273,12 @@ def test_equal_distances_sort_in_random_order_and_the_ratio_test_on_request():
 
 def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_when_asked():
     from viewer_slam.pipelines.rgbdslam.motion import estimate_motion
+
     rng = np.random.default_rng(3)
     node_points = rng.uniform([-1, -1, 1], [1, 1, 3], (100, 3))
-    frame_from_node = make_pose(Rotation.from_rotvec(np.array([0.02, -0.03, 0.01])).as_matrix(), np.array([0.05, 0.0, -0.02]))
+    frame_from_node = make_pose(
+        Rotation.from_rotvec(np.array([0.02, -0.03, 0.01])).as_matrix(), np.array([0.05, 0.0, -0.02])
+    )
     frame_points = node_points @ frame_from_node[:3, :3].T + frame_from_node[:3, 3]
     frame_points[25:] = rng.uniform([-1, -1, 1], [1, 1, 3], (75, 3))  # 25 true matches among 100
     matches = (np.arange(100), np.arange(100))
@@ -255,24 +286,30 @@ def test_a_transformation_backed_by_too_small_a_share_of_the_matches_is_refused_
     motion, _ = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0))
     assert motion is not None and motion.inlier_count == 25
     assert np.allclose(motion.transform, invert(frame_from_node), atol=1e-6)
-    refused, reason = estimate_motion(frame, node, matches, RgbdSlamParams(), np.random.default_rng(0),
-                                      min_inlier_ratio=0.3)  # viewslam_min_inlier_ratio, ours
+    refused, reason = estimate_motion(
+        frame, node, matches, RgbdSlamParams(), np.random.default_rng(0), min_inlier_ratio=0.3
+    )  # viewslam_min_inlier_ratio, ours
     assert refused is None and reason == "too few of the matches are inliers (25 of 100, < 0.3)"
 
 
 def test_a_match_faster_than_v2s_bounds_per_second_is_refused():
     from viewer_slam.pipelines.rgbdslam.motion import smooth_enough
+
     defaults = RgbdSlamParams()
     assert (defaults.max_translation_meter, defaults.max_rotation_degree) == (1e10, 360.0)  # parameter_server.cpp
+
     def turned(degrees, metres=0.0):
-        return make_pose(Rotation.from_rotvec(np.radians(degrees) * np.array([0.6, 0.0, 0.8])).as_matrix(),
-                         np.array([metres, 0.0, 0.0]))
+        return make_pose(
+            Rotation.from_rotvec(np.radians(degrees) * np.array([0.6, 0.0, 0.8])).as_matrix(),
+            np.array([metres, 0.0, 0.0]),
+        )
+
     frame_gap = 1 / 30
     # isSmallTrafo: angle / seconds < max_rotation_degree, dist / seconds < max_translation_meter
-    assert smooth_enough(turned(11.5), frame_gap, defaults)        # 345 deg/s
-    assert not smooth_enough(turned(12.5), frame_gap, defaults)    # 375 deg/s
-    assert smooth_enough(turned(60.0), 1.0, defaults)              # a loop closure a second back
-    assert smooth_enough(turned(170.0), 0.0, defaults)             # no time between: not tested
+    assert smooth_enough(turned(11.5), frame_gap, defaults)  # 345 deg/s
+    assert not smooth_enough(turned(12.5), frame_gap, defaults)  # 375 deg/s
+    assert smooth_enough(turned(60.0), 1.0, defaults)  # a loop closure a second back
+    assert smooth_enough(turned(170.0), 0.0, defaults)  # no time between: not tested
     slow = apply_overrides(RgbdSlamParams(), {"max_translation_meter": "1"}, "--param", text=True)
-    assert smooth_enough(turned(0.0, 0.03), frame_gap, slow)       # 0.9 m/s
-    assert not smooth_enough(turned(0.0, 0.04), frame_gap, slow)   # 1.2 m/s
+    assert smooth_enough(turned(0.0, 0.03), frame_gap, slow)  # 0.9 m/s
+    assert not smooth_enough(turned(0.0, 0.04), frame_gap, slow)  # 1.2 m/s

@@ -63,7 +63,7 @@ def textured_loop():
 def test_textured_loop_is_closed_by_the_bayes_filter_and_corrects_the_drift(textured_loop):
     sequence, result, events = textured_loop
     closures = [e for e in of_type(events, GraphEdge) if e.accepted and e.detection == "appearance"]
-    assert closures and min(e.from_keyframe for e in closures) == 0      # back to the first location
+    assert closures and min(e.from_keyframe for e in closures) == 0  # back to the first location
     assert all(e.score > RtabmapParams().loop_threshold and e.inliers >= 20 for e in closures)
     assert of_type(events, GraphOptimized) and any(e.replace for e in of_type(events, MapUpdated))
     assert len(result.trajectory) == LOOP_FRAMES
@@ -205,7 +205,7 @@ def test_texture_less_plane_loses_tracking_without_wrong_poses_and_the_report_sh
     # a weak registration that the guided matching lost is made by descriptor and redone
     # guided around that pose, Reg/RepeatOnce, where lone corners near projections pass).
     registered = [e for e in of_type(events, FrameTracked) if e.pose is not None]
-    assert registered[-1].frame_index < of_type(events, TrackingLost)[0].frame_index     # lost for good
+    assert registered[-1].frame_index < of_type(events, TrackingLost)[0].frame_index  # lost for good
     min_inliers = RtabmapParams().min_inliers
     assert registered[-1].inliers < 2 * min_inliers
     truth, _ = sequence.groundtruth_at(result.trajectory.timestamps)

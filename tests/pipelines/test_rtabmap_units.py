@@ -45,7 +45,12 @@ def test_parameters_carry_rtabmap_names_and_defaults():
     params = resolved["rtabmap"]
     assert (params.reset_countdown, params.memory_threshold) == (5, 30)
     defaults = RtabmapParams()
-    assert (defaults.loop_threshold, defaults.stm_size, defaults.local_map_size, defaults.min_inliers) == (0.11, 10, 2000, 20)
+    assert (defaults.loop_threshold, defaults.stm_size, defaults.local_map_size, defaults.min_inliers) == (
+        0.11,
+        10,
+        2000,
+        20,
+    )
     assert PIPELINE.name == "rtabmap" and PIPELINE.Params is RtabmapParams
 
 
@@ -55,8 +60,12 @@ GUIDE_CAMERA = Camera(500.0, 500.0, 320.0, 240.0, 640, 480)
 def guided_odometry(pixels: np.ndarray, map_descriptors: np.ndarray, **overrides) -> FrameToMapOdometry:
     """An odometry whose local map holds points 2 m in front of the identity pose at ``pixels``."""
     odometry = FrameToMapOdometry(GUIDE_CAMERA, apply_overrides(RtabmapParams(), overrides, "test"))
-    odometry.map.add(GUIDE_CAMERA.backproject(pixels, np.full(len(pixels), 2.0)), map_descriptors, 0,
-                     [(0, u, v, 2.0) for u, v in pixels])
+    odometry.map.add(
+        GUIDE_CAMERA.backproject(pixels, np.full(len(pixels), 2.0)),
+        map_descriptors,
+        0,
+        [(0, u, v, 2.0) for u, v in pixels],
+    )
     return odometry
 
 
@@ -71,8 +80,7 @@ def test_guided_matching_each_projected_point_in_word_order_takes_a_corner_not_y
     # word 0, first in word order, takes it: a lone candidate needs no test. Word 2 projects
     # off the image (x = -3), next to its twin corner 1; word 3 30 px from its twin corner 2.
     odometry = guided_odometry(np.array([[100.0, 100.0], [104.0, 100.0], [-3.0, 300.0], [400.0, 300.0]]), words)
-    frame = corners([[102.0, 100.0], [1.0, 300.0], [430.0, 300.0]],
-                    np.vstack([words[1], words[2], words[3]]))
+    frame = corners([[102.0, 100.0], [1.0, 300.0], [430.0, 300.0]], np.vstack([words[1], words[2], words[3]]))
     feature_index, map_index, projected = odometry.guided_matches(frame, np.eye(4))
     assert list(zip(feature_index.tolist(), map_index.tolist())) == [(0, 0), (2, 3)]
     # RegistrationVis's projectedIDs: in the image with a corner within 40 px (word 2 is off it)
@@ -81,8 +89,9 @@ def test_guided_matching_each_projected_point_in_word_order_takes_a_corner_not_y
 
 def test_guided_matching_to_projection_drops_a_map_point_two_corners_picked():
     words = descriptors(2)
-    odometry = guided_odometry(np.array([[100.0, 100.0], [300.0, 200.0]]), words,
-                               **{"Vis/CorGuessMatchToProjection": True})
+    odometry = guided_odometry(
+        np.array([[100.0, 100.0], [300.0, 200.0]]), words, **{"Vis/CorGuessMatchToProjection": True}
+    )
     # corners 0 and 1 both have only word 0 within 40 px; corner 2 only word 1
     frame = corners([[95.0, 100.0], [110.0, 105.0], [305.0, 190.0]], np.vstack([words[0], words[0], words[1]]))
     feature_index, map_index, _ = odometry.guided_matches(frame, np.eye(4))
@@ -102,8 +111,12 @@ def five_key_frames_of_ten_points() -> LocalMap:
     """Points 10k..10k+9 added by key frame k, each point's x its index."""
     local_map = LocalMap()
     for frame in range(5):
-        local_map.add(np.c_[np.arange(10 * frame, 10 * frame + 10), np.zeros((10, 2))], descriptors(10), frame,
-                      [(frame, float(i), 0.0, 1.0) for i in range(10)])
+        local_map.add(
+            np.c_[np.arange(10 * frame, 10 * frame + 10), np.zeros((10, 2))],
+            descriptors(10),
+            frame,
+            [(frame, float(i), 0.0, 1.0) for i in range(10)],
+        )
     return local_map
 
 
@@ -144,13 +157,15 @@ def test_vocabulary_reuses_words_and_creates_new_ones():
 def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
     vocabulary = Vocabulary(nndr=0.8, seed=3)
     words = descriptors(3 * REBUILD_PENDING)
-    ids = np.concatenate([vocabulary.add_location(location, chunk) for location, chunk in enumerate(np.split(words, 6))])
+    ids = np.concatenate(
+        [vocabulary.add_location(location, chunk) for location, chunk in enumerate(np.split(words, 6))]
+    )
     queries = flip_bits(words[::7], 12)
     # Oracle: brute-force ratio test over each word's creating descriptor.
     word_ids, first = np.unique(ids, return_index=True)
     pairs = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(queries, words[first], k=2)
     oracle = np.array([word_ids[a.trainIdx] if a.distance < 0.8 * b.distance else -1 for a, b in pairs])
-    assert (vocabulary.quantize(queries) == oracle).mean() > 0.95   # LSH is approximate
+    assert (vocabulary.quantize(queries) == oracle).mean() > 0.95  # LSH is approximate
 
 
 def test_words_of_long_term_memory_are_not_searched_until_retrieved():
@@ -186,7 +201,7 @@ def test_a_location_with_fewer_words_than_half_the_mean_is_a_bad_signature():
     pipeline.vocabulary = vocabulary_of(8)
     for location_id, words in enumerate(([0, 1, 2, 3, 4, 5], [0, 1, 2], [3, 4, 5, 6])):
         pipeline.vocabulary.index(location_id, np.array(words))
-    assert pipeline.vocabulary.mean_words_per_location() == 13 // 3      # 4: Kp/BadSignRatio 0.5 of it is 2
+    assert pipeline.vocabulary.mean_words_per_location() == 13 // 3  # 4: Kp/BadSignRatio 0.5 of it is 2
     keep = lambda count: len(pipeline._signature(view(scene(count), np.eye(4), descriptors(count))))  # noqa: E731
     assert (keep(1), keep(2), keep(600)) == (0, 2, RtabmapParams().words_per_location)
 
@@ -207,7 +222,7 @@ def test_virtual_place_likelihood_is_two_when_no_score_stands_out(scores):
 
 def test_hypothesis_is_the_best_location_valued_at_the_sum_of_loop_closure_probabilities():
     hypothesis = highest_hypothesis({VIRTUAL_PLACE: 0.5, 3: 0.2, 5: 0.2, 7: 0.1})
-    assert hypothesis.location == 5 and hypothesis.value == pytest.approx(0.5)    # newest of the tied best
+    assert hypothesis.location == 5 and hypothesis.value == pytest.approx(0.5)  # newest of the tied best
     assert highest_hypothesis({VIRTUAL_PLACE: 1.0, 3: 0.0}) is None
 
 
@@ -277,8 +292,20 @@ def test_similarity_counts_shared_words_against_the_larger_location():
 
 def location(location_id: int, words: np.ndarray, weight: int = 0) -> Location:
     empty = np.zeros((0, 3))
-    return Location(location_id, 0, location_id, float(location_id), np.eye(4), np.zeros((0, 2)),
-                    np.zeros((0, 32), np.uint8), empty, words, empty, np.zeros((0, 3), np.uint8), weight)
+    return Location(
+        location_id,
+        0,
+        location_id,
+        float(location_id),
+        np.eye(4),
+        np.zeros((0, 2)),
+        np.zeros((0, 32), np.uint8),
+        empty,
+        words,
+        empty,
+        np.zeros((0, 3), np.uint8),
+        weight,
+    )
 
 
 def test_memory_moves_least_weighted_oldest_to_ltm_and_retrieves_graph_neighbours():
@@ -304,8 +331,8 @@ def test_memory_moves_least_weighted_oldest_to_ltm_and_retrieves_graph_neighbour
 
 
 def test_locations_newer_than_the_last_loop_closure_stay_while_fewer_than_the_recent_share():
-    memory = chain_memory(21, stm_size=1)          # WM 0..19, STM 20
-    memory.link(3, 17, Link.LOOP)                  # last loop closure location: 17
+    memory = chain_memory(21, stm_size=1)  # WM 0..19, STM 20
+    memory.link(3, 17, Link.LOOP)  # last loop closure location: 17
     # Mem/RecentWmRatio 0.2 of 20 = 4; 17, 18, 19 are 3 (> 1 and < 4): kept with 17 itself.
     assert memory.removable(25, set()) == list(range(0, 17))
     memory.locations[0].weight = 1
@@ -315,15 +342,18 @@ def test_locations_newer_than_the_last_loop_closure_stay_while_fewer_than_the_re
 CAMERA = Camera(fx=300.0, fy=300.0, cx=160.0, cy=120.0, width=320, height=240)
 
 
-@pytest.mark.parametrize("overrides, elapsed_ms, moved", [
-    ({"Rtabmap/TimeThr": 50}, 80.0, [0, 1]),        # over time: (added 1) + 1 locations
-    ({"Rtabmap/TimeThr": 50}, 20.0, []),
-    ({"Rtabmap/MemoryThr": 5}, 0.0, [0, 1]),        # WM holds 7 > 5: again added + 1, not down to 5
-    ({"Rtabmap/MemoryThr": 7}, 0.0, []),
-])
+@pytest.mark.parametrize(
+    "overrides, elapsed_ms, moved",
+    [
+        ({"Rtabmap/TimeThr": 50}, 80.0, [0, 1]),  # over time: (added 1) + 1 locations
+        ({"Rtabmap/TimeThr": 50}, 20.0, []),
+        ({"Rtabmap/MemoryThr": 5}, 0.0, [0, 1]),  # WM holds 7 > 5: again added + 1, not down to 5
+        ({"Rtabmap/MemoryThr": 7}, 0.0, []),
+    ],
+)
 def test_over_budget_an_update_transfers_one_more_location_than_it_added(overrides, elapsed_ms, moved):
     pipeline = PIPELINE(CAMERA, apply_overrides(RtabmapParams(), overrides, "test"))
-    pipeline.memory = chain_memory(9, stm_size=2)              # WM 0..6, STM 7, 8
+    pipeline.memory = chain_memory(9, stm_size=2)  # WM 0..6, STM 7, 8
     pipeline._keep_budget(set(), 1, elapsed_ms)
     assert sorted(pipeline.memory.ltm) == moved
 
@@ -353,7 +383,11 @@ def test_a_guess_window_of_zero_registers_every_frame_against_the_whole_local_ma
 
 def z_y_x(yaw: float, pitch: float, roll: float) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll), the convention of RTAB-Map's Euler angles."""
-    return Rotation.from_rotvec([0, 0, yaw]).as_matrix() @ Rotation.from_rotvec([0, pitch, 0]).as_matrix() @ Rotation.from_rotvec([roll, 0, 0]).as_matrix()
+    return (
+        Rotation.from_rotvec([0, 0, yaw]).as_matrix()
+        @ Rotation.from_rotvec([0, pitch, 0]).as_matrix()
+        @ Rotation.from_rotvec([roll, 0, 0]).as_matrix()
+    )
 
 
 def test_the_motion_guess_is_the_last_velocity_times_the_time_since_the_last_frame(monkeypatch):
@@ -369,10 +403,12 @@ def test_the_motion_guess_is_the_last_velocity_times_the_time_since_the_last_fra
     # Reg/RepeatOnce off: its guided repeat of the map's second frame is not a motion guess.
     odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Reg/RepeatOnce": False}, "test"))
     predicted, guided = [], odometry.guided_matches
-    monkeypatch.setattr(odometry, "guided_matches", lambda features, pose: predicted.append(pose) or guided(features, pose))
+    monkeypatch.setattr(
+        odometry, "guided_matches", lambda features, pose: predicted.append(pose) or guided(features, pose)
+    )
     odometry.process(view(world, np.eye(4), words), 0.0)
     assert np.allclose(odometry.process(view(world, motion, words), 0.04).pose, motion, atol=1e-6)
-    assert predicted == []                                      # no velocity yet, no guess
+    assert predicted == []  # no velocity yet, no guess
     odometry.process(view(world, motion @ expected, words), 0.10)
     np.testing.assert_allclose(predicted, [motion @ expected], atol=1e-6)
 
@@ -399,13 +435,14 @@ def test_a_registration_made_without_a_guess_is_redone_with_its_result_as_the_gu
     rng = np.random.default_rng(5)
     world, words = scene(), descriptors(300, rng)
     seen = flip_bits(words, 10, rng)
-    twins = flip_bits(seen[:150], 10, rng)                             # as far from what is seen
+    twins = flip_bits(seen[:150], 10, rng)  # as far from what is seen
     moved = make_pose(Rotation.from_rotvec([0, np.radians(3), 0]).as_matrix(), [0.05, 0, 0])
     pixels = view(world, moved, seen).keypoints
     in_image = int(np.all((pixels >= 0) & (pixels <= [CAMERA.width - 1, CAMERA.height - 1]), axis=1).sum())
     for repeat, inliers in ((True, in_image), (False, 150)):
-        odometry = FrameToMapOdometry(CAMERA, apply_overrides(
-            RtabmapParams(), {"Reg/RepeatOnce": repeat, "OdomF2M/BundleAdjustment": 0}, "test"))
+        odometry = FrameToMapOdometry(
+            CAMERA, apply_overrides(RtabmapParams(), {"Reg/RepeatOnce": repeat, "OdomF2M/BundleAdjustment": 0}, "test")
+        )
         odometry.process(view(world, np.eye(4), words), 0 / 30)
         odometry.map.add(world[:150] * [1, 1, -1], twins, 0, [(0, 0.0, 0.0, 1.0)] * 150)
         assert odometry.process(view(world, np.eye(4), descriptors(300, rng)), 1 / 30).pose is None
@@ -423,20 +460,30 @@ def test_pnp_counts_a_match_as_an_inlier_within_the_square_of_vis_pnp_reproj_err
     rng = np.random.default_rng(4)
     world = np.c_[rng.uniform(-0.9, 0.9, 300), rng.uniform(-0.6, 0.6, 300), rng.uniform(2.0, 4.0, 300)]
     words = descriptors(300, rng)
-    odometry = FrameToMapOdometry(CAMERA, apply_overrides(
-        RtabmapParams(), {"Vis/PnPReprojError": reprojection_error, "OdomF2M/BundleAdjustment": 0,
-                          "Vis/PnPRefineIterations": 0}, "test"))
+    odometry = FrameToMapOdometry(
+        CAMERA,
+        apply_overrides(
+            RtabmapParams(),
+            {"Vis/PnPReprojError": reprojection_error, "OdomF2M/BundleAdjustment": 0, "Vis/PnPRefineIterations": 0},
+            "test",
+        ),
+    )
     odometry.process(view(world, np.eye(4), words), 0 / 30)
     moved = make_pose(Rotation.from_rotvec([0, np.radians(1), 0]).as_matrix(), [0.02, 0, 0])
     seen = view(world, moved, words)
     directions = rng.uniform(0, 2 * np.pi, 300)
     off = np.repeat([0.0, 3.0, 6.0], [200, 50, 50])
-    shifted = Features((seen.keypoints + off[:, None] * np.c_[np.cos(directions), np.sin(directions)]).astype(np.float32),
-                       seen.descriptors, seen.responses, seen.points, True)
+    shifted = Features(
+        (seen.keypoints + off[:, None] * np.c_[np.cos(directions), np.sin(directions)]).astype(np.float32),
+        seen.descriptors,
+        seen.responses,
+        seen.points,
+        True,
+    )
     result = odometry.process(shifted, 1 / 30)
     reprojected = CAMERA.project(transform_points(invert(result.pose), odometry.map.points[result.map_index]))
     distance = np.linalg.norm(reprojected - shifted.keypoints[result.feature_index], axis=1)
-    assert np.array_equal(result.match_inliers, distance <= reprojection_error ** 2 + 1e-4)
+    assert np.array_equal(result.match_inliers, distance <= reprojection_error**2 + 1e-4)
     counted = off[result.feature_index[result.match_inliers]]
     assert (counted == 0).sum() >= 190
     assert (counted == 3).sum() >= (40 if reprojection_error == 2.0 else 0)
@@ -449,8 +496,15 @@ def test_a_repeated_registration_goes_on_without_the_features_that_took_one_map_
     that passes no ratio test (a new word) and an exact copy of a third word."""
     rng = np.random.default_rng(7)
     words = descriptors(5, rng)
-    frame = np.concatenate([flip_bits(words[:1], 2, rng), flip_bits(words[:1], 3, rng), flip_bits(words[1:2], 1, rng),
-                            descriptors(1, rng), words[2:3]])
+    frame = np.concatenate(
+        [
+            flip_bits(words[:1], 2, rng),
+            flip_bits(words[:1], 3, rng),
+            flip_bits(words[1:2], 1, rng),
+            descriptors(1, rng),
+            words[2:3],
+        ]
+    )
     for nn_type in (KD_TREE, BRUTE_FORCE):
         matches = word_matches(frame, words, 0.8, nn_type)
         assert matches.kept.tolist() == [2, 3, 4]
@@ -471,8 +525,10 @@ def test_the_approximate_search_is_flanns_and_repeatable():
     assert np.array_equal(first.query, again.query) and np.array_equal(first.train, again.train)
     exact = word_matches(frame, words, 0.8, BRUTE_FORCE)
     assert set(zip(exact.query.tolist(), exact.train.tolist())) <= set(zip(range(300), range(300)))
-    assert len(exact.query) >= 290                     # 8 of 256 bits off: ~128 from every other word
-    agreeing = set(zip(first.query.tolist(), first.train.tolist())) & set(zip(exact.query.tolist(), exact.train.tolist()))
+    assert len(exact.query) >= 290  # 8 of 256 bits off: ~128 from every other word
+    agreeing = set(zip(first.query.tolist(), first.train.tolist())) & set(
+        zip(exact.query.tolist(), exact.train.tolist())
+    )
     assert len(agreeing) >= 0.9 * len(exact.query)
 
 
@@ -488,7 +544,7 @@ def test_reset_countdown_starts_a_new_map_at_the_last_good_pose():
     assert restart.new_session and restart.reset and np.allclose(restart.pose, moved, atol=1e-3)
 
 
-UNGUIDED = {"Reg/RepeatOnce": False}     # the map's second frame registered by descriptor alone, not redone guided
+UNGUIDED = {"Reg/RepeatOnce": False}  # the map's second frame registered by descriptor alone, not redone guided
 
 
 def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_record_their_observations():
@@ -527,10 +583,10 @@ def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features
     moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
     new_rng = np.random.default_rng(5)
     seen = view(np.r_[world[100:240], scene(30, new_rng)], moved, np.r_[words[100:240], descriptors(30, new_rng)])
-    seen.keypoints[:20, 0] += 12.0           # map points 100..119 matched 12 px off: outliers of PnP
+    seen.keypoints[:20, 0] += 12.0  # map points 100..119 matched 12 px off: outliers of PnP
     result = odometry.process(seen, 1 / 30)
     matched = dict(zip(result.feature_index.tolist(), result.match_inliers.tolist()))
-    assert all(i in matched and not matched[i] for i in range(20)) and result.inliers <= 150   # a key frame
+    assert all(i in matched and not matched[i] for i in range(20)) and result.inliers <= 150  # a key frame
     assert [len(r) for r in odometry.map.references[:300]] == [1 + (100 <= i < 240) for i in range(300)]
     assert len(odometry.map) == 300 + 30
 
@@ -547,7 +603,9 @@ def chain_graph(drift: float, max_error: float = 3.0) -> LocationGraph:
 
 def test_a_consistent_loop_closure_is_accepted_and_pulls_the_chain_together():
     graph = chain_graph(drift=0.002)
-    truth_9 = make_pose(Rotation.from_rotvec([0, 2 * np.pi * 0.9, 0]).as_matrix(), [np.sin(2 * np.pi * 0.9), 0, np.cos(2 * np.pi * 0.9)])
+    truth_9 = make_pose(
+        Rotation.from_rotvec([0, 2 * np.pi * 0.9, 0]).as_matrix(), [np.sin(2 * np.pi * 0.9), 0, np.cos(2 * np.pi * 0.9)]
+    )
     truth_0 = make_pose(np.eye(3), [0, 0, 1])
     before = np.linalg.norm(graph.poses[9][:3, 3] - truth_9[:3, 3])
     outcome = graph.close_loop(0, 9, invert(truth_0) @ truth_9, variance=Variance(1e-4, 1e-4))
@@ -570,7 +628,7 @@ def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     graph = LocationGraph(iterations=20, max_error=3.0)
     graph.add_location(0, 0, np.eye(4), Variance(1e-4, 1e-4))
     graph.add_location(1, 0, make_pose(np.eye(3), [1.0, 0, 0]), Variance(1e-4, 1e-4))
-    graph.add_location(2, 1, np.eye(4), Variance())            # odometry reset: a new session at its own origin
+    graph.add_location(2, 1, np.eye(4), Variance())  # odometry reset: a new session at its own origin
     graph.add_location(3, 1, make_pose(np.eye(3), [0, 0, 0.5]), Variance(1e-4, 1e-4))
     assert graph.map_of(2) != graph.map_of(0)
     outcome = graph.close_loop(1, 2, make_pose(np.eye(3), [0.2, 0, 0]), Variance(1e-4, 1e-4))
@@ -579,12 +637,15 @@ def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     assert set(graph.pose_graph.priors) == {0}
 
 
-@pytest.mark.parametrize("axis, degrees, rejected", [
-    ([0, -1, 0], 100, True),      # about the camera's up axis (optical -y): yaw 100 degrees
-    ([0, -1, 0], 80, False),
-    ([-1, 0, 0], 95, True),       # about the camera's left axis: pitch beyond 90 degrees
-    ([0, 0, 1], 150, False),      # about the optical axis: roll, not checked
-])
+@pytest.mark.parametrize(
+    "axis, degrees, rejected",
+    [
+        ([0, -1, 0], 100, True),  # about the camera's up axis (optical -y): yaw 100 degrees
+        ([0, -1, 0], 80, False),
+        ([-1, 0, 0], 95, True),  # about the camera's left axis: pitch beyond 90 degrees
+        ([0, 0, 1], 150, False),  # about the optical axis: roll, not checked
+    ],
+)
 def test_a_loop_closure_turning_more_than_90_degrees_in_pitch_or_yaw_is_not_believed(axis, degrees, rejected):
     relative = make_pose(Rotation.from_rotvec(np.radians(degrees) * np.array(axis, float)).as_matrix(), [0.1, 0, 0])
     assert too_large_rotation(relative) == rejected
@@ -594,9 +655,7 @@ def test_keypoint_depth_is_smoothed_over_the_neighbours_within_2_percent_as_util
     """Weights 4 (centre), 2 (edge), 1 (corner); 1.50 (49 cm off), 1.03 (3 cm off) and 0 (missing)
     are left out: (4 x 1.00 + 2 x 1.01 + 2 x 1.01 + 0.99 + 1.00 + 1.015) / (4 + 2 + 2 + 1 + 1 + 1)."""
     depth = np.zeros((5, 5), np.float32)
-    depth[1:4, 1:4] = [[0.99, 1.01, 1.00],
-                       [1.50, 1.00, 1.01],
-                       [1.03, 0.00, 1.015]]
+    depth[1:4, 1:4] = [[0.99, 1.01, 1.00], [1.50, 1.00, 1.01], [1.03, 0.00, 1.015]]
     expected = (4 * 1.00 + 2 * 1.01 + 2 * 1.01 + 0.99 + 1.00 + 1.015) / 11
     assert smoothed_depth(depth, np.array([2]), np.array([2]))[0] == pytest.approx(expected, abs=1e-6)
 
@@ -606,7 +665,7 @@ def test_the_neighbours_counted_in_the_smoothing_are_those_within_2_percent_of_t
     6 cm) is averaged in, one 7 cm off is not."""
     depth = np.full((3, 3), 3.00, np.float32)
     depth[0, 1], depth[1, 0] = 3.05, 3.07
-    expected = (4 * 3.00 + 2 * 3.05 + 2 * 2 * 3.00 + 4 * 3.00) / 14   # three edges and four corners
+    expected = (4 * 3.00 + 2 * 3.05 + 2 * 2 * 3.00 + 4 * 3.00) / 14  # three edges and four corners
     assert smoothed_depth(depth, np.array([1]), np.array([1]))[0] == pytest.approx(expected, abs=1e-6)
 
 
@@ -616,7 +675,7 @@ def test_a_keypoint_without_depth_at_its_pixel_stays_without_depth_and_the_borde
     depth[0, 0] = 2.01
     smoothed = smoothed_depth(depth, np.array([1, 0]), np.array([1, 0]))
     assert smoothed[0] == 0.0
-    assert smoothed[1] == pytest.approx((4 * 2.01 + 2 * 2.0 + 2 * 2.0) / 8, abs=1e-6)   # (0, 1), (1, 0); (1, 1) missing
+    assert smoothed[1] == pytest.approx((4 * 2.01 + 2 * 2.0 + 2 * 2.0) / 8, abs=1e-6)  # (0, 1), (1, 0); (1, 1) missing
 
 
 def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_valid():
@@ -628,7 +687,9 @@ def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_val
     masked = FeatureExtractor("GFTT_ORB", 300, camera, min_depth=1e-3, max_depth=np.inf, depth_mask=True)
     features = masked.extract(np.dstack([gray] * 3), depth)
     assert len(features) > 100 and features.has_depth.all()
-    unmasked = FeatureExtractor("GFTT_ORB", 300, camera, min_depth=1e-3, max_depth=np.inf).extract(np.dstack([gray] * 3), depth)
+    unmasked = FeatureExtractor("GFTT_ORB", 300, camera, min_depth=1e-3, max_depth=np.inf).extract(
+        np.dstack([gray] * 3), depth
+    )
     assert (~unmasked.has_depth).sum() > 50
 
 
@@ -640,18 +701,22 @@ def test_registration_variance_is_2_1981_times_the_quarter_point_of_the_distance
     measured = reference + np.c_[[0.08, 0.01, 0.07, 0.02, 0.06, 0.03, 0.05, 0.04, np.nan], np.zeros((9, 2))]
     # eight valid pairs: index 2 of the sorted ones is the 3 cm offset, seen 2 m away
     variance = registration_variance(reference, measured)
-    assert variance.translation == pytest.approx(2.1981 * 0.03 ** 2)
+    assert variance.translation == pytest.approx(2.1981 * 0.03**2)
     assert variance.rotation == pytest.approx(2.1981 * np.arctan(0.03 / 2.0))
 
 
-@pytest.mark.parametrize("assignment, message", [
-    ("Odom/ResetCountdown=two", "parameter Odom/ResetCountdown expects an integer"),
-    ("Kp/DetectorStrategy=7", "parameter Kp/DetectorStrategy must be one of 6, 8"),
-])
+@pytest.mark.parametrize(
+    "assignment, message",
+    [
+        ("Odom/ResetCountdown=two", "parameter Odom/ResetCountdown expects an integer"),
+        ("Kp/DetectorStrategy=7", "parameter Kp/DetectorStrategy must be one of 6, 8"),
+    ],
+)
 def test_bad_rtabmap_parameters_are_one_line_cli_errors(assignment, message, tmp_path, capsys):
     from viewer_slam.cli import main
 
-    code = main(["record", str(tmp_path), "--pipeline", "rtabmap", "--param", assignment,
-                 "--out", str(tmp_path / "run.rrd")])
+    code = main(
+        ["record", str(tmp_path), "--pipeline", "rtabmap", "--param", assignment, "--out", str(tmp_path / "run.rrd")]
+    )
     error = capsys.readouterr().err.strip()
     assert code == 2 and error.startswith("viewslam: error:") and message in error and "\n" not in error

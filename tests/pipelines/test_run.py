@@ -43,7 +43,9 @@ class CountingPipeline(Pipeline):
         if frame.index >= self.params.lost_after:
             if frame.index == self.params.lost_after:
                 events.append(TrackingLost(frame.index, frame.timestamp, "test"))
-            return events + [FrameTracked(frame.index, frame.timestamp, None, TrackingStatus.LOST, timings_ms={"features": 2.0})]
+            return events + [
+                FrameTracked(frame.index, frame.timestamp, None, TrackingStatus.LOST, timings_ms={"features": 2.0})
+            ]
         pose = np.eye(4)
         pose[0, 3] = 0.01 * frame.index
         self.tracked.append((frame.index, frame.timestamp, pose))
@@ -51,7 +53,9 @@ class CountingPipeline(Pipeline):
             events.append(KeyframeAdded(frame.index // 5, frame.index, frame.timestamp, pose))
         if frame.index == 7:
             events.append(GraphEdge(frame.index, 1, 0, accepted=False, reason="test", kind=EdgeKind.LOOP))
-        return events + [FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK, timings_ms={"features": 1.0})]
+        return events + [
+            FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK, timings_ms={"features": 1.0})
+        ]
 
     def finish(self):
         indices, stamps, poses = zip(*self.tracked)
@@ -138,7 +142,7 @@ def test_each_frame_is_shown_one_frame_ahead_and_every_frame_read_is_processed(i
     expected = [("prefetch", 0), ("prefetch", 1), ("process", 0), ("prefetch", 2), ("process", 1)]
     if interrupt_at is None:
         expected += [("prefetch", 3), ("process", 2), ("process", 3)]
-    else:   # Ctrl-C while frame 3 is read: frame 2, already read, is still processed
+    else:  # Ctrl-C while frame 3 is read: frame 2, already read, is still processed
         expected += [("process", 2)]
     assert pipeline.calls == expected and run.interrupted == (interrupt_at is not None)
 

@@ -33,6 +33,5 @@ def test_a_doctored_figure_is_found(figures, documents):
     readme = documents["README.md"]
     block = written(readme, "demo")
     digit = next(i for i, character in enumerate(block) if character.isdigit())
-    doctored = block[:digit] + str((int(block[digit]) + 1) % 10) + block[digit + 1:]
-    assert doc_figures.stale({**documents, "README.md": with_block(readme, "demo", doctored)},
-                             figures) == ["demo"]
+    doctored = block[:digit] + str((int(block[digit]) + 1) % 10) + block[digit + 1 :]
+    assert doc_figures.stale({**documents, "README.md": with_block(readme, "demo", doctored)}, figures) == ["demo"]

@@ -27,8 +27,11 @@ def locked() -> dict[str, str]:
 
 
 def installed() -> dict[str, str]:
-    return {canonicalize_name(d.metadata["Name"]): d.version for d in distributions()
-            if canonicalize_name(d.metadata["Name"]) != "viewer-slam"}
+    return {
+        canonicalize_name(d.metadata["Name"]): d.version
+        for d in distributions()
+        if canonicalize_name(d.metadata["Name"]) != "viewer-slam"
+    }
 
 
 def test_every_installed_distribution_is_the_locked_version_and_nothing_else_is_installed():

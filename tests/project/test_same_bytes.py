@@ -14,8 +14,12 @@ import pytest
 
 from scripts import reference_runs
 
-pytestmark = [pytest.mark.slow, pytest.mark.skipif(not reference_runs.TUM_RPY_200.is_dir(),
-                                                   reason="shared TUM excerpt not present beside the repository")]
+pytestmark = [
+    pytest.mark.slow,
+    pytest.mark.skipif(
+        not reference_runs.TUM_RPY_200.is_dir(), reason="shared TUM excerpt not present beside the repository"
+    ),
+]
 x86_with_avx2 = pytest.mark.skipif(not guaranteed(), reason="the guarantee is for x86-64 with AVX2")
 
 
@@ -28,8 +32,10 @@ def test_the_reference_runs_give_the_committed_bytes(tmp_path):
 def test_emulated_machines_give_the_committed_bytes(tmp_path):
     machines = reference_runs.runnable(reference_runs.MACHINES)
     assert machines  # at least the machine without AVX-512: the guarantee's processors all run it
-    found = {name: reference_runs.differences(reference_runs.record_runs(tmp_path / str(number), environment))
-             for number, (name, environment) in enumerate(machines.items())}
+    found = {
+        name: reference_runs.differences(reference_runs.record_runs(tmp_path / str(number), environment))
+        for number, (name, environment) in enumerate(machines.items())
+    }
     assert found == {name: [] for name in machines}
 
 
@@ -41,9 +47,16 @@ def test_a_changed_pose_is_named_with_its_frame(tmp_path):
     (tmp_path / "demo.rtabmap.txt").write_text("".join(lines))
     found = {**reference_runs.read_sums(reference / "SHA256SUMS"), "demo.rtabmap.txt": "another digest"}
     assert reference_runs.compare(found, tmp_path) == [
-        f"demo.rtabmap.txt differs: first differs at line 41, the pose at {stamp} (this run: {stamp})"]
-    assert reference_runs.compare({**found, "demo.rtabmap.txt": reference_runs.read_sums(
-        reference / "SHA256SUMS")["demo.rtabmap.txt"], "demo figures": "another"}, tmp_path) == ["demo figures differs"]
+        f"demo.rtabmap.txt differs: first differs at line 41, the pose at {stamp} (this run: {stamp})"
+    ]
+    assert reference_runs.compare(
+        {
+            **found,
+            "demo.rtabmap.txt": reference_runs.read_sums(reference / "SHA256SUMS")["demo.rtabmap.txt"],
+            "demo figures": "another",
+        },
+        tmp_path,
+    ) == ["demo figures differs"]
 
 
 @x86_with_avx2
@@ -53,14 +66,29 @@ def test_viewslam_holds_numpy_and_openblas_to_one_code_path_and_warns_when_it_ca
     assert code_paths.numpy_level() == "X86_V3"  # this suite's own process: the conftest imports viewer_slam first
     assert os.environ["OPENBLAS_CORETYPE"] == "Haswell"
     unheld = {name: value for name, value in os.environ.items() if name not in code_paths.environment()}
-    opencv = subprocess.run([sys.executable, "-c", "import viewer_slam, cv2; print(cv2.getCPUFeaturesLine())"],
-                            env=unheld, capture_output=True, text=True, check=True)
+    opencv = subprocess.run(
+        [sys.executable, "-c", "import viewer_slam, cv2; print(cv2.getCPUFeaturesLine())"],
+        env=unheld,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert "OPENCV" not in opencv.stderr  # every name taken, none unavailable here
     assert ("AVX512-SKX?" in opencv.stdout) == ("AVX512-SKX" in opencv.stdout)  # off wherever the CPU has it
-    late = subprocess.run([sys.executable, "-c", "import numpy, warnings; warnings.simplefilter('error'); import viewer_slam"],
-                          env=unheld, capture_output=True, text=True, check=False)
-    first = subprocess.run([sys.executable, "-c", "import viewer_slam.code_paths as c; import numpy; print(c.numpy_level())"],
-                           env=unheld, capture_output=True, text=True, check=True)
+    late = subprocess.run(
+        [sys.executable, "-c", "import numpy, warnings; warnings.simplefilter('error'); import viewer_slam"],
+        env=unheld,
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    first = subprocess.run(
+        [sys.executable, "-c", "import viewer_slam.code_paths as c; import numpy; print(c.numpy_level())"],
+        env=unheld,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert first.stdout.strip() == "X86_V3"
     beyond = set(reference_runs.AVX512) <= reference_runs.cpu_flags()
     assert (late.returncode != 0 and "NumPy was imported before viewer_slam" in late.stderr) == beyond

@@ -23,13 +23,17 @@ OURS = ("report", "evaluate", "benchmark_results", "study_results")
 
 def errors(name: str, document) -> list[str]:
     """Every validation error as ``path: message``, those inside ``anyOf``/``oneOf`` branches too."""
+
     def leaves(error):
         yield error
         for inner in error.context or ():
             yield from leaves(inner)
 
-    return [f"{'/'.join(map(str, leaf.absolute_path))}: {leaf.message}"
-            for error in validator(name).iter_errors(document) for leaf in leaves(error)]
+    return [
+        f"{'/'.join(map(str, leaf.absolute_path))}: {leaf.message}"
+        for error in validator(name).iter_errors(document)
+        for leaf in leaves(error)
+    ]
 
 
 @pytest.fixture(scope="module")
@@ -52,8 +56,23 @@ def report(recorded) -> dict:
 @pytest.fixture(scope="module")
 def benchmark_out(scenario, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("benchmark")
-    assert main(["benchmark", str(scenario), "--pipeline", "rtabmap", "--out", str(out), "--jobs", "1",
-                 "--no-cache", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "benchmark",
+                str(scenario),
+                "--pipeline",
+                "rtabmap",
+                "--out",
+                str(out),
+                "--jobs",
+                "1",
+                "--no-cache",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -84,8 +103,11 @@ def _fields(node, path=""):
 def test_every_field_is_described(name):
     schema = load_schema(name)
     assert schema.get("description")
-    undescribed = [path for path, field in _fields(schema)
-                   if "description" not in field and "$ref" not in field and not path.endswith(".items")]
+    undescribed = [
+        path
+        for path, field in _fields(schema)
+        if "description" not in field and "$ref" not in field and not path.endswith(".items")
+    ]
     assert undescribed == []
 
 
@@ -108,14 +130,17 @@ def test_the_record_report_documents_odometry_edges_and_stages(report):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("doctor, where", [
-    (lambda r: r["pipelines"]["rgbdslam"].pop("timing"), "pipelines/rgbdslam"),
-    (lambda r: r.pop("versions"), ""),
-    (lambda r: r["pipelines"]["rtabmap"]["ate"].update(rmse="0.03"), "pipelines/rtabmap/ate/rmse"),
-    (lambda r: r["pipelines"]["rgbdslam"]["edges"].update(loop=1.5), "pipelines/rgbdslam/edges/loop"),
-    (lambda r: r["pipelines"]["rgbdslam"]["coverage"].update(ratio=1.2), "pipelines/rgbdslam/coverage/ratio"),
-    (lambda r: r["pipelines"]["rtabmap"].update(odometry_error=0.1), "pipelines/rtabmap"),
-])
+@pytest.mark.parametrize(
+    "doctor, where",
+    [
+        (lambda r: r["pipelines"]["rgbdslam"].pop("timing"), "pipelines/rgbdslam"),
+        (lambda r: r.pop("versions"), ""),
+        (lambda r: r["pipelines"]["rtabmap"]["ate"].update(rmse="0.03"), "pipelines/rtabmap/ate/rmse"),
+        (lambda r: r["pipelines"]["rgbdslam"]["edges"].update(loop=1.5), "pipelines/rgbdslam/edges/loop"),
+        (lambda r: r["pipelines"]["rgbdslam"]["coverage"].update(ratio=1.2), "pipelines/rgbdslam/coverage/ratio"),
+        (lambda r: r["pipelines"]["rtabmap"].update(odometry_error=0.1), "pipelines/rtabmap"),
+    ],
+)
 def test_a_doctored_report_fails(report, doctor, where):
     doctored = copy.deepcopy(report)
     doctor(doctored)
@@ -146,12 +171,15 @@ def test_a_real_benchmark_results_json_and_its_run_reports_validate(benchmark_ou
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("doctor", [
-    lambda row: row.pop("coverage"),
-    lambda row: row.update(frames="60"),
-    lambda row: row.update(status="done"),
-    lambda row: row.update(lost_intervals=[[1.0]]),
-])
+@pytest.mark.parametrize(
+    "doctor",
+    [
+        lambda row: row.pop("coverage"),
+        lambda row: row.update(frames="60"),
+        lambda row: row.update(status="done"),
+        lambda row: row.update(lost_intervals=[[1.0]]),
+    ],
+)
 def test_a_doctored_benchmark_row_fails(benchmark_out, doctor):
     rows = json.loads((benchmark_out / "results.json").read_text())
     doctor(rows[0])
@@ -159,5 +187,6 @@ def test_a_doctored_benchmark_row_fails(benchmark_out, doctor):
 
 
 def test_the_schema_page_is_generated_from_the_schemas():
-    assert (ROOT / "docs" / "report-schema.md").read_text(encoding="utf-8") == schema_docs.page(), \
+    assert (ROOT / "docs" / "report-schema.md").read_text(encoding="utf-8") == schema_docs.page(), (
         "docs/report-schema.md is out of date: run python -m scripts.schema_docs"
+    )

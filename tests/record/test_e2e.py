@@ -70,11 +70,22 @@ def test_the_recording_verifies_and_holds_the_layout(recording):
     entities = {line.split()[0] for line in summary.splitlines()}
     expected = {"/world/groundtruth", "/camera/image"}
     for name in PIPELINES:
-        expected |= {f"/{path}" for path in (layout.world(name), layout.camera(name), layout.trajectory(name),
-                                             layout.keyframes(name), layout.map_cloud(name),
-                                             layout.matches(name), layout.text_log(name))}
-        expected |= {f"/{layout.metric(name, series)}" for series in
-                     ("ate", "rpe_trans", "rpe_rot", "coverage", "inliers", "features", "tracking_state")}
+        expected |= {
+            f"/{path}"
+            for path in (
+                layout.world(name),
+                layout.camera(name),
+                layout.trajectory(name),
+                layout.keyframes(name),
+                layout.map_cloud(name),
+                layout.matches(name),
+                layout.text_log(name),
+            )
+        }
+        expected |= {
+            f"/{layout.metric(name, series)}"
+            for series in ("ate", "rpe_trans", "rpe_rot", "coverage", "inliers", "features", "tracking_state")
+        }
     assert sorted(expected - entities) == []
 
 
@@ -96,19 +107,26 @@ def test_edges_are_counted_by_kind_and_only_loops_are_loop_closures(recording):
         assert block["edges"]["sequential"] >= min(block["keyframes"] - 1, 1)  # keyframes are linked
         # A 3-second clip cannot leave the recent window (5 s), so no edge of it closes a loop.
         assert block["loop_closures"]["accepted"] == 0
-        texts = [text for _, values in logged(recording, f"/{layout.text_log(name)}", "TextLog:text")
-                 for text in values]
+        texts = [
+            text for _, values in logged(recording, f"/{layout.text_log(name)}", "TextLog:text") for text in values
+        ]
         assert not any("loop closure" in text and "accepted" in text for text in texts)
 
 
 def test_sigint_stops_cleanly_with_a_valid_partial_recording(scenario, tmp_path):
     out = tmp_path / "stopped.rrd"
-    process = subprocess.Popen([BIN / "viewslam", "record", str(scenario), "--out", str(out)],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    process = subprocess.Popen(
+        [BIN / "viewslam", "record", str(scenario), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     deadline = time.monotonic() + 120
     # The recording grows under a temporary name beside its target until the run ends.
-    while not any(part.stat().st_size >= 256 * 1024 for part in tmp_path.glob(".stopped.rrd.*.part")) \
-            and time.monotonic() < deadline:
+    while (
+        not any(part.stat().st_size >= 256 * 1024 for part in tmp_path.glob(".stopped.rrd.*.part"))
+        and time.monotonic() < deadline
+    ):
         assert process.poll() is None, process.communicate()
         time.sleep(0.2)
     assert not out.exists()

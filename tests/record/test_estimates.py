@@ -65,8 +65,20 @@ def recorded(scenario, tmp_path_factory):
     write_tum(folder / "orb.txt", tum)
     write_kitti(folder / "droid.kitti", noisy(poses, seed=2))
     out = folder / "run.rrd"
-    command = ["record", str(scenario), "--pipeline", "rgbdslam", "--max-frames", str(FRAMES), "--out", str(out),
-               "--estimate", f"orb={folder / 'orb.txt'}", "--estimate", f"droid={folder / 'droid.kitti'}"]
+    command = [
+        "record",
+        str(scenario),
+        "--pipeline",
+        "rgbdslam",
+        "--max-frames",
+        str(FRAMES),
+        "--out",
+        str(out),
+        "--estimate",
+        f"orb={folder / 'orb.txt'}",
+        "--estimate",
+        f"droid={folder / 'droid.kitti'}",
+    ]
     return command, stamps[:FRAMES], tum, out
 
 
@@ -101,7 +113,9 @@ def test_losses_and_coverage_follow_the_gaps_made(report, recorded):
     # The penalty holds the last pose through the lost time, so it can only add error.
     assert orb["penalized_ate"]["n"] > orb["ate"]["n"] and orb["penalized_ate"]["rmse"] > orb["ate"]["rmse"]
     droid = report[0]["pipelines"]["droid"]
-    assert (droid["coverage"]["ratio"], droid["coverage"]["lost_intervals"]) == (1.0, []) and droid["tracking_lost"] == []
+    assert (droid["coverage"]["ratio"], droid["coverage"]["lost_intervals"]) == (1.0, []) and droid[
+        "tracking_lost"
+    ] == []
     assert droid["frames_with_pose"] == FRAMES
     for block in (orb, droid):  # noise of NOISE_M per axis: about sqrt(3) NOISE_M after a rigid alignment
         assert 0.6 * np.sqrt(3) * NOISE_M < block["ate"]["rmse"] < 1.3 * np.sqrt(3) * NOISE_M
@@ -143,9 +157,12 @@ def test_an_estimate_has_no_tracker_count_series_and_the_pipeline_has_them(repor
         assert sum(logged.get(f"/{layout.metric('rgbdslam', series)}", [])) > FRAMES, series  # style + a row a frame
         for name in ("orb", "droid"):
             assert f"/{layout.metric(name, series)}" not in logged, (name, series)
-    queries = [query for chunk in RrdReader(out).stream(store=RrdReader(out).blueprints()[0]).to_chunks()
-               if chunk.entity_path.endswith("/ViewContents")
-               for query in chunk.to_record_batch().column("ViewContents:query").to_pylist()[0]]
+    queries = [
+        query
+        for chunk in RrdReader(out).stream(store=RrdReader(out).blueprints()[0]).to_chunks()
+        if chunk.entity_path.endswith("/ViewContents")
+        for query in chunk.to_record_batch().column("ViewContents:query").to_pylist()[0]
+    ]
     plotted = [query for query in queries if query.endswith(("/features", "/inliers"))]
     assert sorted(plotted) == [f"/{layout.metric('rgbdslam', 'features')}", f"/{layout.metric('rgbdslam', 'inliers')}"]
 
@@ -153,8 +170,12 @@ def test_an_estimate_has_no_tracker_count_series_and_the_pipeline_has_them(repor
 @pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
 def test_the_viewer_renders_the_recording_with_the_estimates(report, recorded, tmp_path):
     shot = tmp_path / "shot.png"
-    subprocess.run(["xvfb-run", "-a", BIN / "rerun", "--screenshot-to", shot, "--window-size", "1600x900",
-                    recorded[3]], capture_output=True, timeout=180, check=True)
+    subprocess.run(
+        ["xvfb-run", "-a", BIN / "rerun", "--screenshot-to", shot, "--window-size", "1600x900", recorded[3]],
+        capture_output=True,
+        timeout=180,
+        check=True,
+    )
     image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
     assert image.shape[0] >= 900 and image.shape[1] >= 1600
     assert image.std() > 20 and len(np.unique(image.reshape(-1, 3) // 8, axis=0)) > 500
@@ -166,16 +187,46 @@ def test_the_viewer_renders_the_recording_with_the_estimates(report, recorded, t
 def test_estimates_alone_run_no_pipeline(scenario, recorded, tmp_path):
     folder = recorded[3].parent
     out = tmp_path / "alone.rrd"
-    assert main(["record", str(scenario), "--max-frames", "10", "--out", str(out), "--quiet",
-                 "--estimate", f"droid={folder / 'droid.kitti'}", "--format", "kitti"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                str(scenario),
+                "--max-frames",
+                "10",
+                "--out",
+                str(out),
+                "--quiet",
+                "--estimate",
+                f"droid={folder / 'droid.kitti'}",
+                "--format",
+                "kitti",
+            ]
+        )
+        == 0
+    )
     blocks = json.loads(out.with_suffix(".json").read_text())["pipelines"]
     assert list(blocks) == ["droid"] and blocks["droid"]["frames_with_pose"] == 10
 
 
 def test_a_pipelines_own_trajectory_replayed_scores_as_the_pipeline(scenario, report, recorded, tmp_path):
     out = tmp_path / "again.rrd"
-    assert main(["record", str(scenario), "--max-frames", str(FRAMES), "--out", str(out), "--quiet",
-                 "--estimate", f"again={recorded[3].with_name('run.rgbdslam.txt')}"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                str(scenario),
+                "--max-frames",
+                str(FRAMES),
+                "--out",
+                str(out),
+                "--quiet",
+                "--estimate",
+                f"again={recorded[3].with_name('run.rgbdslam.txt')}",
+            ]
+        )
+        == 0
+    )
     again = json.loads(out.with_suffix(".json").read_text())["pipelines"]["again"]
     pipeline = report[0]["pipelines"]["rgbdslam"]
     assert again["frames_with_pose"] == pipeline["frames_with_pose"] > 0
@@ -184,12 +235,15 @@ def test_a_pipelines_own_trajectory_replayed_scores_as_the_pipeline(scenario, re
     assert again["coverage"]["ratio"] == pytest.approx(pipeline["coverage"]["ratio"], abs=1e-6)
 
 
-@pytest.mark.parametrize(("sequence", "expected"), [
-    ("data/rgbd_dataset_freiburg1_xyz.bag", "recordings/rgbd_dataset_freiburg1_xyz.rrd"),
-    ("data/ros2_bag/", "recordings/ros2_bag.rrd"),
-    ("data/rgbd_dataset_freiburg1_xyz", "recordings/rgbd_dataset_freiburg1_xyz.rrd"),
-    ("fr1/xyz", "recordings/xyz.rrd"),
-])
+@pytest.mark.parametrize(
+    ("sequence", "expected"),
+    [
+        ("data/rgbd_dataset_freiburg1_xyz.bag", "recordings/rgbd_dataset_freiburg1_xyz.rrd"),
+        ("data/ros2_bag/", "recordings/ros2_bag.rrd"),
+        ("data/rgbd_dataset_freiburg1_xyz", "recordings/rgbd_dataset_freiburg1_xyz.rrd"),
+        ("fr1/xyz", "recordings/xyz.rrd"),
+    ],
+)
 def test_a_bag_is_recorded_under_its_stem(sequence, expected):
     assert output_path(sequence, None) == Path(expected)
 
@@ -203,10 +257,15 @@ def test_a_bag_records_with_its_topics_and_groundtruth_given_on_the_command_line
     short = groundtruth.subset(groundtruth.timestamps <= stamps[1])  # covers the first two frames only
     write_tum(tmp_path / "short.txt", short)
     monkeypatch.chdir(tmp_path)
-    topics = ["--rgb-topic", "/camera/rgb/image_color", "--depth-topic", "/camera/depth/image",
-              "--camera-info-topic", "/camera/rgb/camera_info"]
-    assert main(["record", str(bag), "--pipeline", "rgbdslam", *topics, "--groundtruth", "short.txt",
-                 "--quiet"]) == 0
+    topics = [
+        "--rgb-topic",
+        "/camera/rgb/image_color",
+        "--depth-topic",
+        "/camera/depth/image",
+        "--camera-info-topic",
+        "/camera/rgb/camera_info",
+    ]
+    assert main(["record", str(bag), "--pipeline", "rgbdslam", *topics, "--groundtruth", "short.txt", "--quiet"]) == 0
     report = json.loads((tmp_path / "recordings" / "rgbd_dataset_freiburg1_rpy.json").read_text())
     assert (tmp_path / "recordings" / "rgbd_dataset_freiburg1_rpy.rrd").is_file()
     block = report["pipelines"]["rgbdslam"]

@@ -34,8 +34,11 @@ def excerpt(tmp_path_factory) -> Path:
 def python(*arguments, **options) -> subprocess.Popen:
     """A Python child that imports this tree's viewer_slam, its output captured."""
     environment = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    return subprocess.Popen([sys.executable, *map(str, arguments)], env=environment,
-                            **{"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True, **options})
+    return subprocess.Popen(
+        [sys.executable, *map(str, arguments)],
+        env=environment,
+        **{"stdout": subprocess.PIPE, "stderr": subprocess.PIPE, "text": True, **options},
+    )
 
 
 def viewslam(*arguments, **options) -> subprocess.Popen:
@@ -51,8 +54,13 @@ def small_disk(tmp_path):
     """A 600 KiB file system (a tmpfs when root), or None where none can be mounted."""
     mount = tmp_path / "disk"
     mount.mkdir()
-    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "tmpfs", str(mount)],
-                                           capture_output=True).returncode != 0:
+    if (
+        os.geteuid() != 0
+        or subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", f"size={TMPFS_BYTES}", "tmpfs", str(mount)], capture_output=True
+        ).returncode
+        != 0
+    ):
         yield None
         return
     yield mount
@@ -70,8 +78,18 @@ def test_a_full_disk_is_exit_2_the_report_says_so_and_the_earlier_recording_stay
     folder.mkdir(exist_ok=True)
     earlier = folder / "run.rrd"
     earlier.write_bytes(b"earlier recording")
-    child = viewslam("record", excerpt, "--out", earlier, "--pipeline", "rgbdslam", "--max-frames", 12, "--quiet",
-                     preexec_fn=None if small_disk else limit_file_size)
+    child = viewslam(
+        "record",
+        excerpt,
+        "--out",
+        earlier,
+        "--pipeline",
+        "rgbdslam",
+        "--max-frames",
+        12,
+        "--quiet",
+        preexec_fn=None if small_disk else limit_file_size,
+    )
     out, error = child.communicate(timeout=120)
     assert child.returncode == 2, error
     assert error.count("\n") == 1 and error.startswith(f"viewslam: error: {earlier}: recording not written: ")
@@ -81,8 +99,10 @@ def test_a_full_disk_is_exit_2_the_report_says_so_and_the_earlier_recording_stay
     report = json.loads((folder / "run.json").read_text())
     assert report["failed"] is True and "run.rrd" in report["error"]
     assert report["pipelines"]["rgbdslam"]["frames_with_pose"] > 0
-    assert len((folder / "run.rgbdslam.txt").read_text().splitlines()) == report["pipelines"]["rgbdslam"][
-        "frames_with_pose"]
+    assert (
+        len((folder / "run.rgbdslam.txt").read_text().splitlines())
+        == report["pipelines"]["rgbdslam"]["frames_with_pose"]
+    )
     assert sorted(path.name for path in folder.iterdir()) == ["run.json", "run.rgbdslam.txt", "run.rrd"]
 
 
@@ -116,8 +136,10 @@ def test_a_second_run_on_the_same_out_says_so_and_leaves_the_first_alone(excerpt
         child = viewslam("record", excerpt, "--out", out, "--quiet")
         _, error = child.communicate(timeout=120)
         assert child.returncode == 2
-        assert error == f"viewslam: error: {out}: another viewslam run is writing this output; wait for it or " \
-                        f"choose another --out\n"
+        assert (
+            error == f"viewslam: error: {out}: another viewslam run is writing this output; wait for it or "
+            f"choose another --out\n"
+        )
         assert sorted(path.name for path in tmp_path.iterdir()) == [lock_path(out).name]
     assert not lock_path(out).exists()
     with exclusive([out]):  # free again once the first run is over
@@ -126,8 +148,10 @@ def test_a_second_run_on_the_same_out_says_so_and_leaves_the_first_alone(excerpt
 
 def test_two_runs_at_once_one_writes_one_refuses(excerpt, tmp_path):
     out = tmp_path / "run.rrd"
-    runs = [viewslam("record", excerpt, "--out", out, "--pipeline", "rgbdslam", "--max-frames", 4, "--quiet")
-            for _ in range(2)]
+    runs = [
+        viewslam("record", excerpt, "--out", out, "--pipeline", "rgbdslam", "--max-frames", 4, "--quiet")
+        for _ in range(2)
+    ]
     results = sorted((run.wait(timeout=300), run.stderr.read()) for run in runs)
     assert [code for code, _ in results] == [0, 2]
     assert "another viewslam run is writing this output" in results[1][1] and results[1][1].count("\n") == 1
@@ -144,10 +168,16 @@ def record_until_frames_are_in(excerpt: Path, out: Path) -> subprocess.Popen:
     return child
 
 
-@pytest.mark.parametrize("stops, gap_s", [([signal.SIGTERM], 0), ([signal.SIGHUP], 0),
-                                         ([signal.SIGTERM, signal.SIGHUP], 0.01),
-                                         ([signal.SIGTERM, signal.SIGHUP], 0.3)],
-                         ids=["SIGTERM", "SIGHUP", "SIGTERM-then-SIGHUP", "SIGTERM-then-SIGHUP-later"])
+@pytest.mark.parametrize(
+    "stops, gap_s",
+    [
+        ([signal.SIGTERM], 0),
+        ([signal.SIGHUP], 0),
+        ([signal.SIGTERM, signal.SIGHUP], 0.01),
+        ([signal.SIGTERM, signal.SIGHUP], 0.3),
+    ],
+    ids=["SIGTERM", "SIGHUP", "SIGTERM-then-SIGHUP", "SIGTERM-then-SIGHUP-later"],
+)
 def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stops, gap_s):
     out = tmp_path / "run.rrd"
     child = record_until_frames_are_in(excerpt, out)
@@ -160,8 +190,8 @@ def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stops, gap_s):
     if gap_s < 0.1:  # signals pending together are handled in number order: which one comes first is not fixed
         assert sorted(name for name, _ in lines) == sorted(stop.name for stop in stops)
     else:  # the second comes while the run stops (said so), or once it has stopped (absorbed, nothing said)
-        assert [name for name, _ in lines] == [stop.name for stop in stops][:len(lines)] and lines
-    assert [what.split(" after")[0] for _, what in lines] == ["stopping", "already stopping"][:len(lines)]
+        assert [name for name, _ in lines] == [stop.name for stop in stops][: len(lines)] and lines
+    assert [what.split(" after")[0] for _, what in lines] == ["stopping", "already stopping"][: len(lines)]
     report = json.loads(out.with_suffix(".json").read_text())
     assert report["interrupted"] is True and report["failed"] is False
     poses = report["pipelines"]["rgbdslam"]["frames_with_pose"]
@@ -170,8 +200,11 @@ def test_sigterm_and_sighup_stop_like_ctrl_c(excerpt, tmp_path, stops, gap_s):
     assert verify(out)
 
 
-@pytest.mark.parametrize("stops", [(signal.SIGINT, signal.SIGINT, signal.SIGINT),
-                                   (signal.SIGHUP, signal.SIGINT, signal.SIGTERM)], ids=["Ctrl-C", "mixed"])
+@pytest.mark.parametrize(
+    "stops",
+    [(signal.SIGINT, signal.SIGINT, signal.SIGINT), (signal.SIGHUP, signal.SIGINT, signal.SIGTERM)],
+    ids=["Ctrl-C", "mixed"],
+)
 def test_a_second_stop_signal_repeats_the_request_and_a_third_aborts(stops, capsys):
     """Signals of one kind sent together reach a process as one (the kernel does not queue
     them), so the second Ctrl-C is raised here, once the first has been handled."""
@@ -187,7 +220,8 @@ def test_a_second_stop_signal_repeats_the_request_and_a_third_aborts(stops, caps
     lines = capsys.readouterr().err.split("\n")
     assert [line.split(": ")[1:] for line in lines if line][:2] == [
         [stops[0].name, "stopping after this frame and writing what was recorded (a third stop signal aborts)"],
-        [stops[1].name, "already stopping after this frame (one more stop signal aborts)"]]
+        [stops[1].name, "already stopping after this frame (one more stop signal aborts)"],
+    ]
 
 
 def test_a_third_stop_signal_aborts_and_leaves_the_earlier_outputs(excerpt, tmp_path):
@@ -242,8 +276,7 @@ def test_ctrl_c_inside_a_compiled_extensions_import_is_one_line_and_exit_130(tmp
     assert list(tmp_path.iterdir()) == []  # no crash log
 
 
-def test_an_unexpected_error_is_one_line_with_a_log_and_keeps_what_was_recorded(excerpt, tmp_path, monkeypatch,
-                                                                                capsys):
+def test_an_unexpected_error_is_one_line_with_a_log_and_keeps_what_was_recorded(excerpt, tmp_path, monkeypatch, capsys):
     from viewer_slam.pipelines.rtabmap import PIPELINE as RtabMap
 
     def broken(self, frame):
@@ -281,8 +314,9 @@ def test_an_interrupted_benchmark_writes_the_finished_rows(tmp_path, monkeypatch
     monkeypatch.setattr(suite, "run_tasks", first_then_ctrl_c)
     folders = [write_tum_folder(tmp_path / name, frames=10) for name in ("one", "two")]
     out = tmp_path / "out"
-    assert main(["benchmark", *map(str, folders), "--pipeline", "fake", "--out", str(out), "--quiet",
-                 "--no-cache"]) == 130
+    assert (
+        main(["benchmark", *map(str, folders), "--pipeline", "fake", "--out", str(out), "--quiet", "--no-cache"]) == 130
+    )
     rows = (out / "results.csv").read_text().splitlines()
     assert len(rows) == 2 and rows[1].startswith("one,fake,") and rows[1].endswith(",ok")
     printed = capsys.readouterr().out
@@ -297,8 +331,23 @@ def test_benchmark_prints_its_table_with_full_numbers_when_piped(tmp_path, monke
     monkeypatch.setitem(base.PIPELINE_MODULES, "fake", MODULE)
     folder = write_tum_folder(tmp_path / "a_sequence_with_a_long_name_indeed", frames=10)
     out = tmp_path / "out"
-    assert main(["benchmark", str(folder), "--pipeline", "fake", "--out", str(out), "--quiet", "--no-cache",
-                 "--param", "wobble_m=0.02"]) == 0
+    assert (
+        main(
+            [
+                "benchmark",
+                str(folder),
+                "--pipeline",
+                "fake",
+                "--out",
+                str(out),
+                "--quiet",
+                "--no-cache",
+                "--param",
+                "wobble_m=0.02",
+            ]
+        )
+        == 0
+    )
     printed = capsys.readouterr().out
     row = json.loads((out / "results.json").read_text())[0]
     assert "…" not in printed and "a_sequence_with_a_long_name_indeed" in printed
@@ -313,12 +362,21 @@ def test_the_record_summary_is_not_cut_on_a_narrow_console():
 
     from viewer_slam.record.console import print_summary
 
-    block = {"frames_with_pose": 1234, "coverage": {"ratio": 0.5}, "ate": {"rmse": 0.123456},
-             "penalized_ate": {"rmse": 1.5}, "rpe": None, "loop_closures": {"accepted": 12, "rejected": 345},
-             "timing": {"fps": 12.5}}
+    block = {
+        "frames_with_pose": 1234,
+        "coverage": {"ratio": 0.5},
+        "ate": {"rmse": 0.123456},
+        "penalized_ate": {"rmse": 1.5},
+        "rpe": None,
+        "loop_closures": {"accepted": 12, "rejected": 345},
+        "timing": {"fps": 12.5},
+    }
     stream = io.StringIO()
-    print_summary({"sequence": {"name": "n"}, "interrupted": False, "pipelines": {"rgbdslam": block}}, [],
-                  Console(file=stream, width=30))
+    print_summary(
+        {"sequence": {"name": "n"}, "interrupted": False, "pipelines": {"rgbdslam": block}},
+        [],
+        Console(file=stream, width=30),
+    )
     text = stream.getvalue()
     assert "…" not in text and "0.123" in text and "1234" in text and "12/345" in text
 
@@ -351,11 +409,18 @@ COMMANDS_WITHOUT_HEAVY_IMPORTS = {
 @pytest.mark.parametrize("arguments", COMMANDS_WITHOUT_HEAVY_IMPORTS.values(), ids=COMMANDS_WITHOUT_HEAVY_IMPORTS)
 def test_light_commands_never_import_rerun_opencv_open3d_or_gtsam(arguments):
     groundtruth = TUM_RPY / "groundtruth.txt"
-    script = ("import sys\nfrom viewer_slam.cli import main\ncode = main(sys.argv[1:])\n"
-              "print(sorted({name.split('.')[0] for name in sys.modules} & {'rerun', 'cv2', 'open3d', 'gtsam'}))")
+    script = (
+        "import sys\nfrom viewer_slam.cli import main\ncode = main(sys.argv[1:])\n"
+        "print(sorted({name.split('.')[0] for name in sys.modules} & {'rerun', 'cv2', 'open3d', 'gtsam'}))"
+    )
     environment = {**os.environ, "PYTHONPATH": str(ROOT)}
-    result = subprocess.run([sys.executable, "-c", script, *(a.format(gt=groundtruth) for a in arguments)],
-                            capture_output=True, text=True, env=environment, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-c", script, *(a.format(gt=groundtruth) for a in arguments)],
+        capture_output=True,
+        text=True,
+        env=environment,
+        timeout=120,
+    )
     assert result.stdout.splitlines()[-1] == "[]", result.stderr
 
 
@@ -392,13 +457,15 @@ def test_a_plugin_that_calls_sys_exit_at_import_is_that_plugins_one_line(tmp_pat
 
     (tmp_path / "exits_at_import.py").write_text("import sys\nsys.exit(3)\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    with pytest.raises(InputError, match=r"^pipeline plugin 'quitter' \(exits_at_import:Pipeline\): cannot be "
-                                         r"imported: called sys.exit\(3\)$"):
+    with pytest.raises(
+        InputError,
+        match=r"^pipeline plugin 'quitter' \(exits_at_import:Pipeline\): cannot be "
+        r"imported: called sys.exit\(3\)$",
+    ):
         load_plugin(EntryPoint("quitter", "exits_at_import:Pipeline", ENTRY_POINT_GROUP))
 
 
-def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_are_kept(tmp_path, monkeypatch,
-                                                                                          capsys):
+def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_are_kept(tmp_path, monkeypatch, capsys):
     from benchmark_fake_pipeline import MODULE, write_tum_folder
 
     from viewer_slam.pipelines import base
@@ -409,12 +476,17 @@ def test_a_pipeline_that_calls_sys_exit_mid_run_is_its_failure_and_the_others_ar
     config = tmp_path / "c.toml"
     config.write_text('[quitter]\nfail = "sys.exit"\n')
     out = tmp_path / "run.rrd"
-    assert main(["record", str(folder), "--pipeline", "fake,quitter", "--config", str(config), "--out", str(out),
-                 "--quiet"]) == 2
+    assert (
+        main(
+            ["record", str(folder), "--pipeline", "fake,quitter", "--config", str(config), "--out", str(out), "--quiet"]
+        )
+        == 2
+    )
     error = capsys.readouterr().err
-    assert error.startswith("viewslam: error: pipeline quitter called sys.exit(5); the frames before it are "
-                             "recorded in") and \
-        error.count("\n") == 1
+    assert (
+        error.startswith("viewslam: error: pipeline quitter called sys.exit(5); the frames before it are recorded in")
+        and error.count("\n") == 1
+    )
     report = json.loads(out.with_suffix(".json").read_text())
     assert report["failed"] is True and report["pipelines"]["fake"]["frames_with_pose"] == 4
     assert verify(out)
@@ -435,8 +507,12 @@ def test_a_rerun_on_the_same_out_leaves_no_file_of_the_earlier_run_behind(tmp_pa
         notes.write_text("mine\n")
     report = json.loads(out.with_suffix(".json").read_text())
     assert list(report["pipelines"]) == ["fake"]
-    assert sorted(path.name for path in out.parent.iterdir()) == ["run.fake.txt", "run.json", "run.notes.txt",
-                                                                  "run.rrd"]
+    assert sorted(path.name for path in out.parent.iterdir()) == [
+        "run.fake.txt",
+        "run.json",
+        "run.notes.txt",
+        "run.rrd",
+    ]
 
 
 def test_evaluate_writes_its_json_and_plot_together_or_neither(tmp_path, monkeypatch, capsys):
@@ -461,8 +537,13 @@ def test_evaluate_writes_its_json_and_plot_together_or_neither(tmp_path, monkeyp
 def test_a_disk_too_full_to_start_a_recording_is_one_line_before_rerun_writes(excerpt, tmp_path, capsys):
     mount = tmp_path / "disk"
     mount.mkdir()
-    if os.geteuid() != 0 or subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)],
-                                           capture_output=True).returncode != 0:
+    if (
+        os.geteuid() != 0
+        or subprocess.run(
+            ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)], capture_output=True
+        ).returncode
+        != 0
+    ):
         pytest.skip("no small file system can be mounted here")
     try:
         out = mount / "run.rrd"
@@ -494,11 +575,14 @@ def test_record_renders_a_scenario_only_up_to_the_last_frame_it_reads(monkeypatc
 
 # Every writer: a full disk names the path written, exit 2, nothing earlier lost.
 
+
 def limit_file_size_to(size: int):
     """For a child: files may not grow beyond ``size`` bytes; writes past it fail (EFBIG), not kill."""
+
     def limit() -> None:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
         resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+
     return limit
 
 
@@ -514,8 +598,14 @@ def recorded_report(tmp_path_factory) -> Path:
 def test_diff_on_a_full_disk_names_its_output_and_keeps_the_earlier_one(recorded_report, tmp_path, option, name):
     target = tmp_path / name
     target.write_bytes(b"earlier")
-    child = viewslam("diff", recorded_report, recorded_report, option, target,
-                     preexec_fn=limit_file_size_to(1000 if name.endswith(".json") else 100_000))
+    child = viewslam(
+        "diff",
+        recorded_report,
+        recorded_report,
+        option,
+        target,
+        preexec_fn=limit_file_size_to(1000 if name.endswith(".json") else 100_000),
+    )
     _, error = child.communicate(timeout=120)
     assert child.returncode == 2 and error.count("\n") == 1, error
     assert error.startswith(f"viewslam: error: {target}: ")
@@ -527,8 +617,18 @@ def test_synth_on_a_full_disk_names_its_folder_in_one_line_and_keeps_the_earlier
     out = folder / "scene"
     out.mkdir(parents=True)
     (out / "rgb.txt").write_text("earlier\n")
-    child = viewslam("synth", "360_kidnap", "--out", out, "--frames", 60, "--resolution", "160x120", "--force",
-                     preexec_fn=None if small_disk else limit_file_size_to(20_000))
+    child = viewslam(
+        "synth",
+        "360_kidnap",
+        "--out",
+        out,
+        "--frames",
+        60,
+        "--resolution",
+        "160x120",
+        "--force",
+        preexec_fn=None if small_disk else limit_file_size_to(20_000),
+    )
     _, error = child.communicate(timeout=300)
     assert child.returncode == 2 and error.count("\n") == 1, error  # no progress line above it
     assert error.startswith(f"viewslam: error: {out}: cannot write: ")
@@ -539,14 +639,22 @@ def test_download_on_a_full_disk_names_the_file_written(tmp_path):
     mirror = tmp_path / "mirror"
     (mirror / "freiburg1").mkdir(parents=True)
     (mirror / "freiburg1" / "rgbd_dataset_freiburg1_xyz.tgz").write_bytes(os.urandom(2_000_000))
-    child = viewslam("download", "fr1/xyz", "--dest", tmp_path / "dest", "--mirror", f"file://{mirror}",
-                     preexec_fn=limit_file_size_to(600_000))
+    child = viewslam(
+        "download",
+        "fr1/xyz",
+        "--dest",
+        tmp_path / "dest",
+        "--mirror",
+        f"file://{mirror}",
+        preexec_fn=limit_file_size_to(600_000),
+    )
     _, error = child.communicate(timeout=120)
     part = tmp_path / "dest" / ".rgbd_dataset_freiburg1_xyz.tgz.part"
     assert child.returncode == 2 and error == f"viewslam: error: {part}: cannot write: File too large\n"
 
 
 # Stop signals: the second is absorbed while the first is honoured, the third aborts; one line.
+
 
 def rendering(out: Path, frames: int = 1000) -> subprocess.Popen:
     """``viewslam synth`` into ``out``, with its progress line, once it has written frames."""
@@ -558,8 +666,12 @@ def rendering(out: Path, frames: int = 1000) -> subprocess.Popen:
     return child
 
 
-STOPS = {"SIGTERM": [signal.SIGTERM], "SIGINT": [signal.SIGINT],
-         "SIGTERM-then-SIGHUP": [signal.SIGTERM, signal.SIGHUP], "three": [signal.SIGINT, signal.SIGHUP, signal.SIGTERM]}
+STOPS = {
+    "SIGTERM": [signal.SIGTERM],
+    "SIGINT": [signal.SIGINT],
+    "SIGTERM-then-SIGHUP": [signal.SIGTERM, signal.SIGHUP],
+    "three": [signal.SIGINT, signal.SIGHUP, signal.SIGTERM],
+}
 
 
 @pytest.mark.parametrize("stops", STOPS.values(), ids=STOPS.keys())
@@ -597,8 +709,9 @@ def test_download_stops_on_stop_signals_with_one_line_and_keeps_what_arrived(tmp
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), TricklingHandler)
     threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05}, daemon=True).start()
     try:
-        child = viewslam("download", "fr1/xyz", "--dest", tmp_path, "--mirror",
-                         f"http://127.0.0.1:{server.server_address[1]}")
+        child = viewslam(
+            "download", "fr1/xyz", "--dest", tmp_path, "--mirror", f"http://127.0.0.1:{server.server_address[1]}"
+        )
         part = tmp_path / ".rgbd_dataset_freiburg1_xyz.tgz.part"
         deadline = time.monotonic() + 60
         while not part.exists() or part.stat().st_size < 200_000:

@@ -46,11 +46,16 @@ def rows(path, entity: str, column: str) -> list[tuple[int, float, object]]:
         if chunk.entity_path != f"/{entity}" or chunk.is_static:
             continue
         batch = chunk.to_record_batch()
-        times = [value.timestamp() if hasattr(value, "timestamp") else value / 1e9
-                 for value in batch.column("time").to_pylist()]
+        times = [
+            value.timestamp() if hasattr(value, "timestamp") else value / 1e9
+            for value in batch.column("time").to_pylist()
+        ]
         values = batch.column(column).to_pylist() if column in batch.schema.names else [None] * batch.num_rows
-        found += [(frame, time, value) for frame, time, value in zip(batch.column("frame").to_pylist(), times, values)
-                  if value is not None]
+        found += [
+            (frame, time, value)
+            for frame, time, value in zip(batch.column("frame").to_pylist(), times, values)
+            if value is not None
+        ]
     return sorted(found, key=lambda row: (row[0], row[1]))
 
 
@@ -84,10 +89,21 @@ def test_the_kidnap_recording_holds_every_entity_of_each_run(kidnap):
     entities = {line.split()[0] for line in RrdReader(out).store().summary().splitlines()}
     expected = {f"/{layout.GROUNDTRUTH}", f"/{layout.SUMMARY}"}
     for name in RUNS:
-        expected |= {f"/{path}" for path in (layout.world(name), layout.trajectory(name), layout.poses(name),
-                                             layout.correspondences(name), layout.camera(name), layout.text_log(name))}
-        expected |= {f"/{layout.metric(name, series)}"
-                     for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "lost", "tracking_state")}
+        expected |= {
+            f"/{path}"
+            for path in (
+                layout.world(name),
+                layout.trajectory(name),
+                layout.poses(name),
+                layout.correspondences(name),
+                layout.camera(name),
+                layout.text_log(name),
+            )
+        }
+        expected |= {
+            f"/{layout.metric(name, series)}"
+            for series in ("ate", "ate_segments", "rpe_trans", "rpe_rot", "coverage", "lost", "tracking_state")
+        }
     assert sorted(expected - entities) == []
     assert not any("/matches" in entity or entity.startswith("/camera") for entity in entities)  # no images
     assert len(RrdReader(out).blueprints()) == 1
@@ -115,8 +131,9 @@ def test_the_poses_are_coloured_by_their_error_on_one_scale(kidnap):
     for name, evaluation in evaluations.items():
         colours = np.array(static_value(out, layout.poses(name), "Points3D:colors"), dtype=np.uint32)
         expected = palette.error_colours(evaluation.pose_errors(len(colours)), top).astype(np.uint32)
-        np.testing.assert_array_equal(colours, (expected[:, 0] << 24) | (expected[:, 1] << 16) | (expected[:, 2] << 8)
-                                      | 255)
+        np.testing.assert_array_equal(
+            colours, (expected[:, 0] << 24) | (expected[:, 1] << 16) | (expected[:, 2] << 8) | 255
+        )
 
 
 @needs_study
@@ -137,8 +154,9 @@ def test_rtabmap_is_lost_from_14_2_s_to_the_end_in_the_recording_and_the_report(
     validator("report").validate(report)
     block = report["pipelines"]["rtabmap"]
     assert block["source"] == "estimate" and block["coverage"]["ratio"] == pytest.approx(0.299, abs=0.0005)
-    assert block["coverage"]["lost_intervals"] == [list(interval) for interval in
-                                                   evaluations["rtabmap"].coverage.lost_intervals]
+    assert block["coverage"]["lost_intervals"] == [
+        list(interval) for interval in evaluations["rtabmap"].coverage.lost_intervals
+    ]
     assert block["ate"]["rmse"] == pytest.approx(evaluations["rtabmap"].ate.stats()["rmse"], rel=1e-12)
     assert report["sequence"]["path"] == str(GROUNDTRUTH) and report["sequence"]["frames"] == len(groundtruth)
     summary = static_value(out, layout.SUMMARY, "TextDocument:text")[0]
@@ -157,24 +175,38 @@ def small(tmp_path_factory):
     write_tum(folder / "orb.txt", perturbed(groundtruth, seed=1).subset(kept))
     euroc = perturbed(groundtruth, seed=2).subset(np.arange(0, len(groundtruth), EVERY))
     translations, quaternions = pose_to_tq(euroc.poses)
-    (folder / "droid.csv").write_text("#timestamp [ns],tx,ty,tz,qw,qx,qy,qz\n" + "".join(
-        f"{round(stamp * 1e9)},{t[0]:.9f},{t[1]:.9f},{t[2]:.9f},{q[3]:.9f},{q[0]:.9f},{q[1]:.9f},{q[2]:.9f}\n"
-        for stamp, t, q in zip(euroc.timestamps, translations, quaternions)))
+    (folder / "droid.csv").write_text(
+        "#timestamp [ns],tx,ty,tz,qw,qx,qy,qz\n"
+        + "".join(
+            f"{round(stamp * 1e9)},{t[0]:.9f},{t[1]:.9f},{t[2]:.9f},{q[3]:.9f},{q[0]:.9f},{q[1]:.9f},{q[2]:.9f}\n"
+            for stamp, t, q in zip(euroc.timestamps, translations, quaternions)
+        )
+    )
     return folder, groundtruth
 
 
 def test_the_losses_follow_the_gaps_made_on_the_groundtruths_frames(capsys, small, tmp_path):
     folder, groundtruth = small
     out = tmp_path / "small.rrd"
-    code, err = record(capsys, "--groundtruth", folder / "groundtruth.txt", "--estimate", f"orb={folder / 'orb.txt'}",
-                       "--estimate", f"droid={folder / 'droid.csv'}", "--out", out)
+    code, err = record(
+        capsys,
+        "--groundtruth",
+        folder / "groundtruth.txt",
+        "--estimate",
+        f"orb={folder / 'orb.txt'}",
+        "--estimate",
+        f"droid={folder / 'droid.csv'}",
+        "--out",
+        out,
+    )
     assert code == 0, err
     assert f"estimate droid: {folder / 'droid.csv'} read as euroc (detected)" in err
     stamps = groundtruth.timestamps
     report = json.loads(out.with_suffix(".json").read_text())
     orb, droid = report["pipelines"]["orb"], report["pipelines"]["droid"]
-    np.testing.assert_allclose(orb["coverage"]["lost_intervals"], [(stamps[GAP[0]], stamps[GAP[1]]),
-                                                                   (stamps[QUIT], stamps[-1])], atol=1e-6)
+    np.testing.assert_allclose(
+        orb["coverage"]["lost_intervals"], [(stamps[GAP[0]], stamps[GAP[1]]), (stamps[QUIT], stamps[-1])], atol=1e-6
+    )
     assert [loss["frame"] for loss in orb["tracking_lost"]] == [GAP[0] + 1, QUIT + 1]
     assert droid["coverage"]["lost_intervals"] == [] and droid["tracking_lost"] == []
     assert droid["parameters"] == {"file": str(folder / "droid.csv"), "format": "euroc"}
@@ -196,8 +228,9 @@ def test_study_record_writes_the_same_recording_as_record(capsys, small, tmp_pat
     from viewer_slam.record.files import record_trajectory_files
 
     folder, _ = small
-    result = record_trajectory_files(folder / "groundtruth.txt", [("orb", folder / "orb.txt")], tmp_path / "s.rrd",
-                                     format="tum", name="a sequence")
+    result = record_trajectory_files(
+        folder / "groundtruth.txt", [("orb", folder / "orb.txt")], tmp_path / "s.rrd", format="tum", name="a sequence"
+    )
     assert result.report["sequence"]["name"] == "a sequence"
     assert result.written == [tmp_path / "s.rrd", tmp_path / "s.json", tmp_path / "s.orb.txt"]
 
@@ -205,23 +238,50 @@ def test_study_record_writes_the_same_recording_as_record(capsys, small, tmp_pat
 def bad_cases(folder):
     groundtruth, orb = folder / "groundtruth.txt", folder / "orb.txt"
     return {
-        "sequence too": ([folder, "--groundtruth", groundtruth, "--estimate", f"orb={orb}"],
-                         f"--groundtruth: only for a ROS bag, and {folder} is not one (without SEQUENCE"),
-        "pipeline": (["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--pipeline", "rgbdslam"], "--pipeline: "),
+        "sequence too": (
+            [folder, "--groundtruth", groundtruth, "--estimate", f"orb={orb}"],
+            f"--groundtruth: only for a ROS bag, and {folder} is not one (without SEQUENCE",
+        ),
+        "pipeline": (
+            ["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--pipeline", "rgbdslam"],
+            "--pipeline: ",
+        ),
         "no estimate": (["--groundtruth", groundtruth], f"--groundtruth {groundtruth}: "),
-        "max frames": (["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--max-frames", "5"], "--max-frames: "),
+        "max frames": (
+            ["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--max-frames", "5"],
+            "--max-frames: ",
+        ),
         "topic": (["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--rgb-topic", "/x"], "--rgb-topic: "),
-        "missing groundtruth": (["--groundtruth", folder / "absent.txt", "--estimate", f"orb={orb}"],
-                                f"{folder / 'absent.txt'}: no such file"),
+        "missing groundtruth": (
+            ["--groundtruth", folder / "absent.txt", "--estimate", f"orb={orb}"],
+            f"{folder / 'absent.txt'}: no such file",
+        ),
         "folder groundtruth": (["--groundtruth", folder, "--estimate", f"orb={orb}"], f"{folder}: is a folder"),
-        "bad estimate": (["--groundtruth", groundtruth, "--estimate", f"bad={folder / 'bad.txt'}"],
-                         f"{folder / 'bad.txt'}:2: expected 8 fields"),
-        "kitti": (["--groundtruth", groundtruth, "--estimate", f"k={folder / 'poses.kitti'}"],
-                  f"{folder / 'poses.kitti'}: KITTI poses carry no timestamps"),
-        "no overlap": (["--groundtruth", groundtruth, "--estimate", f"late={folder / 'late.txt'}"],
-                       f"{folder / 'late.txt'}: no temporal overlap"),
-        "output is an input": (["--groundtruth", groundtruth, "--estimate", f"orb={orb}", "--out", folder / "x.rrd",
-                                "--estimate", f"x={folder / 'x.orb.txt'}"], f"{folder / 'x.orb.txt'}"),
+        "bad estimate": (
+            ["--groundtruth", groundtruth, "--estimate", f"bad={folder / 'bad.txt'}"],
+            f"{folder / 'bad.txt'}:2: expected 8 fields",
+        ),
+        "kitti": (
+            ["--groundtruth", groundtruth, "--estimate", f"k={folder / 'poses.kitti'}"],
+            f"{folder / 'poses.kitti'}: KITTI poses carry no timestamps",
+        ),
+        "no overlap": (
+            ["--groundtruth", groundtruth, "--estimate", f"late={folder / 'late.txt'}"],
+            f"{folder / 'late.txt'}: no temporal overlap",
+        ),
+        "output is an input": (
+            [
+                "--groundtruth",
+                groundtruth,
+                "--estimate",
+                f"orb={orb}",
+                "--out",
+                folder / "x.rrd",
+                "--estimate",
+                f"x={folder / 'x.orb.txt'}",
+            ],
+            f"{folder / 'x.orb.txt'}",
+        ),
     }
 
 
@@ -246,8 +306,21 @@ def test_bad_input_is_one_line_naming_the_option_or_file(capsys, small, tmp_path
 @pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
 def test_the_viewer_renders_the_recording_with_both_runs(kidnap, tmp_path):
     shot = tmp_path / "shot.png"
-    subprocess.run(["xvfb-run", "-a", Path(sys.executable).parent / "rerun", "--screenshot-to", shot,
-                    "--window-size", "1600x900", kidnap[0]], capture_output=True, timeout=180, check=True)
+    subprocess.run(
+        [
+            "xvfb-run",
+            "-a",
+            Path(sys.executable).parent / "rerun",
+            "--screenshot-to",
+            shot,
+            "--window-size",
+            "1600x900",
+            kidnap[0],
+        ],
+        capture_output=True,
+        timeout=180,
+        check=True,
+    )
     image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
     assert image.shape[0] >= 900 and image.shape[1] >= 1600 and image.std() > 20
     for position, name in enumerate(RUNS):  # each run's colour is drawn

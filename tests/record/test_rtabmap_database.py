@@ -33,8 +33,21 @@ def horn_rmse(estimate: np.ndarray, reference: np.ndarray) -> float:
 
 def test_its_maps_closures_and_losses_are_the_databases(tmp_path, capsys):
     out = tmp_path / "original.rrd"
-    assert main(["record", "--groundtruth", str(GROUNDTRUTH), "--estimate", f"rtabmap={DATABASE}",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                "--groundtruth",
+                str(GROUNDTRUTH),
+                "--estimate",
+                f"rtabmap={DATABASE}",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     block = json.loads(out.with_suffix(".json").read_text())["pipelines"]["rtabmap"]
     with sqlite3.connect(DATABASE) as raw:
         nodes = raw.execute("SELECT count(*) FROM Node WHERE id > 0").fetchone()[0]
@@ -44,7 +57,7 @@ def test_its_maps_closures_and_losses_are_the_databases(tmp_path, capsys):
     assert block["keyframes"] == nodes
     assert block["edges_by_detection"]["appearance"]["accepted"] == links[1]
     assert block["edges_by_detection"]["proximity"]["accepted"] == links[2]
-    assert len(block["tracking_lost"]) == maps - 1            # a loss before every new map
+    assert len(block["tracking_lost"]) == maps - 1  # a loss before every new map
     database = read_rtabmap_database(DATABASE)
     groundtruth = read_tum(GROUNDTRUTH)
     nearest = [int(np.argmin(np.abs(groundtruth.timestamps - node.stamp))) for node in database.nodes]

@@ -57,7 +57,7 @@ def test_a_full_queue_holds_the_caller_back_instead_of_growing():
     with RecordingThread(max_pending=2) as background:
         background.submit(release.wait)
         background.submit(lambda: None)
-        background.submit(lambda: None)          # the thread holds the first call: two wait
+        background.submit(lambda: None)  # the thread holds the first call: two wait
         blocked = threading.Thread(target=background.submit, args=(lambda: None,))
         blocked.start()
         blocked.join(0.2)

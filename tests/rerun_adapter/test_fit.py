@@ -29,8 +29,12 @@ def views_in(container) -> list:
 
 def test_the_measured_widths_give_these_budgets():
     # At 1280 px: the left column 735 px, the right 545 px, two matches views 272 px each.
-    assert (title_chars(column_px(LEFT_SHARE)), title_chars(column_px(RIGHT_SHARE)),
-            title_chars(column_px(RIGHT_SHARE, 2)), LOG_LINE_CHARS) == (93, 63, 21, 91)
+    assert (
+        title_chars(column_px(LEFT_SHARE)),
+        title_chars(column_px(RIGHT_SHARE)),
+        title_chars(column_px(RIGHT_SHARE, 2)),
+        LOG_LINE_CHARS,
+    ) == (93, 63, 21, 91)
 
 
 def test_every_title_fits_its_view_at_1280x800():
@@ -50,8 +54,10 @@ def test_every_title_of_a_recording_of_trajectory_files_fits_at_1280x800():
     runs = ["rgbdslam_v2", "rtabmap"]  # the study's, the longest names shown in docs
     layout = blueprint.files_blueprint(runs, np.array([[0.0, 0, 0], [1, 1, 0]]), error_top=12.34)
     left, right = layout.root_container.contents
-    for views, budget in ((views_in(left), title_chars(column_px(LEFT_SHARE))),
-                          (views_in(right), title_chars(column_px(RIGHT_SHARE)))):
+    for views, budget in (
+        (views_in(left), title_chars(column_px(LEFT_SHARE))),
+        (views_in(right), title_chars(column_px(RIGHT_SHARE))),
+    ):
         for view in views:
             assert len(view.name) <= budget, (view.name, budget)
 
@@ -62,9 +68,18 @@ def test_one_run_names_its_match_colours_where_two_side_by_side_have_no_room():
 
 
 def test_a_long_message_continues_in_indented_rows_that_fit():
-    edges = [GraphEdge(frame_index=300, from_keyframe=27 + k, to_keyframe=145, accepted=False,
-                       reason="RANSAC found no transformation with enough inliers", kind=EdgeKind.LOOP,
-                       detection="neighbour") for k in range(4)]
+    edges = [
+        GraphEdge(
+            frame_index=300,
+            from_keyframe=27 + k,
+            to_keyframe=145,
+            accepted=False,
+            reason="RANSAC found no transformation with enough inliers",
+            kind=EdgeKind.LOOP,
+            detection="neighbour",
+        )
+        for k in range(4)
+    ]
     message = f"rgbdslam: {loop_closure_line(edges, 'rejected')}"
     rows = log_rows(message)
     assert len(rows) > 1 and all(len(row) <= LOG_LINE_CHARS for row in rows)

@@ -48,18 +48,26 @@ PIPELINES = ("rgbdslam", "rtabmap")
 # Share of the 3D view's cells (a 24 x 16 grid) that hold drawn content. The 200-frame fr1/rpy
 # excerpt framed on its path's middle tenth with the rest black had 0.46; framed as now, 0.997.
 MIN_OCCUPIED_CELLS = 0.7
-needs_xvfb = pytest.mark.skipif(shutil.which("xvfb-run") is None or not RERUN.is_file(),
-                                reason="xvfb-run (Debian package xvfb) or the rerun viewer is missing")
+needs_xvfb = pytest.mark.skipif(
+    shutil.which("xvfb-run") is None or not RERUN.is_file(),
+    reason="xvfb-run (Debian package xvfb) or the rerun viewer is missing",
+)
 
 
 def room_walls(rng: np.random.Generator, count: int) -> np.ndarray:
     """Points on the four walls and the floor of a 5 m x 5 m room around the camera's circle (world frame)."""
     u, v = rng.uniform(-2.5, 2.5, count), rng.uniform(-0.5, 2.0, count)
     wall = rng.integers(0, 5, count)
-    return np.select([wall[:, None] == k for k in range(5)],
-                     [np.stack([np.full(count, 2.5), u, v], axis=1), np.stack([np.full(count, -2.5), u, v], axis=1),
-                      np.stack([u, np.full(count, 2.5), v], axis=1), np.stack([u, np.full(count, -2.5), v], axis=1),
-                      np.stack([u, rng.uniform(-2.5, 2.5, count), np.full(count, -0.5)], axis=1)])
+    return np.select(
+        [wall[:, None] == k for k in range(5)],
+        [
+            np.stack([np.full(count, 2.5), u, v], axis=1),
+            np.stack([np.full(count, -2.5), u, v], axis=1),
+            np.stack([u, np.full(count, 2.5), v], axis=1),
+            np.stack([u, np.full(count, -2.5), v], axis=1),
+            np.stack([u, rng.uniform(-2.5, 2.5, count), np.full(count, -0.5)], axis=1),
+        ],
+    )
 
 
 class RoomPipeline(ScriptedPipeline):
@@ -67,8 +75,12 @@ class RoomPipeline(ScriptedPipeline):
 
     def process(self, frame):
         walls = transform_points(MAP_FROM_WORLD, room_walls(np.random.default_rng(frame.index), 2000))
-        return [MapUpdated(frame.index, walls, np.full(walls.shape, 150, np.uint8))
-                if isinstance(event, MapUpdated) else event for event in super().process(frame)]
+        return [
+            MapUpdated(frame.index, walls, np.full(walls.shape, 150, np.uint8))
+            if isinstance(event, MapUpdated)
+            else event
+            for event in super().process(frame)
+        ]
 
 
 class WobblingPipeline(RoomPipeline):
@@ -87,8 +99,10 @@ def recording(tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("layout")
     sequence = write_tum_folder(folder / "circle")
     with pytest.MonkeyPatch.context() as monkeypatch:
-        for module_name, pipeline, name in (("layout_steady", RoomPipeline, "rgbdslam"),
-                                            ("layout_wobbling", WobblingPipeline, "rtabmap")):
+        for module_name, pipeline, name in (
+            ("layout_steady", RoomPipeline, "rgbdslam"),
+            ("layout_wobbling", WobblingPipeline, "rtabmap"),
+        ):
             module = types.ModuleType(module_name)
             module.PIPELINE = pipeline
             monkeypatch.setitem(sys.modules, module_name, module)
@@ -105,7 +119,7 @@ def rgb(path: Path) -> np.ndarray:
 def scene_region(image: np.ndarray) -> np.ndarray:
     """Inside the 3D view, whatever the window's size: the left column's upper part, below its title."""
     height, width = image.shape[:2]
-    return image[int(0.08 * height):int(0.7 * height), int(0.01 * width):int(0.55 * width)]
+    return image[int(0.08 * height) : int(0.7 * height), int(0.01 * width) : int(0.55 * width)]
 
 
 def occupied_cells(region: np.ndarray, rows: int = 16, columns: int = 24) -> float:
@@ -139,9 +153,26 @@ def test_the_3d_view_is_filled_and_shows_each_pipeline_at_both_window_sizes(reco
     shot = tmp_path / "shot.png"
     # A screen wider than the window (drawn at twice its size) keeps the pointer, at the screen's
     # centre, off it; a port of its own keeps any viewer already running out of the way.
-    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x2400x24", RERUN, "--port", str(free_port()),
-                           "--screenshot-to", shot, "--window-size", size, recording],
-                          capture_output=True, text=True, timeout=240, check=False)
+    done = subprocess.run(
+        [
+            "xvfb-run",
+            "-a",
+            "-s",
+            "-screen 0 6600x2400x24",
+            RERUN,
+            "--port",
+            str(free_port()),
+            "--screenshot-to",
+            shot,
+            "--window-size",
+            size,
+            recording,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+    )
     assert done.returncode == 0 and shot.is_file(), done.stderr[-3000:]
     image = rgb(shot)
     width, height = map(int, size.split("x"))
@@ -154,8 +185,16 @@ def chromium() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-BROWSER_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1600,900"]
+BROWSER_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+    "--window-size=1600,900",
+]
 
 
 def page_socket(devtools_port: int) -> str:
@@ -177,16 +216,24 @@ async def screenshots(websocket: str, interval_s: float):
             yield base64.b64decode(reply["result"]["data"])
 
 
-def browser_draws(address: str, profile: Path, shot: Path, done: Callable[[np.ndarray], bool],
-                  timeout_s: float = 180.0) -> np.ndarray:
+def browser_draws(
+    address: str, profile: Path, shot: Path, done: Callable[[np.ndarray], bool], timeout_s: float = 180.0
+) -> np.ndarray:
     """The page at ``address`` as a fresh headless Chromium draws it, once ``done(image)`` holds (or
     at the deadline): the web viewer loads its wasm, then the recording streams in, so on a loaded
     machine an early screenshot lacks part of it (one pipeline's panels still empty)."""
-    browser = subprocess.Popen([chromium(), *BROWSER_FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0",
-                                address], stderr=subprocess.PIPE, text=True, start_new_session=True)
+    browser = subprocess.Popen(
+        [chromium(), *BROWSER_FLAGS, f"--user-data-dir={profile}", "--remote-debugging-port=0", address],
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     try:
-        port = next(match.group(1) for line in browser.stderr
-                    if (match := re.search(r"DevTools listening on ws://127\.0\.0\.1:(\d+)/", line)))
+        port = next(
+            match.group(1)
+            for line in browser.stderr
+            if (match := re.search(r"DevTools listening on ws://127\.0\.0\.1:(\d+)/", line))
+        )
 
         websocket = page_socket(int(port))
 
@@ -207,17 +254,24 @@ def browser_draws(address: str, profile: Path, shot: Path, done: Callable[[np.nd
 def web_page_drawn(image: np.ndarray) -> bool:
     """The whole page is drawn: its panels in colour, each pipeline's path and frustum in 3D and its
     curves, and the ground truth in the 3D view."""
-    return (in_colour(image)
-            and all(pixels_of(image, palette.run_colour(name, i).rgb) > 100 for i, name in enumerate(PIPELINES))
-            and pixels_of(scene_region(image), palette.GROUNDTRUTH.rgb) > 50)
+    return (
+        in_colour(image)
+        and all(pixels_of(image, palette.run_colour(name, i).rgb) > 100 for i, name in enumerate(PIPELINES))
+        and pixels_of(scene_region(image), palette.GROUNDTRUTH.rgb) > 50
+    )
 
 
 @pytest.mark.skipif(chromium() is None, reason="chromium (Debian package chromium) is not installed")
 def test_view_web_is_drawn_by_a_headless_browser(recording, tmp_path):
     pytest.importorskip("aiohttp")
     environment = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
-    server = subprocess.Popen([VIEWSLAM, "view", str(recording), "--web"], stdout=subprocess.PIPE, text=True,
-                              env=environment, start_new_session=True)
+    server = subprocess.Popen(
+        [VIEWSLAM, "view", str(recording), "--web"],
+        stdout=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    )
     try:
         address = re.search(r"http://127\.0\.0\.1:\d+/\S*", server.stdout.readline())
         assert address
@@ -231,8 +285,10 @@ def test_view_web_is_drawn_by_a_headless_browser(recording, tmp_path):
 
 def angular_size(eye, positions: np.ndarray) -> float:
     """The largest angle between the eye's view axis and the direction to a position, degrees."""
-    position, target = (np.asarray(getattr(eye, field).as_arrow_array()[0].values.to_numpy(zero_copy_only=False),
-                                    dtype=float) for field in ("position", "look_target"))
+    position, target = (
+        np.asarray(getattr(eye, field).as_arrow_array()[0].values.to_numpy(zero_copy_only=False), dtype=float)
+        for field in ("position", "look_target")
+    )
     axis = (target - position) / np.linalg.norm(target - position)
     directions = positions - position
     cosines = directions @ axis / np.linalg.norm(directions, axis=1)
@@ -243,7 +299,10 @@ def path(scale: float, heading_deg: float = 30.0) -> np.ndarray:
     """Camera poses along a curved path of about ``scale`` metres, looking ``heading_deg`` off +x."""
     t = np.linspace(0.0, 1.0, 50)
     positions = scale * np.stack([t, 0.4 * np.sin(3 * t), 0.1 * t], axis=1)
-    rotation = Rotation.from_rotvec(np.array([0.0, 0.0, np.radians(heading_deg)])).as_matrix() @ Rotation.from_rotvec(np.array([0.0, np.pi / 2, 0.0])).as_matrix()
+    rotation = (
+        Rotation.from_rotvec(np.array([0.0, 0.0, np.radians(heading_deg)])).as_matrix()
+        @ Rotation.from_rotvec(np.array([0.0, np.pi / 2, 0.0])).as_matrix()
+    )
     return np.stack([make_pose(rotation, p) for p in positions])
 
 

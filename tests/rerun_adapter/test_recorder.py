@@ -17,12 +17,7 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 from rich.console import Console
-from scripted_circle import (
-    FRAMES,
-    LOST,
-    MAP_FROM_WORLD,
-    NOISE_M,
-)
+from scripted_circle import FRAMES, LOST, MAP_FROM_WORLD, NOISE_M
 
 from viewer_slam.cli import main
 from viewer_slam.geometry.se3 import invert
@@ -72,15 +67,37 @@ def test_the_recording_has_every_entity_of_the_layout(recorded):
     rows = chunk_rows(recorded.recording)
     expected = ["/world/groundtruth", "/camera/image"]
     for name in ("rgbdslam", "rtabmap"):
-        expected += [f"/world/{name}", f"/world/{name}/camera", f"/world/{name}/trajectory",
-                     f"/world/{name}/odometry", f"/world/{name}/keyframes", f"/world/{name}/keyframes/latest",
-                     f"/world/{name}/keyframes/latest/depth", f"/world/{name}/loop_closures",
-                     f"/world/{name}/loop_closures/rejected", f"/world/{name}/map",
-                     f"/world/{name}/edges/sequential", f"/world/{name}/edges/local",
-                     f"/{name}/matches", f"/log/{name}"]
-        expected += [f"/metrics/{name}/{series}" for series in (
-            "ate", "rpe_trans", "rpe_rot", "coverage", "inliers", "features", "tracking_state", "graph_error",
-            "time/features", "time/ransac")]
+        expected += [
+            f"/world/{name}",
+            f"/world/{name}/camera",
+            f"/world/{name}/trajectory",
+            f"/world/{name}/odometry",
+            f"/world/{name}/keyframes",
+            f"/world/{name}/keyframes/latest",
+            f"/world/{name}/keyframes/latest/depth",
+            f"/world/{name}/loop_closures",
+            f"/world/{name}/loop_closures/rejected",
+            f"/world/{name}/map",
+            f"/world/{name}/edges/sequential",
+            f"/world/{name}/edges/local",
+            f"/{name}/matches",
+            f"/log/{name}",
+        ]
+        expected += [
+            f"/metrics/{name}/{series}"
+            for series in (
+                "ate",
+                "rpe_trans",
+                "rpe_rot",
+                "coverage",
+                "inliers",
+                "features",
+                "tracking_state",
+                "graph_error",
+                "time/features",
+                "time/ransac",
+            )
+        ]
     assert sorted(set(expected) - set(rows)) == []
     assert [path for path, chunks in rows.items() if any(n == 0 for _, n in chunks)] == []  # the viewer panics on them
     frames_logged = sum(n for static, n in rows["/camera/image"] if not static)
@@ -96,7 +113,7 @@ def test_ate_is_logged_per_posed_frame_and_matches_the_report(recorded):
         errors = np.array([ate[i][0] for i in posed])
         block = recorded.report["pipelines"][name]["ate"]
         assert block["n"] == len(posed)
-        assert np.sqrt(np.mean(errors ** 2)) == pytest.approx(block["rmse"], rel=1e-9)
+        assert np.sqrt(np.mean(errors**2)) == pytest.approx(block["rmse"], rel=1e-9)
         assert block["rmse"] < 3 * NOISE_M * np.sqrt(3)
         breaks = column(recorded.recording, f"/metrics/{name}/ate", "Clear:is_recursive")
         assert sorted(breaks) == [LOST[0]]  # the plotted line stops where tracking was lost
@@ -162,8 +179,9 @@ def test_accepted_and_rejected_loop_closures_are_drawn_apart_in_two_colours(reco
     rejected = last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:strips")
     assert len(accepted) == 2 and len(rejected) == 1
     assert np.allclose(accepted[0][0], rejected[0][0])  # both start at keyframe 6
-    assert (last_row("/world/rgbdslam/loop_closures", "LineStrips3D:colors")
-            != last_row("/world/rgbdslam/loop_closures/rejected", "LineStrips3D:colors"))
+    assert last_row("/world/rgbdslam/loop_closures", "LineStrips3D:colors") != last_row(
+        "/world/rgbdslam/loop_closures/rejected", "LineStrips3D:colors"
+    )
 
 
 def test_other_edges_are_drawn_by_kind_under_their_own_entities(recorded):
@@ -195,15 +213,13 @@ def test_report_and_trajectories_are_written_beside_the_recording(recorded, tum_
         assert len(trajectory) == FRAMES - len(LOST)
         assert report["pipelines"][name]["loop_closures"] == {"accepted": 2, "rejected": 1}
         keyframes = (FRAMES - 1) // 5 + 1 - 1  # every 5th frame but frame 15, lost
-        assert report["pipelines"][name]["edges"] == {"sequential": keyframes - 1, "local": keyframes - 2,
-                                                      "loop": 2}
+        assert report["pipelines"][name]["edges"] == {"sequential": keyframes - 1, "local": keyframes - 2, "loop": 2}
 
 
 def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tum_folder, tmp_path):
     out = tmp_path / "stopped.rrd"
     handler = signal.getsignal(signal.SIGINT)
-    result = record(str(tum_folder), out=out, quiet=True,
-                    params=["Scripted/InterruptAt=25"])
+    result = record(str(tum_folder), out=out, quiet=True, params=["Scripted/InterruptAt=25"])
     assert result.interrupted and result.report["interrupted"] is True
     assert list(result.report["pipelines"]) == ["rgbdslam"]  # the second pipeline never started
     assert len(read_tum(result.trajectories["rgbdslam"])) == 26 - len(LOST)
@@ -211,8 +227,9 @@ def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tu
     assert signal.getsignal(signal.SIGINT) is handler
 
 
-def test_a_corrupt_frame_mid_run_exits_2_and_keeps_the_frames_before_it(scripted_pipelines, tum_folder, tmp_path,
-                                                                        capsys):
+def test_a_corrupt_frame_mid_run_exits_2_and_keeps_the_frames_before_it(
+    scripted_pipelines, tum_folder, tmp_path, capsys
+):
     folder = shutil.copytree(tum_folder, tmp_path / "corrupt")
     listed = [line.split()[1] for line in (folder / "rgb.txt").read_text().splitlines() if not line.startswith("#")]
     (folder / listed[25]).write_bytes(b"not a png")
@@ -227,15 +244,19 @@ def test_a_corrupt_frame_mid_run_exits_2_and_keeps_the_frames_before_it(scripted
     assert subprocess.run([RERUN, "rrd", "verify", out], capture_output=True).returncode == 0
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--pipeline", "orbslam"], "valid pipelines are rgbdslam, rtabmap, both"),
-    (["--param", "Scripted/Nope=1"], "unknown parameter 'Scripted/Nope'"),
-    (["--param", "Scripted/KeyframeEvery=often"], "expects an integer"),
-    (["--out", "{tmp}/x.txt"], "must have the .rrd extension"),
-    (["--out", "{folder}/rgb.txt/x.rrd"], "cannot write"),
-])
-def test_bad_input_exits_2_with_one_line_before_any_work(scripted_pipelines, tum_folder, tmp_path, capsys,
-                                                         arguments, message):
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--pipeline", "orbslam"], "valid pipelines are rgbdslam, rtabmap, both"),
+        (["--param", "Scripted/Nope=1"], "unknown parameter 'Scripted/Nope'"),
+        (["--param", "Scripted/KeyframeEvery=often"], "expects an integer"),
+        (["--out", "{tmp}/x.txt"], "must have the .rrd extension"),
+        (["--out", "{folder}/rgb.txt/x.rrd"], "cannot write"),
+    ],
+)
+def test_bad_input_exits_2_with_one_line_before_any_work(
+    scripted_pipelines, tum_folder, tmp_path, capsys, arguments, message
+):
     arguments = [a.format(tmp=tmp_path, folder=tum_folder) for a in arguments]
     assert main(["record", str(tum_folder), *arguments, "--quiet"]) == 2
     error = capsys.readouterr().err
@@ -253,18 +274,30 @@ def test_the_summary_fits_an_80_column_terminal_without_cutting_a_figure():
     def block(rmse):
         return {"rmse": rmse}
 
-    pipeline = {"frames_with_pose": 12000, "coverage": {"ratio": 0.861}, "alignment": "rigid", "ate": block(10.245),
-                "ate_segments": block(10.251), "penalized_ate": block(10.266), "rpe": {"trans": block(10.568), "rot": block(184.704)},
-                "loop_closures": {"accepted": 2740, "rejected": 1640}, "timing": {"fps": 115.7}}
-    report = {"sequence": {"name": "360_kidnap-240-320x240-s0-v4"}, "interrupted": False,
-              "pipelines": {"rgbdslam": pipeline, "rtabmap": pipeline}}
+    pipeline = {
+        "frames_with_pose": 12000,
+        "coverage": {"ratio": 0.861},
+        "alignment": "rigid",
+        "ate": block(10.245),
+        "ate_segments": block(10.251),
+        "penalized_ate": block(10.266),
+        "rpe": {"trans": block(10.568), "rot": block(184.704)},
+        "loop_closures": {"accepted": 2740, "rejected": 1640},
+        "timing": {"fps": 115.7},
+    }
+    report = {
+        "sequence": {"name": "360_kidnap-240-320x240-s0-v4"},
+        "interrupted": False,
+        "pipelines": {"rgbdslam": pipeline, "rtabmap": pipeline},
+    }
     console = Console(width=80, record=True)
     print_summary(report, [], console)
     text = console.export_text()
     assert "…" not in text and max(map(len, text.splitlines())) <= 80
     assert "rigid alignment of the whole run" in text and "each tracked segment aligned on its own" in text
-    assert all(figure in text for figure in ("12000", "86%", "10.245", "10.266", "10.568", "184.70", "2740/1640",
-                                             "115.7"))
+    assert all(
+        figure in text for figure in ("12000", "86%", "10.245", "10.266", "10.568", "184.70", "2740/1640", "115.7")
+    )
 
 
 def test_plots_break_after_the_last_frame_with_a_value():

@@ -36,8 +36,9 @@ class CapturingStream:
 
 
 def frame(index: int) -> Frame:
-    return Frame(index=index, timestamp=float(index), rgb=np.zeros((48, 64, 3), np.uint8),
-                 depth=np.zeros((48, 64), np.float32))
+    return Frame(
+        index=index, timestamp=float(index), rgb=np.zeros((48, 64, 3), np.uint8), depth=np.zeros((48, 64), np.float32)
+    )
 
 
 def empty_batches(archetype) -> list:
@@ -60,8 +61,11 @@ def test_nothing_to_draw_is_sent_as_a_clear_never_as_an_empty_batch():
 
 
 def frustum_depths(stream: CapturingStream) -> list[float]:
-    return [float(archetype.image_plane_distance.as_arrow_array()[0].as_py()) for path, archetype in stream.logged
-            if path == "world/p/camera" and isinstance(archetype, rr.Pinhole)]
+    return [
+        float(archetype.image_plane_distance.as_arrow_array()[0].as_py())
+        for path, archetype in stream.logged
+        if path == "world/p/camera" and isinstance(archetype, rr.Pinhole)
+    ]
 
 
 def test_without_groundtruth_the_frustum_grows_with_the_poses_seen():

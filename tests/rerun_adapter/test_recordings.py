@@ -74,11 +74,14 @@ def recordings(request, cache, out, desk, fr1_rpy) -> dict[str, Path]:
     scripted = write_tum_folder(out / "scripted")
     with pytest.MonkeyPatch.context() as monkeypatch:
         serve_scripted_pipeline(monkeypatch)
-        interrupted = record(str(scripted), out=out / "interrupted.rrd", quiet=True,
-                             params=["Scripted/InterruptAt=25"])
+        interrupted = record(str(scripted), out=out / "interrupted.rrd", quiet=True, params=["Scripted/InterruptAt=25"])
     assert interrupted.interrupted
-    return {"fr1_rpy": fr1_rpy, "kidnap": record_cli(kidnap, out / "kidnap.rrd"), "interrupted": interrupted.recording,
-            "rtabmap_alone": record_cli(desk, out / "rtabmap.rrd", "--pipeline", "rtabmap")}
+    return {
+        "fr1_rpy": fr1_rpy,
+        "kidnap": record_cli(kidnap, out / "kidnap.rrd"),
+        "interrupted": interrupted.recording,
+        "rtabmap_alone": record_cli(desk, out / "rtabmap.rrd", "--pipeline", "rtabmap"),
+    }
 
 
 def report(recording: Path) -> dict:
@@ -105,17 +108,37 @@ def rows(recording: Path, entity: str, column: str) -> dict[int, list]:
 @pytest.mark.skipif(shutil.which("xvfb-run") is None, reason="xvfb-run is not installed (Debian package xvfb)")
 def test_the_viewer_opens_and_draws_the_recording(recordings, case, tmp_path):
     recording = recordings[case]
-    expected = {"fr1_rpy": (False, False), "kidnap": (True, False), "interrupted": (True, True),
-                "rtabmap_alone": (False, False)}
+    expected = {
+        "fr1_rpy": (False, False),
+        "kidnap": (True, False),
+        "interrupted": (True, True),
+        "rtabmap_alone": (False, False),
+    }
     assert ((lost_frames(recording) > 0), report(recording)["interrupted"]) == expected[case]
     assert all(chunk.num_rows > 0 for chunk in RrdReader(recording).stream().to_chunks())
     shot = tmp_path / "shot.png"
     # The window is drawn at twice its size; a screen this wide keeps the pointer (at its centre) off it.
     # A port of its own: on the default one, a viewer already there would get the file (and take no
     # screenshot), or this one would get whatever another process streams to the default port.
-    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 6600x1900x24", RERUN, "--port", str(free_port()),
-                           "--screenshot-to", shot, "--window-size", "1600x900", recording],
-                          capture_output=True, text=True, timeout=240)
+    done = subprocess.run(
+        [
+            "xvfb-run",
+            "-a",
+            "-s",
+            "-screen 0 6600x1900x24",
+            RERUN,
+            "--port",
+            str(free_port()),
+            "--screenshot-to",
+            shot,
+            "--window-size",
+            "1600x900",
+            recording,
+        ],
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     assert done.returncode == 0 and shot.is_file(), done.stderr[-3000:]
     image = cv2.cvtColor(cv2.imread(str(shot)), cv2.COLOR_BGR2RGB)
     assert image.shape[0] >= 900 and image.shape[1] >= 1600
@@ -184,8 +207,10 @@ def demo_rgbdslam(cache, out) -> tuple[Path, Path]:
 
 def test_the_map_grows_in_the_recording_within_its_budget(demo_rgbdslam):
     _, recording = demo_rgbdslam
-    sizes = {frame: len(points) for frame, points in
-             rows(recording, f"/{layout.map_cloud('rgbdslam')}", "Points3D:positions").items()}
+    sizes = {
+        frame: len(points)
+        for frame, points in rows(recording, f"/{layout.map_cloud('rgbdslam')}", "Points3D:positions").items()
+    }
     assert len(sizes) >= 5
     *intermediate, final = sizes.items()
     first = intermediate[0][1]

@@ -27,7 +27,9 @@ def logged(path, entity: str) -> dict[int, float]:
 def test_the_segment_aligned_ate_has_its_own_timeline_at_the_frames_with_a_pose(tmp_path):
     groundtruth = random_walk(90, seed=3)
     poses = perturbed(groundtruth, 4, sigma_m=0.002).poses.copy()
-    poses[50:] = make_pose(Rotation.from_rotvec(np.array([0.0, 0.3, 0.5])).as_matrix(), np.array([0.4, 0.0, -0.2])) @ poses[50:]
+    poses[50:] = (
+        make_pose(Rotation.from_rotvec(np.array([0.0, 0.3, 0.5])).as_matrix(), np.array([0.4, 0.0, -0.2])) @ poses[50:]
+    )
     kept = np.r_[0:40, 50:90]  # lost for ten frames, then in another map frame
     evaluation = evaluate(groundtruth, Trajectory(groundtruth.timestamps[kept], poses[kept]))
 

@@ -35,8 +35,13 @@ def estimate_file(path, sequence, frames) -> Trajectory:
 
 def replay(sequence, path, **options):
     tracked = []
-    run = drive(estimate_replay(sequence, path, **options), "mine", sequence,
-                sinks=(lambda e: tracked.append(e) if isinstance(e, FrameTracked) else None,), **options)
+    run = drive(
+        estimate_replay(sequence, path, **options),
+        "mine",
+        sequence,
+        sinks=(lambda e: tracked.append(e) if isinstance(e, FrameTracked) else None,),
+        **options,
+    )
     return run, tracked
 
 
@@ -52,16 +57,18 @@ def test_gaps_become_lost_frames_and_a_dropped_pose_does_not(sequence, tmp_path)
     assert states == [TrackingStatus.LOST if 10 <= k < 20 else TrackingStatus.OK for k in range(FRAMES)]
     assert [event.pose is None for event in tracked] == [k not in frames for k in range(FRAMES)]
     gap = sequence.timestamps[20] - sequence.timestamps[9]
-    assert run.tracking_lost == [{"frame": 10, "timestamp": sequence.timestamps[10],
-                                  "reason": f"no pose in est.txt for {gap:.2f} s"}]
+    assert run.tracking_lost == [
+        {"frame": 10, "timestamp": sequence.timestamps[10], "reason": f"no pose in est.txt for {gap:.2f} s"}
+    ]
     evaluation, odometry = evaluate_run(sequence.groundtruth, run, sequence.timestamps)
     assert odometry is None
     assert evaluation.coverage.lost_intervals == [(sequence.timestamps[9], sequence.timestamps[20])]
     assert evaluation.ate.stats()["n"] == len(frames)
     assert OFFSET_M * 0.9 < evaluation.ate.stats()["rmse"] < OFFSET_M * 1.1
     block = pipeline_report(run, evaluation, odometry)
-    assert block["frames_with_pose"] == len(frames) and block["coverage"]["ratio"] == pytest.approx(1 - gap / (
-        sequence.timestamps[-1] - sequence.timestamps[0]))
+    assert block["frames_with_pose"] == len(frames) and block["coverage"]["ratio"] == pytest.approx(
+        1 - gap / (sequence.timestamps[-1] - sequence.timestamps[0])
+    )
 
 
 def test_an_estimate_that_starts_late_is_lost_from_the_first_frame(sequence, tmp_path):
@@ -107,10 +114,17 @@ def test_an_rtabmap_database_replays_its_maps_links_and_statistics():
     from viewer_slam.runs.replay import EstimateParams, EstimateReplay
 
     path = RTABMAP_DATA / "360_kidnap-toolrule.db"
-    stamps = np.array([float(line.split()[0]) for line in (RTABMAP_DATA / "360_kidnap.rgb.txt").read_text().splitlines()
-                       if not line.startswith("#")])
+    stamps = np.array(
+        [
+            float(line.split()[0])
+            for line in (RTABMAP_DATA / "360_kidnap.rgb.txt").read_text().splitlines()
+            if not line.startswith("#")
+        ]
+    )
     database = read_rtabmap_database(path)
-    replay = EstimateReplay(EstimateParams(file=str(path)), Camera(535.4, 539.2, 320.1, 247.6, 640, 480), stamps, stamps)
+    replay = EstimateReplay(
+        EstimateParams(file=str(path)), Camera(535.4, 539.2, 320.1, 247.6, 640, 480), stamps, stamps
+    )
     blank = np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32)
     events = [event for index, stamp in enumerate(stamps) for event in replay.process(Frame(index, stamp, *blank))]
     assert replay.params.format == "rtabmap"
@@ -119,15 +133,23 @@ def test_an_rtabmap_database_replays_its_maps_links_and_statistics():
     edges = [event for event in events if isinstance(event, GraphEdge)]
     for kind, detection in (("global_loop", "appearance"), ("local_space", "proximity"), ("neighbor", "odometry")):
         expected = sorted((link.from_id, link.to_id) for link in database.links if link.kind == kind)
-        assert sorted((edge.from_keyframe, edge.to_keyframe) for edge in edges
-                      if edge.accepted and edge.detection == detection) == expected
+        assert (
+            sorted(
+                (edge.from_keyframe, edge.to_keyframe)
+                for edge in edges
+                if edge.accepted and edge.detection == detection
+            )
+            == expected
+        )
     starts = [node for previous, node in zip(database.nodes, database.nodes[1:]) if node.map_id != previous.map_id]
     recovered = [event for event in events if isinstance(event, TrackingRecovered)]
     assert [(event.timestamp, event.reason) for event in recovered] == [
-        (node.stamp, f"new map {node.map_id} in {path.name}") for node in starts]
+        (node.stamp, f"new map {node.map_id} in {path.name}") for node in starts
+    ]
     lost = [event for event in events if isinstance(event, TrackingLost)]
     assert len(lost) == len(starts) and all(a.timestamp < b.timestamp for a, b in zip(lost, recovered))
     tracked = {event.keyframe_id: event for event in events if isinstance(event, FrameTracked) and event.keyframe_id}
     assert [tracked[node.id].inliers for node in database.nodes] == [
-        int(node.statistics["Odometry/Inliers/"]) for node in database.nodes]
+        int(node.statistics["Odometry/Inliers/"]) for node in database.nodes
+    ]
     assert [tracked[node.id].metrics["map"] for node in database.nodes] == [node.map_id for node in database.nodes]

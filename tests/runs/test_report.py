@@ -15,9 +15,25 @@ from viewer_slam.pipelines.run import PipelineRun
 from viewer_slam.runs.run_report import build_report, pipeline_report, write_report
 from viewer_slam.runs.scoring import evaluate_run
 
-PIPELINE_KEYS = {"source", "frames_with_pose", "alignment", "ate", "ate_segments", "rpe", "coverage", "penalized_ate",
-                 "odometry_ate", "node_ate", "loop_closures", "edges", "edges_by_detection",
-                 "keyframes", "tracking_lost", "timing", "parameters"}
+PIPELINE_KEYS = {
+    "source",
+    "frames_with_pose",
+    "alignment",
+    "ate",
+    "ate_segments",
+    "rpe",
+    "coverage",
+    "penalized_ate",
+    "odometry_ate",
+    "node_ate",
+    "loop_closures",
+    "edges",
+    "edges_by_detection",
+    "keyframes",
+    "tracking_lost",
+    "timing",
+    "parameters",
+}
 STATS_KEYS = {"rmse", "mean", "median", "std", "min", "max", "n"}
 
 
@@ -28,13 +44,21 @@ def sequence():
 
 def finished_run(sequence) -> PipelineRun:
     groundtruth_poses, _ = sequence.groundtruth_at(sequence.timestamps[:60])
-    run = PipelineRun(pipeline="rgbdslam", parameters={"predecessor_candidates": 4, "ratio": float("nan")}, seed=0,
-                      frames=87, trajectory=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 1),
-                      odometry=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 2),
-                      frame_indices=np.arange(60), keyframes=9, loop_closures_accepted=2, loop_closures_rejected=5,
-                      tracking_lost=[{"frame": 60, "timestamp": np.float64(sequence.timestamps[60]),
-                                      "reason": "too few inliers"}],
-                      stage_ms_total={"features": 870.0, "ransac": 174.0}, total_s=2.9)
+    run = PipelineRun(
+        pipeline="rgbdslam",
+        parameters={"predecessor_candidates": 4, "ratio": float("nan")},
+        seed=0,
+        frames=87,
+        trajectory=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 1),
+        odometry=perturbed(Trajectory(sequence.timestamps[:60], groundtruth_poses), 2),
+        frame_indices=np.arange(60),
+        keyframes=9,
+        loop_closures_accepted=2,
+        loop_closures_rejected=5,
+        tracking_lost=[{"frame": 60, "timestamp": np.float64(sequence.timestamps[60]), "reason": "too few inliers"}],
+        stage_ms_total={"features": 870.0, "ransac": 174.0},
+        total_s=2.9,
+    )
     return run
 
 
@@ -44,7 +68,10 @@ def test_pipeline_block_has_exactly_the_documented_keys(sequence):
     odometry = evaluate(sequence.groundtruth, run.odometry)
     block = pipeline_report(run, evaluation, odometry)
     assert set(block) == PIPELINE_KEYS
-    assert block["source"] == "pipeline" and pipeline_report(dataclasses.replace(run, source="estimate"), None, None)["source"] == "estimate"
+    assert (
+        block["source"] == "pipeline"
+        and pipeline_report(dataclasses.replace(run, source="estimate"), None, None)["source"] == "estimate"
+    )
     assert block["frames_with_pose"] == 60
     assert block["alignment"] == "rigid"
     assert set(block["ate"]) == set(block["ate_segments"]) == set(block["penalized_ate"]) == STATS_KEYS
@@ -72,8 +99,12 @@ def test_report_envelope_and_strict_json(sequence, tmp_path):
     run = finished_run(sequence)
     block = pipeline_report(run, evaluate(sequence.groundtruth, run.trajectory), None)
     report = build_report(sequence, {"rgbdslam": block}, interrupted=False)
-    assert report["sequence"] == {"name": "rgbd_dataset_freiburg1_rpy", "path": str(TUM_RPY), "frames": 87,
-                                  "duration_s": sequence.duration_s}
+    assert report["sequence"] == {
+        "name": "rgbd_dataset_freiburg1_rpy",
+        "path": str(TUM_RPY),
+        "frames": 87,
+        "duration_s": sequence.duration_s,
+    }
     assert report["interrupted"] is False
     assert set(report["versions"]) == {"viewslam", "rerun", "opencv", "gtsam", "open3d"}
     assert report["versions"]["viewslam"] == metadata.version("viewer-slam")
@@ -98,6 +129,9 @@ def test_a_run_is_covered_over_the_frames_it_processed(sequence):
     assert evaluation.coverage.span == (sequence.timestamps[0], sequence.timestamps[69], "processed frames")
     assert evaluation.coverage.lost_intervals == [(sequence.timestamps[59], sequence.timestamps[69])]
     block = pipeline_report(run, evaluation, odometry)
-    assert block["coverage"]["span"] == {"start": sequence.timestamps[0], "end": sequence.timestamps[69],
-                                         "rule": "processed frames"}
+    assert block["coverage"]["span"] == {
+        "start": sequence.timestamps[0],
+        "end": sequence.timestamps[69],
+        "rule": "processed frames",
+    }
     assert block["ate_segments"] == evaluation.segment_ate.stats() and block["alignment"] == "rigid"

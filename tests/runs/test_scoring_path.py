@@ -21,8 +21,14 @@ STAMPS = 5 + np.arange(40) * 0.05
 
 def circle(noise: float, seed: int) -> np.ndarray:
     """A turning walk of 40 poses, with ``noise`` metres of normal noise on each position."""
-    poses = np.array([make_pose(Rotation.from_rotvec(np.array([0.0, 0.04 * k, 0.0])).as_matrix(),
-                                np.array([0.05 * k, 0.0, 0.01 * k])) for k in range(len(STAMPS))])
+    poses = np.array(
+        [
+            make_pose(
+                Rotation.from_rotvec(np.array([0.0, 0.04 * k, 0.0])).as_matrix(), np.array([0.05 * k, 0.0, 0.01 * k])
+            )
+            for k in range(len(STAMPS))
+        ]
+    )
     poses[:, :3, 3] += np.random.default_rng(seed).normal(0.0, noise, (len(STAMPS), 3))
     return poses
 
@@ -47,8 +53,21 @@ def evaluated(groundtruth, estimate, out) -> dict:
 
 
 def recorded(groundtruth, estimate, out) -> dict:
-    assert main(["record", "--groundtruth", str(groundtruth), "--estimate", f"slam={estimate}", "--out", str(out),
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                "--groundtruth",
+                str(groundtruth),
+                "--estimate",
+                f"slam={estimate}",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     return json.loads(out.with_suffix(".json").read_text())["pipelines"]["slam"]
 
 
@@ -68,8 +87,20 @@ def test_evaluate_and_record_accept_the_same_inputs_and_agree(files, groundtruth
 
 
 def test_study_scores_a_run_as_evaluate_does_with_tum_rpe(files, capsys):
-    assert main(["evaluate", str(files / "truth.txt"), str(files / "estimate.txt"), "--rpe-mode", "tum",
-                 "--json", str(files / "tum.json")]) == 0
+    assert (
+        main(
+            [
+                "evaluate",
+                str(files / "truth.txt"),
+                str(files / "estimate.txt"),
+                "--rpe-mode",
+                "tum",
+                "--json",
+                str(files / "tum.json"),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     scores = json.loads((files / "tum.json").read_text())
     study = score_run(files / "truth.txt", files / "estimate.txt")

@@ -42,8 +42,9 @@ def mirror(tmp_path, monkeypatch):
 
 
 def run_study(capsys, mirror, out, *extra) -> tuple[int, str, str]:
-    code = main(["study", *(sequence.name for sequence in SHARED), "--mirror", mirror, "--out", str(out), "--quiet",
-                 *extra])
+    code = main(
+        ["study", *(sequence.name for sequence in SHARED), "--mirror", mirror, "--out", str(out), "--quiet", *extra]
+    )
     captured = capsys.readouterr()
     return code, captured.out, captured.err
 
@@ -53,11 +54,13 @@ def published_log(sequence, system: str) -> dict[str, str]:
     sub = "rgbd" if system == "rgbdslam_v2" else "rtab"
     log = next(path for path in (STUDY / sequence.folder / sub).glob("*result*.txt"))
     text = log.read_text()
-    ate, rpe = text[text.index("\nATE"):text.index("\nRPE")], text[text.index("\nRPE"):]
+    ate, rpe = text[text.index("\nATE") : text.index("\nRPE")], text[text.index("\nRPE") :]
     pick = lambda block, key: block.split(key + " ")[1].split()[0]  # noqa: E731
-    return {"ate_rmse": pick(ate, "absolute_translational_error.rmse"),
-            "rpe_trans_rmse": pick(rpe, "translational_error.rmse"),
-            "rpe_rot_rmse_deg": pick(rpe, "rotational_error.rmse")}
+    return {
+        "ate_rmse": pick(ate, "absolute_translational_error.rmse"),
+        "rpe_trans_rmse": pick(rpe, "translational_error.rmse"),
+        "rpe_rot_rmse_deg": pick(rpe, "rotational_error.rmse"),
+    }
 
 
 def test_the_study_replays_every_logged_figure_or_reports_it(capsys, mirror, tmp_path):
@@ -67,8 +70,11 @@ def test_the_study_replays_every_logged_figure_or_reports_it(capsys, mirror, tmp
     results = json.loads((tmp_path / "out" / "results.json").read_text())
     jsonschema.validate(results, json.loads(SCHEMA.read_text()))
     assert len(results["rows"]) == 8 and all(row["sha256_verified"] for row in results["rows"])
-    reported = {(entry["sequence"], entry["system"], entry["figure"]) for entry in results["discrepancies"]
-                if entry["source"] == "log"}
+    reported = {
+        (entry["sequence"], entry["system"], entry["figure"])
+        for entry in results["discrepancies"]
+        if entry["source"] == "log"
+    }
     matched = 0
     for row in results["rows"]:
         sequence = next(s for s in SHARED if s.name == row["sequence"])
@@ -96,9 +102,11 @@ def test_chart_bars_under_another_sequences_label_are_found(capsys, mirror, tmp_
 def test_coverage_and_penalised_ate_reverse_the_kidnap_ranking(capsys, mirror, tmp_path):
     code, out, _ = run_study(capsys, mirror, tmp_path / "out")
     assert code == 0
-    rows = {row["system"]: row["reproduced"] for row in
-            json.loads((tmp_path / "out" / "results.json").read_text())["rows"]
-            if row["sequence"] == "rgbd_dataset_freiburg2_360_kidnap"}
+    rows = {
+        row["system"]: row["reproduced"]
+        for row in json.loads((tmp_path / "out" / "results.json").read_text())["rows"]
+        if row["sequence"] == "rgbd_dataset_freiburg2_360_kidnap"
+    }
     rtabmap, rgbdslam = rows["rtabmap"], rows["rgbdslam_v2"]
     assert rtabmap["ate_rmse"] < rgbdslam["ate_rmse"] and rtabmap["penalized_ate_rmse"] > rgbdslam["penalized_ate_rmse"]
     assert rtabmap["coverage"] == pytest.approx(0.299, abs=0.001) and len(rtabmap["lost_intervals"]) == 1

@@ -13,11 +13,11 @@ import numpy as np
 
 from ..compiled import jit
 
-LAMBDA_INIT_FACTOR = 1e-5        # g2o's tau: first damping over the largest Hessian diagonal entry
-MAX_TRIALS_AFTER_FAILURE = 10    # g2o's maxTrialsAfterFailure
+LAMBDA_INIT_FACTOR = 1e-5  # g2o's tau: first damping over the largest Hessian diagonal entry
+MAX_TRIALS_AFTER_FAILURE = 10  # g2o's maxTrialsAfterFailure
 GOOD_STEP_LOWER_SCALE = 1.0 / 3.0
 GOOD_STEP_UPPER_SCALE = 2.0 / 3.0
-SCALE_EPSILON = 1e-3             # g2o adds it to the predicted decrease "to make sure it's non-zero"
+SCALE_EPSILON = 1e-3  # g2o adds it to the predicted decrease "to make sure it's non-zero"
 
 
 @jit
@@ -41,7 +41,7 @@ def quaternion_vector(rotation):
         vector[2] = (rotation[1, 0] - rotation[0, 1]) / (4.0 * w)
         return vector
     largest = 0
-    for i in range(3):        # a half turn: the axis from the diagonal, signs from the largest row
+    for i in range(3):  # a half turn: the axis from the diagonal, signs from the largest row
         vector[i] = np.sqrt(max(0.0, (rotation[i, i] + 1.0) / 2.0))
         if vector[i] > vector[largest]:
             largest = i
@@ -104,30 +104,59 @@ def _add_link(to_measured, information, pose, hessian_camera, gradient_camera):
     jacobian[3, 3], jacobian[3, 4], jacobian[3, 5] = w, -a[2], a[1]
     jacobian[4, 3], jacobian[4, 4], jacobian[4, 5] = a[2], w, -a[0]
     jacobian[5, 3], jacobian[5, 4], jacobian[5, 5] = -a[1], a[0], w
-    weighted = jacobian.T * information           # J^T diag(information)
+    weighted = jacobian.T * information  # J^T diag(information)
     hessian_camera += weighted @ jacobian
     gradient_camera -= weighted @ error
 
 
 @jit
-def evaluate(pose, points, kept, point, free, stereo, measured, held_rotation, held_translation, camera,
-             link_to_measured, link_information, in_camera, error, chi2):
+def evaluate(
+    pose,
+    points,
+    kept,
+    point,
+    free,
+    stereo,
+    measured,
+    held_rotation,
+    held_translation,
+    camera,
+    link_to_measured,
+    link_information,
+    in_camera,
+    error,
+    chi2,
+):
     """Fills each edge's camera-frame point, error (predicted minus measured u, v and, with
     depth, u - fx b / z) and chi2 (squared error over the pixel variance); returns g2o's
     activeRobustChi2: the Huber costs of the kept edges plus the link's chi2."""
-    fx, fy, cx, cy, baseline, pixel_variance, delta = camera[0], camera[1], camera[2], camera[3], camera[4], \
-        camera[5], camera[6]
+    fx, fy, cx, cy, baseline, pixel_variance, delta = (
+        camera[0],
+        camera[1],
+        camera[2],
+        camera[3],
+        camera[4],
+        camera[5],
+        camera[6],
+    )
     rotation, translation = pose[:3, :3], pose[:3, 3]
     cost = 0.0
     for m in range(len(point)):
         p = points[point[m]]
         for i in range(3):
             if free[m]:
-                in_camera[m, i] = (rotation[0, i] * (p[0] - translation[0]) + rotation[1, i] * (p[1] - translation[1])
-                                   + rotation[2, i] * (p[2] - translation[2]))
+                in_camera[m, i] = (
+                    rotation[0, i] * (p[0] - translation[0])
+                    + rotation[1, i] * (p[1] - translation[1])
+                    + rotation[2, i] * (p[2] - translation[2])
+                )
             else:
-                in_camera[m, i] = (held_rotation[m, i, 0] * p[0] + held_rotation[m, i, 1] * p[1]
-                                   + held_rotation[m, i, 2] * p[2] + held_translation[m, i])
+                in_camera[m, i] = (
+                    held_rotation[m, i, 0] * p[0]
+                    + held_rotation[m, i, 1] * p[1]
+                    + held_rotation[m, i, 2] * p[2]
+                    + held_translation[m, i]
+                )
         inverse_z = 1.0 / in_camera[m, 2]
         u = fx * in_camera[m, 0] * inverse_z + cx
         error[m, 0] = u - measured[m, 0]
@@ -143,9 +172,25 @@ def evaluate(pose, points, kept, point, free, stereo, measured, held_rotation, h
 
 
 @jit
-def _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, link_to_measured, link_information,
-                      in_camera, error, chi2, hessian_camera, gradient_camera, hessian_points, gradient_points,
-                      coupling):
+def _normal_equations(
+    pose,
+    kept,
+    point,
+    free,
+    stereo,
+    held_rotation,
+    camera,
+    link_to_measured,
+    link_information,
+    in_camera,
+    error,
+    chi2,
+    hessian_camera,
+    gradient_camera,
+    hessian_points,
+    gradient_points,
+    coupling,
+):
     """The Gauss-Newton system of the kept edges in blocks (b is minus the gradient), each
     edge's information weighed by the Huber kernel. J is the projection's Jacobian (u, v and,
     with depth, u_right) times d(camera-frame point) / d(point) = the edge camera's
@@ -168,17 +213,20 @@ def _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, li
         x, y, z = in_camera[m, 0], in_camera[m, 1], in_camera[m, 2]
         inverse_z = 1.0 / z
         projection[0, 0] = fx * inverse_z
-        projection[0, 2] = -fx * x * inverse_z ** 2
+        projection[0, 2] = -fx * x * inverse_z**2
         projection[1, 1] = fy * inverse_z
-        projection[1, 2] = -fy * y * inverse_z ** 2
+        projection[1, 2] = -fy * y * inverse_z**2
         rows = 3 if stereo[m] else 2
         projection[2, 0] = fx * inverse_z
-        projection[2, 2] = -fx * (x - baseline) * inverse_z ** 2
+        projection[2, 2] = -fx * (x - baseline) * inverse_z**2
         rotation = pose_to_camera if free[m] else held_rotation[m]
         for i in range(rows):
             for j in range(3):
-                point_jacobian[i, j] = (projection[i, 0] * rotation[0, j] + projection[i, 1] * rotation[1, j]
-                                        + projection[i, 2] * rotation[2, j])
+                point_jacobian[i, j] = (
+                    projection[i, 0] * rotation[0, j]
+                    + projection[i, 1] * rotation[1, j]
+                    + projection[i, 2] * rotation[2, j]
+                )
         p = point[m]
         for a in range(3):
             for b in range(3):
@@ -266,8 +314,9 @@ def _cholesky_solve(matrix, rhs):
 
 
 @jit
-def _schur_step(hessian_camera, gradient_camera, hessian_points, gradient_points, coupling, damping, active,
-                inverses, point_step):
+def _schur_step(
+    hessian_camera, gradient_camera, hessian_points, gradient_points, coupling, damping, active, inverses, point_step
+):
     """The camera step of the damped system (H + damping I) dx = b with the points eliminated
     first, and each active point's step into ``point_step`` (inactive points do not move);
     None when the system cannot be solved. ``inverses`` is scratch space, a 3x3 per point."""
@@ -285,13 +334,22 @@ def _schur_step(hessian_camera, gradient_camera, hessian_points, gradient_points
             return None
         for a in range(6):
             for j in range(3):
-                coupled[a, j] = (coupling[k, a, 0] * inverses[k, 0, j] + coupling[k, a, 1] * inverses[k, 1, j]
-                                 + coupling[k, a, 2] * inverses[k, 2, j])
+                coupled[a, j] = (
+                    coupling[k, a, 0] * inverses[k, 0, j]
+                    + coupling[k, a, 1] * inverses[k, 1, j]
+                    + coupling[k, a, 2] * inverses[k, 2, j]
+                )
             for b in range(6):
-                reduced[a, b] -= (coupled[a, 0] * coupling[k, b, 0] + coupled[a, 1] * coupling[k, b, 1]
-                                  + coupled[a, 2] * coupling[k, b, 2])
-            rhs[a] -= (coupled[a, 0] * gradient_points[k, 0] + coupled[a, 1] * gradient_points[k, 1]
-                       + coupled[a, 2] * gradient_points[k, 2])
+                reduced[a, b] -= (
+                    coupled[a, 0] * coupling[k, b, 0]
+                    + coupled[a, 1] * coupling[k, b, 1]
+                    + coupled[a, 2] * coupling[k, b, 2]
+                )
+            rhs[a] -= (
+                coupled[a, 0] * gradient_points[k, 0]
+                + coupled[a, 1] * gradient_points[k, 1]
+                + coupled[a, 2] * gradient_points[k, 2]
+            )
     camera_step = _cholesky_solve(reduced, rhs)
     if camera_step is None:
         return None
@@ -305,8 +363,9 @@ def _schur_step(hessian_camera, gradient_camera, hessian_points, gradient_points
             for a in range(6):
                 remaining[j] -= coupling[k, a, j] * camera_step[a]
         for i in range(3):
-            point_step[k, i] = (inverses[k, i, 0] * remaining[0] + inverses[k, i, 1] * remaining[1]
-                                + inverses[k, i, 2] * remaining[2])
+            point_step[k, i] = (
+                inverses[k, i, 0] * remaining[0] + inverses[k, i, 1] * remaining[1] + inverses[k, i, 2] * remaining[2]
+            )
     return camera_step
 
 
@@ -324,8 +383,21 @@ def _predicted_decrease(camera_step, point_step, gradient_camera, gradient_point
 
 
 @jit
-def levenberg_marquardt(pose, points, kept, iterations, point, free, stereo, measured, held_rotation,
-                        held_translation, camera, link_to_measured, link_information):
+def levenberg_marquardt(
+    pose,
+    points,
+    kept,
+    iterations,
+    point,
+    free,
+    stereo,
+    measured,
+    held_rotation,
+    held_translation,
+    camera,
+    link_to_measured,
+    link_information,
+):
     """g2o's OptimizationAlgorithmLevenberg over the kept edges: the first damping is
     LAMBDA_INIT_FACTOR times the largest Hessian diagonal entry; a step is kept when it lowers
     the robust chi2, the damping then scaled by max(1/3, min(2/3, 1 - (2 rho - 1)^3)), and
@@ -342,14 +414,45 @@ def levenberg_marquardt(pose, points, kept, iterations, point, free, stereo, mea
     hessian_camera, gradient_camera = np.zeros((6, 6)), np.zeros(6)
     hessian_points, gradient_points, coupling = np.zeros((count, 3, 3)), np.zeros((count, 3)), np.zeros((count, 6, 3))
     point_step, inverses = np.zeros((count, 3)), np.zeros((count, 3, 3))
-    cost = evaluate(pose, points, kept, point, free, stereo, measured, held_rotation, held_translation, camera,
-                    link_to_measured, link_information, in_camera, error, chi2)
+    cost = evaluate(
+        pose,
+        points,
+        kept,
+        point,
+        free,
+        stereo,
+        measured,
+        held_rotation,
+        held_translation,
+        camera,
+        link_to_measured,
+        link_information,
+        in_camera,
+        error,
+        chi2,
+    )
     damping, growth = 0.0, 2.0
     trial_pose, trial_points, trial_cost = pose, points, cost
     for iteration in range(iterations):
-        _normal_equations(pose, kept, point, free, stereo, held_rotation, camera, link_to_measured, link_information,
-                          in_camera, error, chi2, hessian_camera, gradient_camera, hessian_points, gradient_points,
-                          coupling)
+        _normal_equations(
+            pose,
+            kept,
+            point,
+            free,
+            stereo,
+            held_rotation,
+            camera,
+            link_to_measured,
+            link_information,
+            in_camera,
+            error,
+            chi2,
+            hessian_camera,
+            gradient_camera,
+            hessian_points,
+            gradient_points,
+            coupling,
+        )
         if iteration == 0:
             largest = 0.0
             for i in range(6):
@@ -361,17 +464,41 @@ def levenberg_marquardt(pose, points, kept, iterations, point, free, stereo, mea
             damping, growth = LAMBDA_INIT_FACTOR * largest, 2.0
         trials, gain = 0, -1.0
         while gain < 0 and trials < MAX_TRIALS_AFTER_FAILURE:
-            camera_step = _schur_step(hessian_camera, gradient_camera, hessian_points, gradient_points, coupling,
-                                      damping, active, inverses, point_step)
+            camera_step = _schur_step(
+                hessian_camera,
+                gradient_camera,
+                hessian_points,
+                gradient_points,
+                coupling,
+                damping,
+                active,
+                inverses,
+                point_step,
+            )
             gain = -np.inf
             if camera_step is not None:
                 trial_pose, trial_points = updated_pose(pose, camera_step), points + point_step
-                trial_cost = evaluate(trial_pose, trial_points, kept, point, free, stereo, measured, held_rotation,
-                                      held_translation, camera, link_to_measured, link_information, trial_in_camera,
-                                      trial_error, trial_chi2)
+                trial_cost = evaluate(
+                    trial_pose,
+                    trial_points,
+                    kept,
+                    point,
+                    free,
+                    stereo,
+                    measured,
+                    held_rotation,
+                    held_translation,
+                    camera,
+                    link_to_measured,
+                    link_information,
+                    trial_in_camera,
+                    trial_error,
+                    trial_chi2,
+                )
                 if np.isfinite(trial_cost):
-                    decrease = _predicted_decrease(camera_step, point_step, gradient_camera, gradient_points,
-                                                   damping, active)
+                    decrease = _predicted_decrease(
+                        camera_step, point_step, gradient_camera, gradient_points, damping, active
+                    )
                     gain = (cost - trial_cost) / (decrease + SCALE_EPSILON)
             if gain > 0:
                 damping *= max(GOOD_STEP_LOWER_SCALE, min(GOOD_STEP_UPPER_SCALE, 1 - (2 * gain - 1) ** 3))

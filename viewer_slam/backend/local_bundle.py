@@ -30,8 +30,8 @@ import numpy as np
 from ..geometry.se3 import invert
 from .bundle_solver import evaluate, levenberg_marquardt
 
-FIRST_PASS_ITERATIONS = 5        # OptimizerG2O::optimizeBA's first, robust-only pass
-FREE_FRAME = -1                  # frame id of the observations made by the adjusted frame
+FIRST_PASS_ITERATIONS = 5  # OptimizerG2O::optimizeBA's first, robust-only pass
+FREE_FRAME = -1  # frame id of the observations made by the adjusted frame
 LINK_VARIANCE_FLOOR = 1e-12
 
 
@@ -95,8 +95,14 @@ def measurements(observations: Observations, fx: float, baseline: float) -> np.n
     return np.column_stack([observations.pixels, right])
 
 
-def edge_chi2(pose_of: dict[int, np.ndarray], points: np.ndarray, observations: Observations,
-              K: np.ndarray, baseline: float, pixel_variance: float) -> np.ndarray:
+def edge_chi2(
+    pose_of: dict[int, np.ndarray],
+    points: np.ndarray,
+    observations: Observations,
+    K: np.ndarray,
+    baseline: float,
+    pixel_variance: float,
+) -> np.ndarray:
     """Squared reprojection error of each observation over the pixel variance (g2o's
     ``edge->chi2()``): (u, v, u - fx b / z) for a stereo edge, (u, v) for a mono one;
     ``pose_of`` holds the pose of every frame observing, FREE_FRAME's too if it is one."""
@@ -112,8 +118,9 @@ def link_terms(key_pose: np.ndarray, link: Link) -> tuple[np.ndarray, np.ndarray
     ``measured^-1 T_key^-1`` (the error is the translation and quaternion vector part of it
     times ``T_adjusted``, see ``bundle_solver.link_error``) and the information of each error
     component, 1/variance: RTAB-Map copies the covariance's inverse onto that error as it is."""
-    translation, rotation = (1.0 / max(variance, LINK_VARIANCE_FLOOR)
-                             for variance in (link.translation_variance, link.rotation_variance))
+    translation, rotation = (
+        1.0 / max(variance, LINK_VARIANCE_FLOOR) for variance in (link.translation_variance, link.rotation_variance)
+    )
     return invert(link.relative) @ invert(key_pose), np.array([translation] * 3 + [rotation] * 3)
 
 
@@ -122,8 +129,14 @@ class _Problem:
     sums), with what stays fixed across iterations: the measured coordinates and the fixed
     key frames' world-to-camera transforms, in the compiled solver's layout."""
 
-    def __init__(self, observations: Observations, held: dict[int, np.ndarray], link: Link | None,
-                 K: np.ndarray, settings: BundleSettings):
+    def __init__(
+        self,
+        observations: Observations,
+        held: dict[int, np.ndarray],
+        link: Link | None,
+        K: np.ndarray,
+        settings: BundleSettings,
+    ):
         self.order = np.argsort(observations.point, kind="stable")
         self.point = observations.point[self.order].astype(np.int64)
         self.free = observations.frame[self.order] == FREE_FRAME
@@ -136,35 +149,59 @@ class _Problem:
             rows = frames == frame
             to_camera = invert(held[frame])
             self.held_rotation[rows], self.held_translation[rows] = to_camera[:3, :3], to_camera[:3, 3]
-        self.camera = np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance,
-                                settings.kernel_delta], dtype=np.float64)
+        self.camera = np.array(
+            [K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance, settings.kernel_delta],
+            dtype=np.float64,
+        )
         self.link_to_measured: np.ndarray
         self.link_information: np.ndarray
-        self.link_to_measured, self.link_information = (link_terms(held[link.frame], link) if link is not None
-                                                         else (np.eye(4), np.zeros(6)))
+        self.link_to_measured, self.link_information = (
+            link_terms(held[link.frame], link) if link is not None else (np.eye(4), np.zeros(6))
+        )
 
-    def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                             np.ndarray, np.ndarray]:
+    def edges(
+        self,
+    ) -> tuple[
+        np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray
+    ]:
         """The edge arrays, camera and link, as the compiled solver takes them."""
-        return (self.point, self.free, self.stereo, self.measured, self.held_rotation, self.held_translation,
-                self.camera, self.link_to_measured, self.link_information)
+        return (
+            self.point,
+            self.free,
+            self.stereo,
+            self.measured,
+            self.held_rotation,
+            self.held_translation,
+            self.camera,
+            self.link_to_measured,
+            self.link_information,
+        )
 
     def chi2(self, pose: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Each edge's chi2 (in the problem's edge order)."""
         count = len(self.point)
         chi2 = np.empty(count)
-        evaluate(pose, points, np.ones(count, np.bool_), *self.edges(), np.empty((count, 3)), np.empty((count, 3)),
-                 chi2)
+        evaluate(
+            pose, points, np.ones(count, np.bool_), *self.edges(), np.empty((count, 3)), np.empty((count, 3)), chi2
+        )
         return chi2
 
-    def adjust(self, pose: np.ndarray, points: np.ndarray, kept: np.ndarray,
-               iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def adjust(
+        self, pose: np.ndarray, points: np.ndarray, kept: np.ndarray, iterations: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The pose and points after one pass over the kept edges, and each edge's chi2 there."""
         return levenberg_marquardt(pose, points, kept, iterations, *self.edges())
 
 
-def adjust_frame(pose: np.ndarray, points: np.ndarray, observations: Observations, held: dict[int, np.ndarray],
-                 link: Link | None, K: np.ndarray, settings: BundleSettings) -> BundleResult:
+def adjust_frame(
+    pose: np.ndarray,
+    points: np.ndarray,
+    observations: Observations,
+    held: dict[int, np.ndarray],
+    link: Link | None,
+    K: np.ndarray,
+    settings: BundleSettings,
+) -> BundleResult:
     """Refine ``pose`` (``T_world_camera`` of the frame whose observations have frame
     FREE_FRAME) and the observed ``points`` (N, 3, world) with the ``held`` key-frame poses
     fixed; see the module docstring for the passes and the outlier rule."""

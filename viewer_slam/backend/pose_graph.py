@@ -46,7 +46,7 @@ PCG_RELATIVE_TOLERANCE = 1e-6
 
 def information_from_sigmas(rotation_sigma: float, translation_sigma: float) -> np.ndarray:
     """Diagonal information in GTSAM's tangent order (rotation, then translation)."""
-    return np.diag([rotation_sigma ** -2] * 3 + [translation_sigma ** -2] * 3)
+    return np.diag([rotation_sigma**-2] * 3 + [translation_sigma**-2] * 3)
 
 
 class PoseGraph:
@@ -77,7 +77,8 @@ class PoseGraph:
     def add_edge(self, edge: Edge) -> None:
         self.edges.append(edge)
         factor = self._factors[edge] = gtsam.BetweenFactorPose3(
-            edge.from_id, edge.to_id, gtsam.Pose3(edge.relative), self._noise(edge.information, edge.robust))
+            edge.from_id, edge.to_id, gtsam.Pose3(edge.relative), self._noise(edge.information, edge.robust)
+        )
         if self._graph is not None:
             self._graph.add(factor)
 
@@ -136,7 +137,7 @@ class PoseGraph:
         """g2o's stopping rule; single-threaded, as g2o's solver is, so sums keep their order."""
         pcg = gtsam.PCGSolverParameters()
         pcg.preconditioner = gtsam.BlockJacobiPreconditionerParameters()
-        pcg.epsilon_rel = PCG_RELATIVE_TOLERANCE ** 0.5
+        pcg.epsilon_rel = PCG_RELATIVE_TOLERANCE**0.5
         pcg.epsilon_abs = 0.0
         pcg.maxIterations = 6 * len(self.poses)
         pcg.parallel = False

@@ -2,4 +2,6 @@
 
 from ..commands import make_callable
 
-make_callable(__name__, f"{__name__}.command", "benchmark")  # `viewer_slam.benchmark(...)` runs the command: see commands.py
+make_callable(
+    __name__, f"{__name__}.command", "benchmark"
+)  # `viewer_slam.benchmark(...)` runs the command: see commands.py

@@ -34,8 +34,9 @@ OUTPUT_FILES = ("results.csv", "results.json", "report.md")
 RECORDINGS_FOLDER = "recordings"
 
 
-def write_outputs(results: list[TaskResult], out_dir: Path, compare_with: BenchmarkResults | None = None,
-                  recorded: bool = False) -> list[Path]:
+def write_outputs(
+    results: list[TaskResult], out_dir: Path, compare_with: BenchmarkResults | None = None, recorded: bool = False
+) -> list[Path]:
     """Write every output into ``out_dir`` (each file renamed into place once complete); returns them all.
 
     Files an earlier benchmark wrote there that these results do not list are removed: run
@@ -82,8 +83,12 @@ def planned_outputs(out_dir: Path, tasks) -> dict[Path, str]:
 
 def _earlier_outputs(out_dir: Path) -> list[Path]:
     """The run reports, trajectories, charts and recordings a benchmark may have written into ``out_dir``."""
-    written = [path for folder in (RUNS_FOLDER, RECORDINGS_FOLDER) for kind in ("json", "txt", "rrd")
-               for path in (out_dir / folder).glob(f"*.{kind}")]
+    written = [
+        path
+        for folder in (RUNS_FOLDER, RECORDINGS_FOLDER)
+        for kind in ("json", "txt", "rrd")
+        for path in (out_dir / folder).glob(f"*.{kind}")
+    ]
     return [path for path in (*_chart_paths(out_dir), *written) if path.is_file()]
 
 
@@ -115,8 +120,12 @@ def write_runs(results: list[TaskResult], out_dir: Path, staged: StagedFiles) ->
     for sequence, group in by_sequence.items():
         path = runs_report_path(out_dir, sequence)
         blocks = {result.pipeline: _run_block(result, trials[sequence, result.pipeline]) for result in group}
-        report = {"sequence": group[0].sequence_block, "interrupted": False, "versions": versions(),
-                  "pipelines": blocks}
+        report = {
+            "sequence": group[0].sequence_block,
+            "interrupted": False,
+            "versions": versions(),
+            "pipelines": blocks,
+        }
         write_report(staged.path(path), report)
         written.append(path)
         for result in group:
@@ -137,8 +146,11 @@ def pair_trials(results: list[TaskResult]) -> dict[tuple[str, str], list[TaskRes
 
 def representatives(results: list[TaskResult]) -> list[TaskResult]:
     """Each pair's first result that ran (its only one, without trials), in order."""
-    return [next(result for result in group if result.ok) for group in pair_trials(results).values()
-            if any(result.ok for result in group)]
+    return [
+        next(result for result in group if result.ok)
+        for group in pair_trials(results).values()
+        if any(result.ok for result in group)
+    ]
 
 
 def _run_block(result: TaskResult, trials: list[TaskResult]) -> dict:
@@ -166,25 +178,32 @@ def trial_entry(result: TaskResult) -> dict:
     return entry
 
 
-def markdown_report(results: list[TaskResult], chart_prefix: str = "benchmark_",
-                    comparison: list[str] | None = None) -> str:
+def markdown_report(
+    results: list[TaskResult], chart_prefix: str = "benchmark_", comparison: list[str] | None = None
+) -> str:
     """The report; ``comparison`` is the body of its comparison section (see :func:`write_outputs`)."""
     pipelines = ", ".join(dict.fromkeys(result.pipeline for result in results))
     sequences = len(dict.fromkeys(result.sequence for result in results))
     failed = [result for result in results if not result.ok]
     lines = [
-        "# Benchmark results", "",
+        "# Benchmark results",
+        "",
         f"{sequences} sequence{'s' if sequences != 1 else ''} x pipelines {pipelines}; viewslam {__version__}. "
         "ATE and RPE follow Sturm et al. (RPE over 1 s); coverage is the share of the sequence's time with a pose, and the penalised ATE charges "
-        "that lost time with the error of the last pose held.", "",
-        "## Results", "",
-        *(trials_table(results) if has_trials(results) else [results_table(results)]), "",
+        "that lost time with the error of the last pose held.",
+        "",
+        "## Results",
+        "",
+        *(trials_table(results) if has_trials(results) else [results_table(results)]),
+        "",
     ]
     if failed:
         lines += ["## Failed tasks", ""]
-        lines += [f"- {result.sequence} / {result.pipeline}"
-                  f"{'' if result.trial is None else f' trial {result.trial} (seed {result.seed})'}: {result.error}"
-                  for result in failed]
+        lines += [
+            f"- {result.sequence} / {result.pipeline}"
+            f"{'' if result.trial is None else f' trial {result.trial} (seed {result.seed})'}: {result.error}"
+            for result in failed
+        ]
         lines.append("")
     lines += ["## Findings", ""]
     lines += [f"- {finding}" for finding in findings(results)]
@@ -201,16 +220,29 @@ def _number(value, digits: int) -> str:
 
 def results_table(results: list[TaskResult]) -> str:
     """The study's columns (ATE, RPE, time) followed by the coverage-aware ones."""
-    header = ("| Sequence | Pipeline | ATE RMSE [m] | RPE trans RMSE [m] | RPE rot RMSE [deg] | Time [s] | FPS "
-              "| Coverage | Penalised ATE RMSE [m] | Poses / frames | Loop closures | Status |")
+    header = (
+        "| Sequence | Pipeline | ATE RMSE [m] | RPE trans RMSE [m] | RPE rot RMSE [deg] | Time [s] | FPS "
+        "| Coverage | Penalised ATE RMSE [m] | Poses / frames | Loop closures | Status |"
+    )
     lines = [header, "|" + "---|" * header.count(" | ") + "---|"]
     for result in results:
         row = result_row(result)
         coverage = "-" if row["coverage"] is None else f"{100 * row['coverage']:.1f} %"
         poses = "-" if row["frames"] is None else f"{row['frames_with_pose']} / {row['frames']}"
-        cells = (row["sequence"], row["pipeline"], _number(row["ate_rmse"], 3), _number(row["rpe_trans_rmse"], 3),
-                 _number(row["rpe_rot_rmse"], 2), _number(row["time_s"], 1), _number(row["fps"], 1), coverage,
-                 _number(row["penalized_ate_rmse"], 3), poses, _number(row["loop_closures"], 0), row["status"])
+        cells = (
+            row["sequence"],
+            row["pipeline"],
+            _number(row["ate_rmse"], 3),
+            _number(row["rpe_trans_rmse"], 3),
+            _number(row["rpe_rot_rmse"], 2),
+            _number(row["time_s"], 1),
+            _number(row["fps"], 1),
+            coverage,
+            _number(row["penalized_ate_rmse"], 3),
+            poses,
+            _number(row["loop_closures"], 0),
+            row["status"],
+        )
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -218,11 +250,18 @@ def results_table(results: list[TaskResult]) -> str:
 def trials_table(results: list[TaskResult]) -> list[str]:
     """The pairs' medians and min–max over their trials, with the line that says how to read them."""
     seeds = sorted({result.seed for result in results if result.trial is not None and result.seed is not None})
-    header = ("| Sequence | Pipeline | Trials | ATE RMSE [m] | RPE trans RMSE [m] | RPE rot RMSE [deg] | Time [s] "
-              "| Coverage | Penalised ATE RMSE [m] | Poses | Loop closures | Status |")
-    lines = [f"Each cell is the median over the pair's trials and, in brackets, their min–max; the trials ran "
-             f"with seeds {seeds[0]} to {seeds[-1]}. A pair with one trial (an imported estimate) shows its "
-             f"one value.", "", header, "|" + "---|" * header.count(" | ") + "---|"]
+    header = (
+        "| Sequence | Pipeline | Trials | ATE RMSE [m] | RPE trans RMSE [m] | RPE rot RMSE [deg] | Time [s] "
+        "| Coverage | Penalised ATE RMSE [m] | Poses | Loop closures | Status |"
+    )
+    lines = [
+        f"Each cell is the median over the pair's trials and, in brackets, their min–max; the trials ran "
+        f"with seeds {seeds[0]} to {seeds[-1]}. A pair with one trial (an imported estimate) shows its "
+        f"one value.",
+        "",
+        header,
+        "|" + "---|" * header.count(" | ") + "---|",
+    ]
     for summary in summarise_pairs(result_rows(results)):
         cells = [summary["sequence"], summary["pipeline"], str(summary["trials"])]
         cells += [with_spread(summary, score, partial(_score_text, score)) for score in _TRIAL_DIGITS]
@@ -231,8 +270,16 @@ def trials_table(results: list[TaskResult]) -> list[str]:
     return lines
 
 
-_TRIAL_DIGITS = {"ate_rmse": 3, "rpe_trans_rmse": 3, "rpe_rot_rmse": 2, "time_s": 1, "coverage": 1,
-                 "penalized_ate_rmse": 3, "frames_with_pose": 0, "loop_closures": 0}
+_TRIAL_DIGITS = {
+    "ate_rmse": 3,
+    "rpe_trans_rmse": 3,
+    "rpe_rot_rmse": 2,
+    "time_s": 1,
+    "coverage": 1,
+    "penalized_ate_rmse": 3,
+    "frames_with_pose": 0,
+    "loop_closures": 0,
+}
 """The trials table's scores, in its order, with the decimals each is written with."""
 
 
@@ -256,7 +303,7 @@ def findings(results: list[TaskResult]) -> list[str]:
             by_sequence[row["sequence"]].append(row)
     for sequence, group in by_sequence.items():
         for first, second in combinations(group, 2):
-            if (text := ranking_finding(sequence, first, second)):
+            if text := ranking_finding(sequence, first, second):
                 found.append(text)
     return found
 
@@ -269,8 +316,10 @@ def trials_finding(group: list[TaskResult]) -> str | None:
         return None
     coverages = [value for result in ran if (value := result_row(result)["coverage"]) is not None]
     spread = f" (coverage {100 * min(coverages):.1f} to {100 * max(coverages):.1f} %)" if coverages else ""
-    return (f"**{group[0].pipeline}** on *{group[0].sequence}* lost tracking in {len(lost)} of its {len(ran)} "
-            f"trials that ran{spread}.")
+    return (
+        f"**{group[0].pipeline}** on *{group[0].sequence}* lost tracking in {len(lost)} of its {len(ran)} "
+        f"trials that ran{spread}."
+    )
 
 
 def tracking_finding(result: TaskResult) -> str | None:
@@ -295,16 +344,17 @@ def tracking_finding(result: TaskResult) -> str | None:
         because = f" [{reasons[0]}]" if reasons else ""
         parts.append(f"at {lost_from - start:.1f} s for {lost_to - lost_from:.1f} s{because}, {outcome}")
     total = sum(lost_to - lost_from for lost_from, lost_to in intervals)
-    return (f"{who} lost tracking {len(intervals)} time{'s' if len(intervals) > 1 else ''} "
-            f"({total:.1f} s of {end - start:.1f} s; coverage {100 * row['coverage']:.1f} %): " + "; ".join(parts) + ".")
+    return (
+        f"{who} lost tracking {len(intervals)} time{'s' if len(intervals) > 1 else ''} "
+        f"({total:.1f} s of {end - start:.1f} s; coverage {100 * row['coverage']:.1f} %): " + "; ".join(parts) + "."
+    )
 
 
 def cause_findings(result: TaskResult) -> list[str]:
     """The diagnosed cause of each of ``result``'s losses, one line each."""
     report = result.report
     assert report is not None  # an ok result carries its report
-    return [f"*{result.sequence}*: {event['text']}" for event in report.get("tracking_lost") or []
-            if "text" in event]
+    return [f"*{result.sequence}*: {event['text']}" for event in report.get("tracking_lost") or [] if "text" in event]
 
 
 def ranking_finding(sequence: str, a: dict, b: dict) -> str | None:
@@ -313,20 +363,31 @@ def ranking_finding(sequence: str, a: dict, b: dict) -> str | None:
         return None
     if a["ate_rmse"] is None or b["ate_rmse"] is None:
         scored, unscored = (a, b) if b["ate_rmse"] is None else (b, a)
-        return (f"On *{sequence}*, classic ATE has no score for {unscored['pipeline']} (no pose) and so cannot rank "
-                f"it against {scored['pipeline']} (ATE {scored['ate_rmse']:.3f} m).")
+        return (
+            f"On *{sequence}*, classic ATE has no score for {unscored['pipeline']} (no pose) and so cannot rank "
+            f"it against {scored['pipeline']} (ATE {scored['ate_rmse']:.3f} m)."
+        )
     better, worse = (a, b) if a["ate_rmse"] <= b["ate_rmse"] else (b, a)
-    penalised_flips = (better["penalized_ate_rmse"] is not None and worse["penalized_ate_rmse"] is not None
-                       and better["penalized_ate_rmse"] > worse["penalized_ate_rmse"])
+    penalised_flips = (
+        better["penalized_ate_rmse"] is not None
+        and worse["penalized_ate_rmse"] is not None
+        and better["penalized_ate_rmse"] > worse["penalized_ate_rmse"]
+    )
     covers_less = better["coverage"] < worse["coverage"] - COVERAGE_TIE
     if not (penalised_flips or covers_less):
         return None
-    text = (f"On *{sequence}*, classic ATE ranks {better['pipeline']} ahead of {worse['pipeline']} "
-            f"({better['ate_rmse']:.3f} m vs {worse['ate_rmse']:.3f} m)")
+    text = (
+        f"On *{sequence}*, classic ATE ranks {better['pipeline']} ahead of {worse['pipeline']} "
+        f"({better['ate_rmse']:.3f} m vs {worse['ate_rmse']:.3f} m)"
+    )
     if covers_less:
-        text += (f", although {better['pipeline']} has a pose for {100 * better['coverage']:.1f} % of the time "
-                 f"and {worse['pipeline']} for {100 * worse['coverage']:.1f} %")
+        text += (
+            f", although {better['pipeline']} has a pose for {100 * better['coverage']:.1f} % of the time "
+            f"and {worse['pipeline']} for {100 * worse['coverage']:.1f} %"
+        )
     verdict = "reverses" if penalised_flips else "keeps"
-    text += (f"; penalised ATE {verdict} the order ({better['penalized_ate_rmse']:.3f} m vs "
-             f"{worse['penalized_ate_rmse']:.3f} m).")
+    text += (
+        f"; penalised ATE {verdict} the order ({better['penalized_ate_rmse']:.3f} m vs "
+        f"{worse['penalized_ate_rmse']:.3f} m)."
+    )
     return text

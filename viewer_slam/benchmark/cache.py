@@ -60,7 +60,9 @@ def _parameters(task: BenchmarkTask) -> dict:
     given the defaults implicitly is the same task as one given them explicitly."""
     if task.estimate is not None:
         return {}
-    return (task.params if task.params is not None else pipeline_class(task.pipeline).Params()).model_dump(by_alias=True)
+    return (task.params if task.params is not None else pipeline_class(task.pipeline).Params()).model_dump(
+        by_alias=True
+    )
 
 
 class ResultCache:

@@ -38,14 +38,29 @@ class BenchmarkResult:
         return sum(not result.ok for result in self.results)
 
 
-def benchmark(sequences: Sequence[str] = (), *, pipeline: str | Sequence[str] | None = None,
-              max_frames: int | None = None, scenario_frames: int | None = None,
-              resolution: tuple[int, int] = (640, 480), jobs: int | None = None, executor: str = "local",
-              ray_address: str | None = None, out: Path = Path("benchmark-results"), record: bool = False,
-              params: Sequence[str] = (), config: Path | None = None, seed: int = 0, trials: int = 1,
-              timeout: float | None = None, cache: bool = True, estimates: Sequence[str] = (),
-              format: TrajectoryFormat | None = None, compare: Path | None = None,
-              quiet: bool = True) -> BenchmarkResult:
+def benchmark(
+    sequences: Sequence[str] = (),
+    *,
+    pipeline: str | Sequence[str] | None = None,
+    max_frames: int | None = None,
+    scenario_frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    jobs: int | None = None,
+    executor: str = "local",
+    ray_address: str | None = None,
+    out: Path = Path("benchmark-results"),
+    record: bool = False,
+    params: Sequence[str] = (),
+    config: Path | None = None,
+    seed: int = 0,
+    trials: int = 1,
+    timeout: float | None = None,
+    cache: bool = True,
+    estimates: Sequence[str] = (),
+    format: TrajectoryFormat | None = None,
+    compare: Path | None = None,
+    quiet: bool = True,
+) -> BenchmarkResult:
     """Run every sequence × run pair, evaluate it, and write ``results.csv``, ``results.json``,
     ``report.md`` and the charts into ``out``.
 
@@ -65,8 +80,9 @@ def benchmark(sequences: Sequence[str] = (), *, pipeline: str | Sequence[str] | 
     """
     runner = make_executor(executor, jobs, ray_address)  # checks the options before any scenario is generated
     if seed + trials - 1 > SEED_MAX:
-        raise InputError(f"--trials {trials} with --seed {seed}: the last trial's seed {seed + trials - 1} is beyond "
-                         f"{SEED_MAX}")
+        raise InputError(
+            f"--trials {trials} with --seed {seed}: the last trial's seed {seed + trials - 1} is beyond {SEED_MAX}"
+        )
     choice = pipeline if pipeline is None or isinstance(pipeline, str) else ",".join(pipeline) or None
     names, named = select_runs(choice, estimates)
     other = load_results(compare) if compare is not None else None
@@ -75,23 +91,46 @@ def benchmark(sequences: Sequence[str] = (), *, pipeline: str | Sequence[str] | 
     for name in OUTPUT_FILES:
         check_writable(out / name)
     with exclusive([out]):
-        tasks = plan_tasks(list(sequences) or None, names, max_frames=max_frames, scenario_frames=scenario_frames,
-                           resolution=resolution, assignments=params, config=config, seed=seed, timeout_s=timeout,
-                           recordings=out / RECORDINGS_FOLDER if record else None, estimates=named,
-                           estimate_format=format, trials=trials, progress=not quiet)
-        refuse_inputs_as_outputs(planned_outputs(out, tasks),
-                                 {**{task.estimate: f"--estimate {task.pipeline}={task.estimate}" for task in tasks
-                                     if task.estimate is not None},
-                                  **({config: f"--config {config}"} if config is not None else {})})
+        tasks = plan_tasks(
+            list(sequences) or None,
+            names,
+            max_frames=max_frames,
+            scenario_frames=scenario_frames,
+            resolution=resolution,
+            assignments=params,
+            config=config,
+            seed=seed,
+            timeout_s=timeout,
+            recordings=out / RECORDINGS_FOLDER if record else None,
+            estimates=named,
+            estimate_format=format,
+            trials=trials,
+            progress=not quiet,
+        )
+        refuse_inputs_as_outputs(
+            planned_outputs(out, tasks),
+            {
+                **{
+                    task.estimate: f"--estimate {task.pipeline}={task.estimate}"
+                    for task in tasks
+                    if task.estimate is not None
+                },
+                **({config: f"--config {config}"} if config is not None else {}),
+            },
+        )
         if not quiet:
             for task in tasks:
                 if task.estimate is not None:
-                    print(f"estimate {task.pipeline}: {task.estimate} read as {task.estimate_format} "
-                          f"({'given' if format else 'detected'})", file=sys.stderr)
+                    print(
+                        f"estimate {task.pipeline}: {task.estimate} read as {task.estimate_format} "
+                        f"({'given' if format else 'detected'})",
+                        file=sys.stderr,
+                    )
         if other is not None:
             folders = {task.name: task.sequence for task in tasks}
-            check_planned_sequences(other, {name: sequence_block(open_source(folder))
-                                            for name, folder in folders.items()})
+            check_planned_sequences(
+                other, {name: sequence_block(open_source(folder)) for name, folder in folders.items()}
+            )
         outcome = run_benchmark(tasks, runner, ResultCache() if cache else None, progress=not quiet)
         paths = write_outputs(outcome.results, out, compare_with=other, recorded=record)
     return BenchmarkResult(tuple(outcome.results), len(tasks), outcome.interrupted, tuple(paths))

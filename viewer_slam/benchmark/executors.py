@@ -35,9 +35,13 @@ class Executor(Protocol):
     def result(self, handle: Any, task: BenchmarkTask) -> TaskResult: ...
 
 
-def run_tasks(tasks: Sequence[BenchmarkTask], executor: Executor, *,
-              on_start: Callable[[BenchmarkTask], None] = lambda task: None,
-              on_finish: Callable[[BenchmarkTask, TaskResult], None] = lambda task, result: None) -> list[TaskResult]:
+def run_tasks(
+    tasks: Sequence[BenchmarkTask],
+    executor: Executor,
+    *,
+    on_start: Callable[[BenchmarkTask], None] = lambda task: None,
+    on_finish: Callable[[BenchmarkTask, TaskResult], None] = lambda task, result: None,
+) -> list[TaskResult]:
     """Run every task on ``executor``; results in the order of ``tasks``."""
     results: dict[int, TaskResult] = {}
     queue = deque(range(len(tasks)))
@@ -139,8 +143,13 @@ class RayExecutor:
             options = {"address": self.address} if self.address else {"num_cpus": self.jobs or os.cpu_count()}
             try:
                 # Workers on other nodes do not inherit this process's environment: hand them NumPy's hold.
-                ray.init(**options, include_dashboard=False, log_to_driver=False, configure_logging=False,
-                         runtime_env={"env_vars": code_paths.environment()})
+                ray.init(
+                    **options,
+                    include_dashboard=False,
+                    log_to_driver=False,
+                    configure_logging=False,
+                    runtime_env={"env_vars": code_paths.environment()},
+                )
             except ConnectionError as error:
                 raise InputError(f"--ray-address {self.address}: cannot connect: {error}") from None
             self._started = True

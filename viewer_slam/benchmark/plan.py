@@ -17,12 +17,23 @@ from .runner import BenchmarkTask, SequenceSource, recording_path
 SCENARIO_SEED = 0
 
 
-def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int | None = None,
-               scenario_frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-               assignments: Sequence[str] = (), config: Path | None = None, seed: int = 0,
-               timeout_s: float | None = None, recordings: Path | None = None,
-               estimates: Sequence[tuple[str, Path]] = (), estimate_format: str | None = None,
-               trials: int = 1, progress: bool = False) -> list[BenchmarkTask]:
+def plan_tasks(
+    specs: list[str] | None,
+    pipelines: list[str],
+    *,
+    max_frames: int | None = None,
+    scenario_frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    assignments: Sequence[str] = (),
+    config: Path | None = None,
+    seed: int = 0,
+    timeout_s: float | None = None,
+    recordings: Path | None = None,
+    estimates: Sequence[tuple[str, Path]] = (),
+    estimate_format: str | None = None,
+    trials: int = 1,
+    progress: bool = False,
+) -> list[BenchmarkTask]:
     """``trials`` tasks per sequence and pipeline, sequence-major; ``specs`` None means the synthetic scenarios.
 
     Trial k runs with the seed :func:`trial_seed` gives; with one trial the tasks carry no
@@ -41,8 +52,10 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, config)
     seeds = {trial: trial_seed(seed, trial) for trial in range(trials)}
     if estimates and len(specs or study_scenarios()) != 1:
-        raise InputError(f"--estimate: an estimate is a trajectory of one sequence; give exactly one SEQUENCE "
-                         f"(got {len(specs or study_scenarios())})")
+        raise InputError(
+            f"--estimate: an estimate is a trajectory of one sequence; give exactly one SEQUENCE "
+            f"(got {len(specs or study_scenarios())})"
+        )
     tasks = []
     for spec in specs or study_scenarios():
         catalogued = SequenceSource(spec, scenario_frames, resolution, SCENARIO_SEED, frames_read(max_frames))
@@ -52,16 +65,36 @@ def plan_tasks(specs: list[str] | None, pipelines: list[str], *, max_frames: int
         for pipeline in pipelines:
             for trial, seed_of_trial in seeds.items():
                 index = trial if trials > 1 else None
-                tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=pipeline,
-                                           params=params[pipeline], seed=seed_of_trial, max_frames=max_frames,
-                                           timeout_s=timeout_s, recording=_recording(recordings, name, pipeline, index),
-                                           trial=index, source=source))
+                tasks.append(
+                    BenchmarkTask(
+                        name=name,
+                        sequence=folder,
+                        pipeline=pipeline,
+                        params=params[pipeline],
+                        seed=seed_of_trial,
+                        max_frames=max_frames,
+                        timeout_s=timeout_s,
+                        recording=_recording(recordings, name, pipeline, index),
+                        trial=index,
+                        source=source,
+                    )
+                )
         for estimate, file in estimates:
             # Read now: a file that is no trajectory fails before any task runs, and its format is settled.
             replay = estimate_replay(open_source(folder), file, estimate_format, max_frames=max_frames)
-            tasks.append(BenchmarkTask(name=name, sequence=folder, pipeline=estimate, max_frames=max_frames,
-                                       timeout_s=timeout_s, recording=_recording(recordings, name, estimate), estimate=file,
-                                       estimate_format=replay.params.format, source=source))
+            tasks.append(
+                BenchmarkTask(
+                    name=name,
+                    sequence=folder,
+                    pipeline=estimate,
+                    max_frames=max_frames,
+                    timeout_s=timeout_s,
+                    recording=_recording(recordings, name, estimate),
+                    estimate=file,
+                    estimate_format=replay.params.format,
+                    source=source,
+                )
+            )
     return tasks
 
 

@@ -78,25 +78,41 @@ def draw_metric(rows: list[dict[str, Any]], metric: str) -> Figure:
         offsets = centres + (k - (len(pipelines) - 1) / 2) * width
         scores = [by_pair.get((sequence, pipeline), {}).get(metric) for sequence in sequences]
         heights = [np.nan if value is None else value for value in scores]
-        bars = axes.bar(offsets, heights, width, label=pipeline, color=palette.run_colour(pipeline, k).hex,
-                        **_whiskers(metric, [by_pair.get((sequence, pipeline), {}) for sequence in sequences]))
-        axes.bar_label(bars, [value_text(metric, value) if value is not None else "" for value in scores],
-                       fontsize=7, padding=1)
+        bars = axes.bar(
+            offsets,
+            heights,
+            width,
+            label=pipeline,
+            color=palette.run_colour(pipeline, k).hex,
+            **_whiskers(metric, [by_pair.get((sequence, pipeline), {}) for sequence in sequences]),
+        )
+        axes.bar_label(
+            bars, [value_text(metric, value) if value is not None else "" for value in scores], fontsize=7, padding=1
+        )
         for x, sequence, value in zip(offsets, sequences, scores):
             row = by_pair.get((sequence, pipeline))
             if row is not None and value is None:
-                axes.text(x, 0.02, "failed" if row["status"] != "ok" else "n/a", rotation=90, ha="center",
-                          va="bottom", fontsize=7, color="0.35", transform=axes.get_xaxis_transform())
+                axes.text(
+                    x,
+                    0.02,
+                    "failed" if row["status"] != "ok" else "n/a",
+                    rotation=90,
+                    ha="center",
+                    va="bottom",
+                    fontsize=7,
+                    color="0.35",
+                    transform=axes.get_xaxis_transform(),
+                )
     _fit_values(axes, values, log)
     axes.set_xticks(centres, sequences, rotation=25, ha="right")
     axes.set_xlim(-0.6, len(sequences) - 0.4)  # missing bars must not shrink the axis
     axes.set_ylabel(CHARTS[metric] + (", log scale" if log else ""))
     spread = any(metric in row.get("spread", {}) for row in rows)
-    axes.set_title(CHARTS[metric] + ("\nmedian, whiskers min–max over the trials" if spread else ""), fontsize=10,
-                   loc="left")  # the legend sits on the right
+    axes.set_title(
+        CHARTS[metric] + ("\nmedian, whiskers min–max over the trials" if spread else ""), fontsize=10, loc="left"
+    )  # the legend sits on the right
     axes.grid(axis="y", which="major", alpha=0.3)
-    axes.legend(ncols=len(pipelines), loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False,
-                borderaxespad=0.2)
+    axes.legend(ncols=len(pipelines), loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False, borderaxespad=0.2)
     return figure
 
 
@@ -122,8 +138,13 @@ def _fit_values(axes, values: list[float | None], log: bool) -> None:
         axes.set_ylim(min(0.0, min(known)), max(max(known), 1e-12) * 1.12)
 
 
-def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: str = "benchmark_",
-                staged: StagedFiles | None = None) -> list[Path]:
+def plot_metric(
+    rows: list[dict[str, Any]],
+    metric: str,
+    out_dir: Path,
+    prefix: str = "benchmark_",
+    staged: StagedFiles | None = None,
+) -> list[Path]:
     """Draw ``metric`` for every row into ``<prefix><metric>.png`` and ``.svg``; returns both paths.
 
     With ``staged``, each file is written to its temporary stand-in, renamed into place at the
@@ -133,10 +154,21 @@ def plot_metric(rows: list[dict[str, Any]], metric: str, out_dir: Path, prefix: 
         figure = draw_metric(rows, metric)
         paths = [out_dir / f"{prefix}{metric}.png", out_dir / f"{prefix}{metric}.svg"]
         where = staged.path if staged is not None else Path
-        figure.savefig(where(paths[0]), format="png", dpi=120, metadata={"Software": None}, bbox_inches="tight",
-                       pad_inches=PAD_INCHES)
-        figure.savefig(where(paths[1]), format="svg", metadata={"Date": None, "Creator": None}, bbox_inches="tight",
-                       pad_inches=PAD_INCHES)
+        figure.savefig(
+            where(paths[0]),
+            format="png",
+            dpi=120,
+            metadata={"Software": None},
+            bbox_inches="tight",
+            pad_inches=PAD_INCHES,
+        )
+        figure.savefig(
+            where(paths[1]),
+            format="svg",
+            metadata={"Date": None, "Creator": None},
+            bbox_inches="tight",
+            pad_inches=PAD_INCHES,
+        )
         plt.close(figure)
     return paths
 

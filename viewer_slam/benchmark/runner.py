@@ -44,8 +44,14 @@ class SequenceSource:
 
     def resolve(self, progress: bool = False) -> Path:
         """The sequence's folder here, rendering the scenario into this machine's cache if it is not there."""
-        return resolve_sequence(self.name, frames=self.frames, resolution=self.resolution, seed=self.seed,
-                                first=self.first, progress=progress)
+        return resolve_sequence(
+            self.name,
+            frames=self.frames,
+            resolution=self.resolution,
+            seed=self.seed,
+            first=self.first,
+            progress=progress,
+        )
 
 
 @dataclass(frozen=True)
@@ -128,8 +134,14 @@ class TaskResult:
 
     @classmethod
     def failure(cls, task: BenchmarkTask, error: str) -> "TaskResult":
-        return cls(sequence=task.name, pipeline=task.pipeline, status="failed", error=error, trial=task.trial,
-                   seed=task_seed(task))
+        return cls(
+            sequence=task.name,
+            pipeline=task.pipeline,
+            status="failed",
+            error=error,
+            trial=task.trial,
+            seed=task_seed(task),
+        )
 
     def to_json(self) -> dict[str, Any]:
         """Everything but the files (which the driver writes out on arrival)."""
@@ -179,8 +191,11 @@ def execute_task(task: BenchmarkTask) -> TaskResult:
         with time_limit(task.timeout_s):
             return _run(task)
     except (Exception, TaskTimeout, SystemExit) as error:  # crash isolation: report, never propagate
-        message = (f"the task called sys.exit({error.code!r})" if isinstance(error, SystemExit)
-                   else " ".join(str(error).split()) or "no message")
+        message = (
+            f"the task called sys.exit({error.code!r})"
+            if isinstance(error, SystemExit)
+            else " ".join(str(error).split()) or "no message"
+        )
         return TaskResult.failure(task, f"{type(error).__name__}: {message}")
 
 
@@ -194,11 +209,24 @@ def _run(task: BenchmarkTask) -> TaskResult:
         raise ValueError(f"{task.sequence}: no frames")
     time_span = (float(sequence.timestamps[0]), float(sequence.timestamps[frames - 1]))
     # The driver reads the sequence at its own path (a comparison opens its groundtruth there).
-    block = {**sequence_block(sequence), "path": str(task.sequence)} if folder != task.sequence \
+    block = (
+        {**sequence_block(sequence), "path": str(task.sequence)}
+        if folder != task.sequence
         else sequence_block(sequence)
-    return TaskResult(sequence=task.name, pipeline=task.pipeline, status="ok", report=_plain(scored.report),
-                      frames=frames, time_span=time_span, trajectory=format_tum(scored.run.trajectory),
-                      sequence_block=block, trial=task.trial, seed=task_seed(task), files=files)
+    )
+    return TaskResult(
+        sequence=task.name,
+        pipeline=task.pipeline,
+        status="ok",
+        report=_plain(scored.report),
+        frames=frames,
+        time_span=time_span,
+        trajectory=format_tum(scored.run.trajectory),
+        sequence_block=block,
+        trial=task.trial,
+        seed=task_seed(task),
+        files=files,
+    )
 
 
 def _score(task: BenchmarkTask, sequence: RgbdSequence) -> ScoredRun:
@@ -215,8 +243,12 @@ def _record(task: BenchmarkTask, folder: Path) -> tuple[ScoredRun, dict[str, byt
 
     assert task.recording is not None  # only a task that records is recorded
     with tempfile.TemporaryDirectory(prefix="viewslam-task-") as scratch:
-        recorded = record_runs(str(folder), {task.pipeline: task.run}, Path(scratch) / task.recording.name,
-                               frames=FrameSelection(task.max_frames))
+        recorded = record_runs(
+            str(folder),
+            {task.pipeline: task.run},
+            Path(scratch) / task.recording.name,
+            frames=FrameSelection(task.max_frames),
+        )
         files = {path.name: path.read_bytes() for path in recorded.written}
     return recorded.scored[task.pipeline], files
 

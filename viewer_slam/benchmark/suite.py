@@ -27,8 +27,9 @@ class BenchmarkOutcome:
     interrupted: bool = False
 
 
-def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: ResultCache | None = None,
-                  *, progress: bool = True) -> BenchmarkOutcome:
+def run_benchmark(
+    tasks: Sequence[BenchmarkTask], executor: Executor, cache: ResultCache | None = None, *, progress: bool = True
+) -> BenchmarkOutcome:
     """Results for ``tasks``; cached ones are not re-run, new successes are cached."""
     cached = {index: cache.load(task) for index, task in enumerate(tasks)} if cache is not None else {}
     results: dict[int, TaskResult] = {index: result for index, result in cached.items() if result is not None}
@@ -36,8 +37,13 @@ def run_benchmark(tasks: Sequence[BenchmarkTask], executor: Executor, cache: Res
     position = {id(tasks[index]): index for index in pending}
     running: list[str] = []
     interrupted = False
-    columns = (TextColumn("[bold]benchmark"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-               TextColumn("{task.fields[running]}"))
+    columns = (
+        TextColumn("[bold]benchmark"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TextColumn("{task.fields[running]}"),
+    )
     with Progress(*columns, console=Console(stderr=True), disable=not progress) as bar:
         overall = bar.add_task("benchmark", total=len(tasks), completed=len(results), running="")
 

@@ -9,8 +9,22 @@ from typing import Any
 from .runner import TaskResult
 from .trials import summarise_pairs, with_spread
 
-COLUMNS = ("sequence", "pipeline", "ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s", "fps", "coverage",
-           "penalized_ate_rmse", "frames", "frames_with_pose", "loop_closures", "lost_intervals", "status")
+COLUMNS = (
+    "sequence",
+    "pipeline",
+    "ate_rmse",
+    "rpe_trans_rmse",
+    "rpe_rot_rmse",
+    "time_s",
+    "fps",
+    "coverage",
+    "penalized_ate_rmse",
+    "frames",
+    "frames_with_pose",
+    "loop_closures",
+    "lost_intervals",
+    "status",
+)
 TRIAL_COLUMNS = (*COLUMNS[:2], "trial", "seed", *COLUMNS[2:])
 """The columns when some pair ran as several trials: each row also names its trial and seed."""
 
@@ -61,8 +75,15 @@ def result_rows(results: list[TaskResult]) -> list[dict[str, Any]]:
     rows = [result_row(result) for result in results]
     if not has_trials(results):
         return rows
-    return [{**{key: row[key] for key in COLUMNS[:2]}, "trial": result.trial, "seed": result.seed,
-             **{key: row[key] for key in COLUMNS[2:]}} for row, result in zip(rows, results)]
+    return [
+        {
+            **{key: row[key] for key in COLUMNS[:2]},
+            "trial": result.trial,
+            "seed": result.seed,
+            **{key: row[key] for key in COLUMNS[2:]},
+        }
+        for row, result in zip(rows, results)
+    ]
 
 
 def write_csv(path: Path, rows: list[dict[str, Any]]) -> None:
@@ -95,12 +116,21 @@ def _results_table(results: list[TaskResult]):
     from rich.table import Table
 
     table = Table(box=box.SIMPLE_HEAD, pad_edge=False, caption="RMSE in m, RPE rot in deg; RPE over 1 s")
-    headers = {"sequence": "sequence", "pipeline": "pipeline", "ate_rmse": "ATE", "penalized_ate_rmse": "penal. ATE",
-               "rpe_trans_rmse": "RPE trans", "rpe_rot_rmse": "RPE rot", "coverage": "coverage",
-               "frames_with_pose": "poses", "frames": "frames", "fps": "fps", "status": "status"}
+    headers = {
+        "sequence": "sequence",
+        "pipeline": "pipeline",
+        "ate_rmse": "ATE",
+        "penalized_ate_rmse": "penal. ATE",
+        "rpe_trans_rmse": "RPE trans",
+        "rpe_rot_rmse": "RPE rot",
+        "coverage": "coverage",
+        "frames_with_pose": "poses",
+        "frames": "frames",
+        "fps": "fps",
+        "status": "status",
+    }
     for key, title in headers.items():
-        table.add_column(title, justify="left" if key in ("sequence", "pipeline", "status") else "right",
-                         no_wrap=True)
+        table.add_column(title, justify="left" if key in ("sequence", "pipeline", "status") else "right", no_wrap=True)
     for result in results:
         row = result_row(result)
         table.add_row(*(_cell(key, row[key]) for key in headers))
@@ -111,17 +141,34 @@ def _trials_table(results: list[TaskResult]):
     from rich import box
     from rich.table import Table
 
-    table = Table(box=box.SIMPLE_HEAD, pad_edge=False,
-                  caption="median (min–max) over the trials; RMSE in m, RPE rot in deg, time in s; RPE over 1 s")
-    headers = {"sequence": "sequence", "pipeline": "pipeline", "trials": "trials", "ate_rmse": "ATE",
-               "penalized_ate_rmse": "penal. ATE", "rpe_trans_rmse": "RPE trans", "rpe_rot_rmse": "RPE rot",
-               "coverage": "coverage", "time_s": "time", "status": "status"}
+    table = Table(
+        box=box.SIMPLE_HEAD,
+        pad_edge=False,
+        caption="median (min–max) over the trials; RMSE in m, RPE rot in deg, time in s; RPE over 1 s",
+    )
+    headers = {
+        "sequence": "sequence",
+        "pipeline": "pipeline",
+        "trials": "trials",
+        "ate_rmse": "ATE",
+        "penalized_ate_rmse": "penal. ATE",
+        "rpe_trans_rmse": "RPE trans",
+        "rpe_rot_rmse": "RPE rot",
+        "coverage": "coverage",
+        "time_s": "time",
+        "status": "status",
+    }
     for key, title in headers.items():
-        table.add_column(title, justify="left" if key in ("sequence", "pipeline", "status") else "right",
-                         no_wrap=True)
+        table.add_column(title, justify="left" if key in ("sequence", "pipeline", "status") else "right", no_wrap=True)
     for summary in summarise_pairs(result_rows(results)):
-        table.add_row(*(str(summary[key]) if key in ("sequence", "pipeline", "trials", "status")
-                        else with_spread(summary, key, partial(_cell, key)) for key in headers))
+        table.add_row(
+            *(
+                str(summary[key])
+                if key in ("sequence", "pipeline", "trials", "status")
+                else with_spread(summary, key, partial(_cell, key))
+                for key in headers
+            )
+        )
     return table
 
 

@@ -11,8 +11,17 @@ import statistics
 from collections.abc import Callable
 from typing import Any
 
-SPREAD_SCORES = ("ate_rmse", "rpe_trans_rmse", "rpe_rot_rmse", "time_s", "fps", "coverage", "penalized_ate_rmse",
-                 "frames_with_pose", "loop_closures")
+SPREAD_SCORES = (
+    "ate_rmse",
+    "rpe_trans_rmse",
+    "rpe_rot_rmse",
+    "time_s",
+    "fps",
+    "coverage",
+    "penalized_ate_rmse",
+    "frames_with_pose",
+    "loop_closures",
+)
 """The scores of a results row that are summarised over trials."""
 
 
@@ -32,9 +41,14 @@ def summarise_pairs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     summaries = []
     for (sequence, pipeline), trials in pairs.items():
         scored = [row for row in trials if row["status"] == "ok"]
-        summary: dict[str, Any] = {"sequence": sequence, "pipeline": pipeline, "trials": len(trials),
-                                   "frames": scored[0]["frames"] if scored else None,
-                                   "status": pair_status([row["status"] for row in trials]), "spread": {}}
+        summary: dict[str, Any] = {
+            "sequence": sequence,
+            "pipeline": pipeline,
+            "trials": len(trials),
+            "frames": scored[0]["frames"] if scored else None,
+            "status": pair_status([row["status"] for row in trials]),
+            "spread": {},
+        }
         for score in SPREAD_SCORES:
             values = [row[score] for row in scored if row[score] is not None]
             summary[score] = statistics.median(values) if values else None

@@ -23,8 +23,10 @@ RUST_LOG_DEFAULT = "warn,re_log_encoding=off,re_sdk=off,re_grpc_client=off"
 
 # NumPy's floating-point warnings (a NaN compared, a division by zero, a mean of nothing): the code
 # handles such values where it uses them, and on stderr the warnings would only be noise.
-NUMPY_FLOAT_WARNINGS = (r"(invalid value|divide by zero|overflow|underflow) encountered|Mean of empty slice|"
-                        r"Degrees of freedom <= 0")
+NUMPY_FLOAT_WARNINGS = (
+    r"(invalid value|divide by zero|overflow|underflow) encountered|Mean of empty slice|"
+    r"Degrees of freedom <= 0"
+)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -16,13 +16,19 @@ MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadl
 @app.command()
 def benchmark(
     sequences: list[str] = typer.Argument(
-        None, help="TUM folders, TUM sequence names (fr2/360_kidnap) or synthetic scenarios; "
-                   "default: the seven synthetic scenarios.", show_default=False),
+        None,
+        help="TUM folders, TUM sequence names (fr2/360_kidnap) or synthetic scenarios; "
+        "default: the seven synthetic scenarios.",
+        show_default=False,
+    ),
     pipeline: list[str] = typer.Option([], "--pipeline", help=PIPELINE_HELP + "  [default: both]"),
     pipelines: list[str] = typer.Option([], "--pipelines", hidden=True),  # the old spelling
     max_frames: int = typer.Option(None, "--max-frames", min=2, help=MAX_FRAMES_HELP),
-    scenario_frames: int = typer.Option(None, min=2, help="Length synthetic scenarios are rendered at, as "
-                                                           "`viewslam synth --frames` (default: their own)."),
+    scenario_frames: int = typer.Option(
+        None,
+        min=2,
+        help="Length synthetic scenarios are rendered at, as `viewslam synth --frames` (default: their own).",
+    ),
     resolution: str = typer.Option("640x480", help="Synthetic scenarios' image size, WIDTHxHEIGHT."),
     jobs: int = typer.Option(None, min=1, help="Tasks run at once (default: the number of cores)."),
     executor: str = typer.Option("local", help="local (process pool) or ray."),
@@ -32,20 +38,34 @@ def benchmark(
     param: list[str] = typer.Option([], help="Pipeline parameter KEY=VALUE (repeatable)."),
     config: Path = typer.Option(None, help="TOML file of pipeline parameters."),
     seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the pipelines' random choices."),
-    trials: int = typer.Option(1, min=1, help="Runs of every pipeline per sequence, trial k with seed SEED + k; "
-                                              "tables and charts give the median and min–max."),
-    timeout: float = typer.Option(None, min=1, max=MAX_TIMEOUT_S,
-                                  help="Seconds after which a task is stopped and reported failed."),
+    trials: int = typer.Option(
+        1,
+        min=1,
+        help="Runs of every pipeline per sequence, trial k with seed SEED + k; "
+        "tables and charts give the median and min–max.",
+    ),
+    timeout: float = typer.Option(
+        None, min=1, max=MAX_TIMEOUT_S, help="Seconds after which a task is stopped and reported failed."
+    ),
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
-    estimate: list[str] = typer.Option([], "--estimate", metavar="NAME=FILE",
-                                       help="Another system's trajectory of the one SEQUENCE, scored as a row "
-                                            "(repeatable); with estimates, no built-in pipeline runs unless "
-                                            "--pipeline asks."),
-    format: TrajectoryFormat | None = typer.Option(None, "--format", help="Format of the estimates (default: "
-                                                                          "detected)."),
-    compare: Path = typer.Option(None, "--compare", metavar="OTHER_RESULTS_DIR",
-                                 help="Also compare every row with the same row of an earlier benchmark's --out "
-                                      "(in report.md), as `viewslam diff` does."),
+    estimate: list[str] = typer.Option(
+        [],
+        "--estimate",
+        metavar="NAME=FILE",
+        help="Another system's trajectory of the one SEQUENCE, scored as a row "
+        "(repeatable); with estimates, no built-in pipeline runs unless "
+        "--pipeline asks.",
+    ),
+    format: TrajectoryFormat | None = typer.Option(
+        None, "--format", help="Format of the estimates (default: detected)."
+    ),
+    compare: Path = typer.Option(
+        None,
+        "--compare",
+        metavar="OTHER_RESULTS_DIR",
+        help="Also compare every row with the same row of an earlier benchmark's --out "
+        "(in report.md), as `viewslam diff` does.",
+    ),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> int:
     """Run every sequence x pipeline pair, evaluate, print the results table and write it with charts and findings.
@@ -59,11 +79,28 @@ def benchmark(
     from ..benchmark.command import benchmark as run
     from ..benchmark.tables import print_results
 
-    result = run(sequences or (), pipeline=pipelines + pipeline or None, max_frames=max_frames,
-                 scenario_frames=scenario_frames, resolution=parse_resolution(resolution), jobs=jobs,
-                 executor=executor, ray_address=ray_address, out=out, record=record, params=param, config=config,
-                 seed=seed, trials=trials, timeout=timeout, cache=cache, estimates=estimate, format=format,
-                 compare=compare, quiet=quiet)
+    result = run(
+        sequences or (),
+        pipeline=pipelines + pipeline or None,
+        max_frames=max_frames,
+        scenario_frames=scenario_frames,
+        resolution=parse_resolution(resolution),
+        jobs=jobs,
+        executor=executor,
+        ray_address=ray_address,
+        out=out,
+        record=record,
+        params=param,
+        config=config,
+        seed=seed,
+        trials=trials,
+        timeout=timeout,
+        cache=cache,
+        estimates=estimate,
+        format=format,
+        compare=compare,
+        quiet=quiet,
+    )
     print_results(list(result.results))
     done = len(result.results)
     summary = f"{done - result.failed} of {done} task{'s' if done != 1 else ''} ok"

@@ -14,9 +14,13 @@ def diff_command(
     b: Path = typer.Argument(..., help="Report B, of the same sequence; differences are B - A."),
     out: Path | None = typer.Option(None, help="Also write a recording (.rrd) of both runs and the difference."),
     json_path: Path | None = typer.Option(None, "--json", help="Also write the comparison as JSON to FILE."),
-    runs: str | None = typer.Option(None, "--runs", metavar="A_RUN:B_RUN",
-                                    help="Compare run A_RUN of A with run B_RUN of B (e.g. rgbdslam:rtabmap, "
-                                         "also within one report); default: the runs of the same name."),
+    runs: str | None = typer.Option(
+        None,
+        "--runs",
+        metavar="A_RUN:B_RUN",
+        help="Compare run A_RUN of A with run B_RUN of B (e.g. rgbdslam:rtabmap, "
+        "also within one report); default: the runs of the same name.",
+    ),
 ) -> int:
     """Compare two runs frame by frame: errors, frames only one tracked, losses, parameters, scores."""
     pair = _run_pair(runs)

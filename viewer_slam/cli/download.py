@@ -11,10 +11,12 @@ from .options import QUIET_HELP
 @app.command()
 def download(
     names: list[str] = typer.Argument(..., help="TUM sequences, e.g. fr2/360_kidnap or rgbd_dataset_freiburg1_xyz."),
-    dest: Path = typer.Option(None, help="Folder to put the sequences in (default: $VIEWSLAM_DATA, else the "
-                                         "viewslam cache)."),
-    mirror: str = typer.Option(None, help="Base URL holding freiburgN/<name>.tgz (default: $VIEWSLAM_TUM_MIRROR, "
-                                          "else the TUM server)."),
+    dest: Path = typer.Option(
+        None, help="Folder to put the sequences in (default: $VIEWSLAM_DATA, else the viewslam cache)."
+    ),
+    mirror: str = typer.Option(
+        None, help="Base URL holding freiburgN/<name>.tgz (default: $VIEWSLAM_TUM_MIRROR, else the TUM server)."
+    ),
     force: bool = typer.Option(False, help="Download again even if the sequence is present."),
     bag: bool = typer.Option(False, "--bag", help="Fetch the sequence's ROS bag (NAME.bag) instead of the archive."),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),

@@ -54,8 +54,10 @@ def exit_code(error: BaseException) -> int:
         # files are written under names that their errors carry: what has none is the output stream
         return _stdout_error(error)
     # a bug: one line, and the traceback where it can be sent to us
-    print(f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}"
-          f"{crash_log_note(error)}", file=sys.stderr)
+    print(
+        f"viewslam: internal error: {type(error).__name__}: {' '.join(str(error).split())}{crash_log_note(error)}",
+        file=sys.stderr,
+    )
     return 1
 
 

@@ -11,9 +11,12 @@ from .app import app
 
 @app.command()
 def sequences(
-    clear_cache: bool = typer.Option(False, "--clear-cache",
-                                     help="Remove the rendered scenarios, benchmark results and study files from the "
-                                          "cache (downloaded TUM sequences stay), then list."),
+    clear_cache: bool = typer.Option(
+        False,
+        "--clear-cache",
+        help="Remove the rendered scenarios, benchmark results and study files from the "
+        "cache (downloaded TUM sequences stay), then list.",
+    ),
 ) -> None:
     """List the synthetic scenarios and the TUM RGB-D sequences, which are downloaded, and what
     the cache holds (location, size of each entry and in all)."""
@@ -23,8 +26,10 @@ def sequences(
 
     if clear_cache:
         removed = clear()
-        typer.echo(f"Removed {len(removed)} cache entr{'y' if len(removed) == 1 else 'ies'}, "
-                   f"{decimal(sum(entry.size for entry in removed))}.")
+        typer.echo(
+            f"Removed {len(removed)} cache entr{'y' if len(removed) == 1 else 'ies'}, "
+            f"{decimal(sum(entry.size for entry in removed))}."
+        )
     typer.echo(f"Synthetic scenarios (generated on first use into {cache_root() / 'synth'}):")
     for scenario in synthetic_scenarios():
         typer.echo(f"  {scenario}")
@@ -33,8 +38,10 @@ def sequences(
     alias_width = max(len(info.alias) for info in TUM_SEQUENCES)
     for info in TUM_SEQUENCES:
         groundtruth = "groundtruth" if info.groundtruth_public else "no-groundtruth"
-        typer.echo(f"  {info.alias:<{alias_width}}  {info.category:<21}  {groundtruth:<14}  "
-                   f"{_state(folder, info.name)}".rstrip())
+        typer.echo(
+            f"  {info.alias:<{alias_width}}  {info.category:<21}  {groundtruth:<14}  "
+            f"{_state(folder, info.name)}".rstrip()
+        )
     typer.echo("frN/NAME stands for the folder rgbd_dataset_freiburgN_NAME; commands accept either.")
     _print_cache()
 

@@ -11,15 +11,23 @@ from .options import QUIET_HELP
 
 @app.command()
 def study(
-    sequences: list[str] = typer.Argument(None, help="Study sequences to replay (TUM name, fr2/360_kidnap or the "
-                                                     "author's folder); default: all seven."),
+    sequences: list[str] = typer.Argument(
+        None, help="Study sequences to replay (TUM name, fr2/360_kidnap or the author's folder); default: all seven."
+    ),
     out: Path = typer.Option(Path("study-results"), help="Folder for results.json, report.md and the charts."),
-    mirror: str = typer.Option(None, help="Base URL holding the author's repository's files (default: "
-                                          "$VIEWSLAM_STUDY_MIRROR, else raw.githubusercontent.com at the pinned "
-                                          "commit)."),
-    record: bool = typer.Option(False, "--record", help="Also write OUT/<sequence>.rrd: both runs against the "
-                                                        "groundtruth, as `record --groundtruth` records trajectory "
-                                                        "files (with its report and trajectories beside it)."),
+    mirror: str = typer.Option(
+        None,
+        help="Base URL holding the author's repository's files (default: "
+        "$VIEWSLAM_STUDY_MIRROR, else raw.githubusercontent.com at the pinned "
+        "commit).",
+    ),
+    record: bool = typer.Option(
+        False,
+        "--record",
+        help="Also write OUT/<sequence>.rrd: both runs against the "
+        "groundtruth, as `record --groundtruth` records trajectory "
+        "files (with its report and trajectories beside it).",
+    ),
     list_only: bool = typer.Option(False, "--list", help="List the study's sequences and which are cached."),
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> None:
@@ -33,8 +41,7 @@ def study(
             typer.echo(f"{sequence.alias:<42} {sequence.folder:<36} {'cached' if cached else ''}".rstrip())
         return
     command = "viewslam study " + " ".join(sys.argv[2:]) if sys.argv[1:2] == ["study"] else "viewslam study"
-    result = run(sequences or (), out=out, mirror=mirror, record=record, quiet=quiet,
-                 command=command)
+    result = run(sequences or (), out=out, mirror=mirror, record=record, quiet=quiet, command=command)
     from ..study.study_outputs import table
 
     typer.echo(table(list(result.runs)))

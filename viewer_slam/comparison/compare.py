@@ -135,9 +135,11 @@ def same_sequence(a: dict[str, Any], b: dict[str, Any]) -> bool:
 def check_same_sequence(a: RecordReport, b: RecordReport) -> None:
     """Refuse reports of different sequences (by name and frame count), naming both."""
     if not same_sequence(a.sequence, b.sequence):
-        raise InputError(f"{a.path} and {b.path} are reports of different sequences "
-                         f"({a.sequence.get('name')}, {a.sequence.get('frames')} frames; "
-                         f"{b.sequence.get('name')}, {b.sequence.get('frames')} frames)")
+        raise InputError(
+            f"{a.path} and {b.path} are reports of different sequences "
+            f"({a.sequence.get('name')}, {a.sequence.get('frames')} frames; "
+            f"{b.sequence.get('name')}, {b.sequence.get('frames')} frames)"
+        )
 
 
 def run_pairs(a: RecordReport, b: RecordReport) -> list[tuple[RecordedRun, RecordedRun]]:
@@ -153,19 +155,33 @@ def run_pairs(a: RecordReport, b: RecordReport) -> list[tuple[RecordedRun, Recor
 def compare_runs(a: RecordedRun, b: RecordedRun, sequence: RgbdSequence) -> RunComparison:
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)
     tracked_a, tracked_b = _tracked(a.trajectory, stamps), _tracked(b.trajectory, stamps)
-    (ate_a, alignment_a), (ate_b, alignment_b) = _frame_errors(a.trajectory, sequence), \
-        _frame_errors(b.trajectory, sequence)
-    scores = {label: (_trial_score(a.block, label, keys), _trial_score(b.block, label, keys)) for label, keys in SUMMARY}
+    (ate_a, alignment_a), (ate_b, alignment_b) = (
+        _frame_errors(a.trajectory, sequence),
+        _frame_errors(b.trajectory, sequence),
+    )
+    scores = {
+        label: (_trial_score(a.block, label, keys), _trial_score(b.block, label, keys)) for label, keys in SUMMARY
+    }
     return RunComparison(
-        a=a, b=b, frame_indices=np.arange(len(stamps)), timestamps=stamps,
-        ate_a=ate_a, ate_b=ate_b, alignment_a=alignment_a, alignment_b=alignment_b,
-        tracked_a=tracked_a, tracked_b=tracked_b,
+        a=a,
+        b=b,
+        frame_indices=np.arange(len(stamps)),
+        timestamps=stamps,
+        ate_a=ate_a,
+        ate_b=ate_b,
+        alignment_a=alignment_a,
+        alignment_b=alignment_b,
+        tracked_a=tracked_a,
+        tracked_b=tracked_b,
         summary={label: (a_score[0], b_score[0]) for label, (a_score, b_score) in scores.items()},
         parameters=_parameter_differences(a.block["parameters"], b.block["parameters"]),
         losses_vanished=_unmatched_losses(a.block["tracking_lost"], b.block["tracking_lost"], tracked_b),
         losses_appeared=_unmatched_losses(b.block["tracking_lost"], a.block["tracking_lost"], tracked_a),
-        spread={label: (a_score[1], b_score[1]) for label, (a_score, b_score) in scores.items()
-                if a_score[1] is not None or b_score[1] is not None},
+        spread={
+            label: (a_score[1], b_score[1])
+            for label, (a_score, b_score) in scores.items()
+            if a_score[1] is not None or b_score[1] is not None
+        },
     )
 
 
@@ -175,8 +191,7 @@ def _trial_score(block: dict[str, Any], label: str, keys: tuple[str, ...]) -> tu
     trials = block.get("trials")
     if not trials:
         return _score(block, label, keys), None
-    values = [value for trial in trials if trial.get("status") == "ok"
-              if numeric(value := _lookup(trial, keys))]
+    values = [value for trial in trials if trial.get("status") == "ok" if numeric(value := _lookup(trial, keys))]
     if not values:
         return None, None
     return statistics.median(values), (min(values), max(values)) if len(values) > 1 else None
@@ -193,8 +208,11 @@ def open_compared_sequence(a: RecordReport, b: RecordReport) -> RgbdSequence:
     for path in paths:
         if path.is_dir():
             return open_source(path)
-    raise InputError.at(a.path, f"the sequence folder it names is gone ({paths[0] if paths else 'no path'}); "
-                                f"the groundtruth is needed to compare the errors")
+    raise InputError.at(
+        a.path,
+        f"the sequence folder it names is gone ({paths[0] if paths else 'no path'}); "
+        f"the groundtruth is needed to compare the errors",
+    )
 
 
 def _frames_at(pose_stamps: np.ndarray, frame_stamps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -241,9 +259,13 @@ def _parameter_differences(a: dict[str, Any], b: dict[str, Any]) -> dict[str, tu
     return {key: (a.get(key), b.get(key)) for key in [*a, *(k for k in b if k not in a)] if a.get(key) != b.get(key)}
 
 
-def _unmatched_losses(losses: list[dict[str, Any]], others: list[dict[str, Any]],
-                      other_tracked: np.ndarray) -> list[dict[str, Any]]:
+def _unmatched_losses(
+    losses: list[dict[str, Any]], others: list[dict[str, Any]], other_tracked: np.ndarray
+) -> list[dict[str, Any]]:
     """``losses`` at frames where the other run lost nothing, with whether it was tracking there."""
     other_frames = {loss["frame"] for loss in others}
-    return [{**loss, "other_tracking": bool(loss["frame"] < len(other_tracked) and other_tracked[loss["frame"]])}
-            for loss in losses if loss["frame"] not in other_frames]
+    return [
+        {**loss, "other_tracking": bool(loss["frame"] < len(other_tracked) and other_tracked[loss["frame"]])}
+        for loss in losses
+        if loss["frame"] not in other_frames
+    ]

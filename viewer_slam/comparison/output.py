@@ -40,10 +40,12 @@ def run_comparison_to_dict(run: RunComparison) -> dict[str, Any]:
             range_a, range_b = run.spread.get(label, (None, None))
             entry.update(a_range=range_a, b_range=range_b, beyond_spread=run.beyond_spread(label))
     return {
-        "a": run.a.name, "b": run.b.name,
+        "a": run.a.name,
+        "b": run.b.name,
         "summary": summary,
-        "parameters": None if run.parameters is None else {key: {"a": a, "b": b}
-                                                            for key, (a, b) in run.parameters.items()},
+        "parameters": None
+        if run.parameters is None
+        else {key: {"a": a, "b": b} for key, (a, b) in run.parameters.items()},
         "frames_only_a": run.frames_only_a.tolist(),
         "frames_only_b": run.frames_only_b.tolist(),
         "losses_vanished": run.losses_vanished,
@@ -54,14 +56,21 @@ def run_comparison_to_dict(run: RunComparison) -> dict[str, Any]:
             "min": float(np.min(run.ate_difference[both])) if both.any() else None,
             "max": float(np.max(run.ate_difference[both])) if both.any() else None,
         },
-        "per_frame": {"frame": run.frame_indices.tolist(), "ate_a": _finite_or_none(run.ate_a),
-                      "ate_b": _finite_or_none(run.ate_b)},
+        "per_frame": {
+            "frame": run.frame_indices.tolist(),
+            "ate_a": _finite_or_none(run.ate_a),
+            "ate_b": _finite_or_none(run.ate_b),
+        },
     }
 
 
 def comparison_to_dict(comparison: Comparison) -> dict[str, Any]:
-    return {"a": str(comparison.a.path), "b": str(comparison.b.path), "sequence": comparison.a.sequence["name"],
-            "runs": [run_comparison_to_dict(run) for run in comparison.runs]}
+    return {
+        "a": str(comparison.a.path),
+        "b": str(comparison.b.path),
+        "sequence": comparison.a.sequence["name"],
+        "runs": [run_comparison_to_dict(run) for run in comparison.runs],
+    }
 
 
 def _cell(value: Any, sign: str = "") -> str:
@@ -85,8 +94,10 @@ def summary_rows(run: RunComparison) -> list[tuple[str, ...]]:
         row: tuple[str, ...] = (label, _cell(a), _cell(b), _cell(difference(a, b), sign="+"))
         if run.has_trials:
             verdict = run.beyond_spread(label)
-            row += (*(_range(side) for side in run.spread.get(label, (None, None))),
-                    "—" if verdict is None else "yes" if verdict else "no")
+            row += (
+                *(_range(side) for side in run.spread.get(label, (None, None))),
+                "—" if verdict is None else "yes" if verdict else "no",
+            )
         rows.append(row)
     return rows
 
@@ -105,8 +116,10 @@ def _trials_line(run: RunComparison) -> str:
         if not trials:
             parts.append(f"{side} one run")
         elif ran:
-            parts.append(f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, "
-                         f"seed {ran[0]['seed']})")
+            parts.append(
+                f"{side} the median of {len(ran)} trials (frame by frame: trial {ran[0]['trial']}, "
+                f"seed {ran[0]['seed']})"
+            )
         else:
             parts.append(f"{side} no trial that ran")
     return "scores: " + "; ".join(parts) + "; beyond spread: the two sides' min–max ranges do not overlap"
@@ -118,15 +131,20 @@ def detail_lines(run: RunComparison) -> list[str]:
     lines = [_trials_line(run)] if run.has_trials else []
     both = np.isfinite(run.ate_difference)
     if both.any():
-        lines.append(f"ATE difference B - A over {both.sum()} frames both tracked: mean "
-                     f"{np.mean(run.ate_difference[both]):+.3f} m, from {np.min(run.ate_difference[both]):+.3f} "
-                     f"to {np.max(run.ate_difference[both]):+.3f} m")
+        lines.append(
+            f"ATE difference B - A over {both.sum()} frames both tracked: mean "
+            f"{np.mean(run.ate_difference[both]):+.3f} m, from {np.min(run.ate_difference[both]):+.3f} "
+            f"to {np.max(run.ate_difference[both]):+.3f} m"
+        )
     lines.append(f"frames tracked by B only: {len(run.frames_only_b)} ({frame_ranges(run.frames_only_b)})")
     lines.append(f"frames tracked by A only: {len(run.frames_only_a)} ({frame_ranges(run.frames_only_a)})")
     for title, losses in (("losses in A only", run.losses_vanished), ("losses in B only", run.losses_appeared)):
         lines.append(f"{title}: {len(losses) or 'none'}")
-        lines += [f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
-                  + ("" if loss["other_tracking"] else " (the other run had no pose there)") for loss in losses]
+        lines += [
+            f"  frame {loss['frame']}: {loss.get('text') or loss['reason']}"
+            + ("" if loss["other_tracking"] else " (the other run had no pose there)")
+            for loss in losses
+        ]
     if run.parameters is None:
         lines.append("parameters: not compared (no parameter in common: different methods)")
     elif run.parameters:
@@ -156,11 +174,21 @@ def markdown_comparison(comparison: ResultsComparison) -> list[str]:
     lines = [f"A = `{comparison.a.folder}`, B = these results; differences are B - A.", ""]
     for sequence, run in comparison.runs:
         columns = summary_columns(run)
-        lines += [f"### {sequence} / {run.b.name}", "", "| " + " | ".join(columns) + " |",
-                  "|---|" + "---:|" * (len(columns) - 1)]
+        lines += [
+            f"### {sequence} / {run.b.name}",
+            "",
+            "| " + " | ".join(columns) + " |",
+            "|---|" + "---:|" * (len(columns) - 1),
+        ]
         lines += ["| " + " | ".join(row) + " |" for row in summary_rows(run)]
-        lines += ["", *(f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
-                        for line in detail_lines(run)), ""]
+        lines += [
+            "",
+            *(
+                f"- {line.strip()}" if not line.startswith("  ") else f"  - {line.strip()}"
+                for line in detail_lines(run)
+            ),
+            "",
+        ]
     if comparison.not_compared:
         lines += ["Not compared:", ""]
         lines += [f"- {sequence} / {run}: {why}" for sequence, run, why in comparison.not_compared]

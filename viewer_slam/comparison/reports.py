@@ -46,14 +46,20 @@ def load_report(path: Path) -> RecordReport:
     runs = {}
     for name, block in blocks.items():
         if not RUN_NAME.fullmatch(name) or name in (".", ".."):
-            raise InputError.at(path, f"run name {name!r} is not one viewslam writes (letters, digits, '_', '.', "
-                                      f"'-'): its trajectory file cannot be beside the report")
+            raise InputError.at(
+                path,
+                f"run name {name!r} is not one viewslam writes (letters, digits, '_', '.', "
+                f"'-'): its trajectory file cannot be beside the report",
+            )
         if not isinstance(block, dict):
             raise InputError.at(path, f"run {name!r} is {type(block).__name__}, not a run block")
         missing = [key for key in RUN_KEYS if key not in block]
         if missing:
-            raise InputError.at(path, f"report of an older or unknown format: run {name!r} has no "
-                                      f"{', '.join(missing)}; record it again with this version")
+            raise InputError.at(
+                path,
+                f"report of an older or unknown format: run {name!r} has no "
+                f"{', '.join(missing)}; record it again with this version",
+            )
         problem = _shape_problem(block)
         if problem is not None:
             raise InputError.at(path, f"run {name!r}: {problem}")
@@ -90,15 +96,24 @@ def _shape_problem(block: dict[str, Any]) -> str | None:
         return "parameters is not an object"
     losses = block["tracking_lost"]
     if not isinstance(losses, list) or not all(
-            isinstance(loss, dict) and _is_int(loss.get("frame")) and loss["frame"] >= 0
-            and _is_number(loss.get("timestamp")) and isinstance(loss.get("reason"), str)
-            and isinstance(loss.get("text", ""), str) for loss in losses):
+        isinstance(loss, dict)
+        and _is_int(loss.get("frame"))
+        and loss["frame"] >= 0
+        and _is_number(loss.get("timestamp"))
+        and isinstance(loss.get("reason"), str)
+        and isinstance(loss.get("text", ""), str)
+        for loss in losses
+    ):
         return "tracking_lost is not a list of losses, each with its frame number, timestamp and reason"
     coverage = block["coverage"]
-    if coverage is not None and not (isinstance(coverage, dict) and isinstance(coverage.get("lost_intervals", []), list)
-                                     and all(isinstance(interval, list) and len(interval) == 2
-                                             and all(map(_is_number, interval))
-                                             for interval in coverage.get("lost_intervals", []))):
+    if coverage is not None and not (
+        isinstance(coverage, dict)
+        and isinstance(coverage.get("lost_intervals", []), list)
+        and all(
+            isinstance(interval, list) and len(interval) == 2 and all(map(_is_number, interval))
+            for interval in coverage.get("lost_intervals", [])
+        )
+    ):
         return "coverage is not an object whose lost_intervals are [start, end] timestamps"
     trials = block.get("trials", [])
     if not isinstance(trials, list) or not all(isinstance(trial, dict) and "status" in trial for trial in trials):

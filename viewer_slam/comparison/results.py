@@ -49,17 +49,21 @@ def load_results(folder: Path) -> BenchmarkResults:
     if not (folder / "results.json").exists():
         raise InputError.at(folder, "not a benchmark results folder (no results.json)")
     data = read_json(folder / "results.json", "the benchmark results")
-    if not isinstance(data, list) or not all(isinstance(row, dict) and all(isinstance(row.get(key), str) for key in
-                                                                           ("sequence", "pipeline", "status"))
-                                             for row in data):
+    if not isinstance(data, list) or not all(
+        isinstance(row, dict) and all(isinstance(row.get(key), str) for key in ("sequence", "pipeline", "status"))
+        for row in data
+    ):
         raise InputError.at(folder, "not a benchmark results folder (results.json holds no result rows)")
     rows = _pair_rows(data)
     reports = {}
     for sequence in dict.fromkeys(sequence for sequence, _, status in rows if status == "ok"):
         path = runs_report_path(folder, sequence)
         if not path.is_file():
-            raise InputError.at(folder, f"results of an older format (no {path.relative_to(folder)} with the runs' "
-                                        f"reports and trajectories); run the benchmark again with this version")
+            raise InputError.at(
+                folder,
+                f"results of an older format (no {path.relative_to(folder)} with the runs' "
+                f"reports and trajectories); run the benchmark again with this version",
+            )
         reports[sequence] = load_report(path)
     return BenchmarkResults(folder, rows, reports)
 
@@ -80,8 +84,9 @@ def check_comparable(a: BenchmarkResults, b: BenchmarkResults) -> None:
         try:
             check_same_sequence(a.reports[sequence], b.reports[sequence])
         except InputError as error:
-            raise InputError.at(a.folder, f"results of different sequences under the name {sequence!r}: "
-                                          f"{error}") from None
+            raise InputError.at(
+                a.folder, f"results of different sequences under the name {sequence!r}: {error}"
+            ) from None
 
 
 def check_planned_sequences(other: BenchmarkResults, planned: dict[str, dict]) -> None:
@@ -91,9 +96,12 @@ def check_planned_sequences(other: BenchmarkResults, planned: dict[str, dict]) -
     for sequence, block in planned.items():
         if sequence in other.reports and not same_sequence(other.reports[sequence].sequence, block):
             there = other.reports[sequence].sequence
-            raise InputError.at(other.folder, f"results of different sequences under the name {sequence!r} "
-                                              f"({there.get('name')}, {there.get('frames')} frames there; "
-                                              f"{block['name']}, {block['frames']} frames here)")
+            raise InputError.at(
+                other.folder,
+                f"results of different sequences under the name {sequence!r} "
+                f"({there.get('name')}, {there.get('frames')} frames there; "
+                f"{block['name']}, {block['frames']} frames here)",
+            )
 
 
 def compare_results(a: BenchmarkResults, b: BenchmarkResults) -> ResultsComparison:
@@ -107,8 +115,9 @@ def compare_results(a: BenchmarkResults, b: BenchmarkResults) -> ResultsComparis
         if key not in status_a or key not in status_b:
             not_compared.append((sequence, run, f"only in {'B' if key in status_b else 'A'}"))
         elif status_a[key] != "ok" or status_b[key] != "ok":
-            failed = " and ".join(side for side, status in (("A", status_a[key]), ("B", status_b[key]))
-                                  if status != "ok")
+            failed = " and ".join(
+                side for side, status in (("A", status_a[key]), ("B", status_b[key])) if status != "ok"
+            )
             not_compared.append((sequence, run, f"failed in {failed}"))
         else:
             report_a, report_b = a.reports[sequence], b.reports[sequence]

@@ -19,39 +19,90 @@ from ..errors import InputError
 # The TUM RGB-D benchmark's sequences, grouped as on its download page.
 _TUM_SEQUENCES = {
     "testing": ("freiburg1_xyz", "freiburg1_rpy", "freiburg2_xyz", "freiburg2_rpy"),
-    "handheld": ("freiburg1_360", "freiburg1_floor", "freiburg1_desk", "freiburg1_desk2", "freiburg1_room",
-                 "freiburg2_360_hemisphere", "freiburg2_360_kidnap", "freiburg2_desk", "freiburg2_large_no_loop",
-                 "freiburg2_large_with_loop", "freiburg3_long_office_household"),
+    "handheld": (
+        "freiburg1_360",
+        "freiburg1_floor",
+        "freiburg1_desk",
+        "freiburg1_desk2",
+        "freiburg1_room",
+        "freiburg2_360_hemisphere",
+        "freiburg2_360_kidnap",
+        "freiburg2_desk",
+        "freiburg2_large_no_loop",
+        "freiburg2_large_with_loop",
+        "freiburg3_long_office_household",
+    ),
     "robot": ("freiburg2_pioneer_360", "freiburg2_pioneer_slam", "freiburg2_pioneer_slam2", "freiburg2_pioneer_slam3"),
-    "structure_texture": ("freiburg3_nostructure_notexture_far", "freiburg3_nostructure_notexture_near_withloop",
-                          "freiburg3_nostructure_texture_far", "freiburg3_nostructure_texture_near_withloop",
-                          "freiburg3_structure_notexture_far", "freiburg3_structure_notexture_near",
-                          "freiburg3_structure_texture_far", "freiburg3_structure_texture_near"),
-    "dynamic": ("freiburg2_desk_with_person", "freiburg3_sitting_static", "freiburg3_sitting_xyz",
-                "freiburg3_sitting_halfsphere", "freiburg3_sitting_rpy", "freiburg3_walking_static",
-                "freiburg3_walking_xyz", "freiburg3_walking_halfsphere", "freiburg3_walking_rpy"),
-    "object_reconstruction": ("freiburg1_plant", "freiburg1_teddy", "freiburg2_coke", "freiburg2_dishes",
-                              "freiburg2_flowerbouquet", "freiburg2_flowerbouquet_brownbackground",
-                              "freiburg2_metallic_sphere", "freiburg2_metallic_sphere2", "freiburg3_cabinet",
-                              "freiburg3_large_cabinet", "freiburg3_teddy"),
+    "structure_texture": (
+        "freiburg3_nostructure_notexture_far",
+        "freiburg3_nostructure_notexture_near_withloop",
+        "freiburg3_nostructure_texture_far",
+        "freiburg3_nostructure_texture_near_withloop",
+        "freiburg3_structure_notexture_far",
+        "freiburg3_structure_notexture_near",
+        "freiburg3_structure_texture_far",
+        "freiburg3_structure_texture_near",
+    ),
+    "dynamic": (
+        "freiburg2_desk_with_person",
+        "freiburg3_sitting_static",
+        "freiburg3_sitting_xyz",
+        "freiburg3_sitting_halfsphere",
+        "freiburg3_sitting_rpy",
+        "freiburg3_walking_static",
+        "freiburg3_walking_xyz",
+        "freiburg3_walking_halfsphere",
+        "freiburg3_walking_rpy",
+    ),
+    "object_reconstruction": (
+        "freiburg1_plant",
+        "freiburg1_teddy",
+        "freiburg2_coke",
+        "freiburg2_dishes",
+        "freiburg2_flowerbouquet",
+        "freiburg2_flowerbouquet_brownbackground",
+        "freiburg2_metallic_sphere",
+        "freiburg2_metallic_sphere2",
+        "freiburg3_cabinet",
+        "freiburg3_large_cabinet",
+        "freiburg3_teddy",
+    ),
     # Recorded like the others, but TUM keeps their groundtruth for its online evaluation.
-    "validation": ("freiburg1_xyz_validation", "freiburg1_rpy_validation", "freiburg1_desk_validation",
-                   "freiburg1_desk2_validation", "freiburg1_360_validation", "freiburg1_room_validation",
-                   "freiburg1_plant_validation", "freiburg2_xyz_validation", "freiburg2_rpy_validation",
-                   "freiburg2_360_hemisphere_validation", "freiburg2_360_kidnap_validation",
-                   "freiburg2_desk_validation", "freiburg2_desk_with_person_validation",
-                   "freiburg2_pioneer_360_validation", "freiburg3_cabinet_validation",
-                   "freiburg3_large_cabinet_validation", "freiburg3_long_office_household_validation",
-                   "freiburg3_nostructure_notexture_far_validation",
-                   "freiburg3_nostructure_notexture_near_withloop_validation",
-                   "freiburg3_nostructure_texture_far_validation",
-                   "freiburg3_nostructure_texture_near_withloop_validation",
-                   "freiburg3_structure_notexture_far_validation", "freiburg3_structure_notexture_near_validation",
-                   "freiburg3_structure_texture_far_validation", "freiburg3_structure_texture_near_validation",
-                   "freiburg3_sitting_static_validation", "freiburg3_sitting_xyz_validation",
-                   "freiburg3_sitting_halfsphere_validation", "freiburg3_sitting_rpy_validation",
-                   "freiburg3_walking_static_validation", "freiburg3_walking_xyz_validation",
-                   "freiburg3_walking_halfsphere_validation", "freiburg3_walking_rpy_validation"),
+    "validation": (
+        "freiburg1_xyz_validation",
+        "freiburg1_rpy_validation",
+        "freiburg1_desk_validation",
+        "freiburg1_desk2_validation",
+        "freiburg1_360_validation",
+        "freiburg1_room_validation",
+        "freiburg1_plant_validation",
+        "freiburg2_xyz_validation",
+        "freiburg2_rpy_validation",
+        "freiburg2_360_hemisphere_validation",
+        "freiburg2_360_kidnap_validation",
+        "freiburg2_desk_validation",
+        "freiburg2_desk_with_person_validation",
+        "freiburg2_pioneer_360_validation",
+        "freiburg3_cabinet_validation",
+        "freiburg3_large_cabinet_validation",
+        "freiburg3_long_office_household_validation",
+        "freiburg3_nostructure_notexture_far_validation",
+        "freiburg3_nostructure_notexture_near_withloop_validation",
+        "freiburg3_nostructure_texture_far_validation",
+        "freiburg3_nostructure_texture_near_withloop_validation",
+        "freiburg3_structure_notexture_far_validation",
+        "freiburg3_structure_notexture_near_validation",
+        "freiburg3_structure_texture_far_validation",
+        "freiburg3_structure_texture_near_validation",
+        "freiburg3_sitting_static_validation",
+        "freiburg3_sitting_xyz_validation",
+        "freiburg3_sitting_halfsphere_validation",
+        "freiburg3_sitting_rpy_validation",
+        "freiburg3_walking_static_validation",
+        "freiburg3_walking_xyz_validation",
+        "freiburg3_walking_halfsphere_validation",
+        "freiburg3_walking_rpy_validation",
+    ),
 }
 
 
@@ -90,12 +141,14 @@ class TumSequenceInfo:
 
 TUM_SEQUENCES: tuple[TumSequenceInfo, ...] = tuple(
     TumSequenceInfo(f"rgbd_dataset_{suffix}", category)
-    for category, suffixes in _TUM_SEQUENCES.items() for suffix in suffixes
+    for category, suffixes in _TUM_SEQUENCES.items()
+    for suffix in suffixes
 )
 
 # Every accepted spelling: official name, short name, official name without its prefix.
-_BY_FORM = {form: info for info in TUM_SEQUENCES
-            for form in (info.name, info.alias, info.name.removeprefix("rgbd_dataset_"))}
+_BY_FORM = {
+    form: info for info in TUM_SEQUENCES for form in (info.name, info.alias, info.name.removeprefix("rgbd_dataset_"))
+}
 
 
 def tum_sequence(name: str) -> TumSequenceInfo | None:
@@ -142,8 +195,15 @@ def study_scenarios() -> tuple[str, ...]:
     return tuple(STUDY_SCENARIOS)
 
 
-def resolve_sequence(spec: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                     seed: int = 0, first: int | None = None, progress: bool = False) -> Path:
+def resolve_sequence(
+    spec: str,
+    *,
+    frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    first: int | None = None,
+    progress: bool = False,
+) -> Path:
     """The folder of the TUM sequence ``spec`` names (see the module docstring for the forms).
 
     ``frames``, ``resolution`` and ``seed`` size a synthetic scenario, ``first`` the frames of

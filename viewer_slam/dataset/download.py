@@ -79,8 +79,15 @@ def partial_archive(dest: Path, name: str, bag: bool = False) -> Path:
     return Path(dest) / f".{name}.{'bag' if bag else 'tgz'}.part"
 
 
-def download_sequence(name: str, dest: Path | None = None, mirror: str | None = None, *,
-                      progress: bool = True, force: bool = False, bag: bool = False) -> Path:
+def download_sequence(
+    name: str,
+    dest: Path | None = None,
+    mirror: str | None = None,
+    *,
+    progress: bool = True,
+    force: bool = False,
+    bag: bool = False,
+) -> Path:
     """Download the TUM sequence ``name`` into ``dest`` (default: the TUM folder) and return its
     folder, or with ``bag`` its ROS bag ``<dest>/<name>.bag``.
 
@@ -110,15 +117,17 @@ def download_sequence(name: str, dest: Path | None = None, mirror: str | None = 
     return target
 
 
-def fetch_file(url: str, part: Path, progress: bool, retry: str = RETRY,
-               mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR") -> None:
+def fetch_file(
+    url: str, part: Path, progress: bool, retry: str = RETRY, mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR"
+) -> None:
     """Complete ``part`` from ``url`` (resuming what it holds); a failure is one InputError that says
     ``retry`` (how to resume) or, for a client error, to check ``mirror_hint``."""
     _fetch(url, part, progress, retry, mirror_hint)
 
 
-def _fetch(url: str, part: Path, progress: bool, retry: str = RETRY,
-           mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR") -> None:
+def _fetch(
+    url: str, part: Path, progress: bool, retry: str = RETRY, mirror_hint: str = "--mirror, VIEWSLAM_TUM_MIRROR"
+) -> None:
     """Complete ``part`` from ``url``; transfer failures keep what arrived and say how to resume."""
     try:
         transfer = _open_from(url, part.stat().st_size if part.exists() else 0)
@@ -132,8 +141,10 @@ def _fetch(url: str, part: Path, progress: bool, retry: str = RETRY,
         reason = " ".join(str(getattr(error, "reason", error)).split()) or type(error).__name__
         if isinstance(getattr(error, "reason", None), socket.gaierror):  # no such host: waiting will not help
             host = urllib.parse.urlsplit(url).hostname
-            raise InputError(f"{url}: download failed: the host {host!r} is not known ({reason}); check the "
-                             f"mirror ({mirror_hint}) and the network") from None
+            raise InputError(
+                f"{url}: download failed: the host {host!r} is not known ({reason}); check the "
+                f"mirror ({mirror_hint}) and the network"
+            ) from None
         kept = part.stat().st_size if part.exists() else 0
         resume = f" to resume from the {kept:,} bytes in {part}" if kept else ""
         raise InputError(f"{url}: download failed: {reason}; {retry}{resume}") from None
@@ -176,8 +187,13 @@ def _content_range(header: str | None) -> tuple[int | None, int | None]:
 
 def _receive(transfer: _Transfer, part: Path, progress: bool) -> None:
     """Write the response's body to ``part`` (appended to its first ``start`` bytes) with a progress bar."""
-    columns = (TextColumn("{task.description}"), BarColumn(), DownloadColumn(), TransferSpeedColumn(),
-               TimeRemainingColumn())
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        DownloadColumn(),
+        TransferSpeedColumn(),
+        TimeRemainingColumn(),
+    )
     received = transfer.start
     with at_safe_points() as stop, StderrProgress(*columns, enabled=progress, transient=True) as bar:
         with writing(part):
@@ -219,8 +235,9 @@ def _install_bag(part: Path, target: Path, url: str) -> None:
     except InputError as error:
         checked.unlink()
         problem = str(error).replace(str(checked), "<download>")
-        raise BadArchive(f"{url}: download is not a usable ROS bag ({problem}); {RETRY} to download it afresh") \
-            from None
+        raise BadArchive(
+            f"{url}: download is not a usable ROS bag ({problem}); {RETRY} to download it afresh"
+        ) from None
     checked.replace(target)
 
 

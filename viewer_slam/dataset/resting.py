@@ -39,6 +39,8 @@ class RestingStart:
         inner = self.sequence.frames()
         first = next(inner)
         resting = (dataclasses.replace(first, index=i, timestamp=float(self.timestamps[i])) for i in range(self.rest))
-        moving = (dataclasses.replace(frame, index=frame.index + self.rest) for frame in itertools.chain([first], inner))
+        moving = (
+            dataclasses.replace(frame, index=frame.index + self.rest) for frame in itertools.chain([first], inner)
+        )
         kept = (frame for frame in itertools.chain(resting, moving) if frame.index in selected)
         return itertools.islice(kept, len(selected))

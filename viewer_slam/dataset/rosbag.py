@@ -47,12 +47,21 @@ log = logging.getLogger(__name__)
 IMAGE = "sensor_msgs/msg/Image"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 TF_TYPES = ("tf2_msgs/msg/TFMessage", "tf/msg/tfMessage")
-POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovarianceStamped",
-              "geometry_msgs/msg/TransformStamped", "nav_msgs/msg/Odometry")
+POSE_TYPES = (
+    "geometry_msgs/msg/PoseStamped",
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "geometry_msgs/msg/TransformStamped",
+    "nav_msgs/msg/Odometry",
+)
 # Encoding -> OpenCV's conversion to RGB, by name (None: already RGB); OpenCV loads only for
 # frames, so `viewslam evaluate` reads a bag's poses without it.
-COLOUR_ENCODINGS = {"rgb8": None, "bgr8": "COLOR_BGR2RGB", "rgba8": "COLOR_RGBA2RGB",
-                    "bgra8": "COLOR_BGRA2RGB", "mono8": "COLOR_GRAY2RGB"}
+COLOUR_ENCODINGS = {
+    "rgb8": None,
+    "bgr8": "COLOR_BGR2RGB",
+    "rgba8": "COLOR_RGBA2RGB",
+    "bgra8": "COLOR_BGRA2RGB",
+    "mono8": "COLOR_GRAY2RGB",
+}
 # Encoding -> (pixel type, metres per unit).
 DEPTH_ENCODINGS = {"16UC1": ("u2", 1e-3), "mono16": ("u2", 1e-3), "32FC1": ("f4", 1.0)}
 MAX_DEPTH_M = 1000.0
@@ -93,11 +102,15 @@ class BagSequence(TimedFrames):
         self.groundtruth = groundtruth
         self.topics = (colour.topic, depth.topic)
         order_c, order_d = np.argsort(colour.stamps_ns, kind="stable"), np.argsort(depth.stamps_ns, kind="stable")
-        rgb_index, depth_index = associate(_seconds(colour.stamps_ns[order_c]), _seconds(depth.stamps_ns[order_d]),
-                                           0.0, ASSOCIATION_MAX_DIFFERENCE_S)
+        rgb_index, depth_index = associate(
+            _seconds(colour.stamps_ns[order_c]), _seconds(depth.stamps_ns[order_d]), 0.0, ASSOCIATION_MAX_DIFFERENCE_S
+        )
         if len(rgb_index) == 0:
-            raise InputError.at(path, f"no colour image on {colour.topic} has a depth image on {depth.topic} "
-                                f"within {ASSOCIATION_MAX_DIFFERENCE_S} s")
+            raise InputError.at(
+                path,
+                f"no colour image on {colour.topic} has a depth image on {depth.topic} "
+                f"within {ASSOCIATION_MAX_DIFFERENCE_S} s",
+            )
         self._colour, self._depth = colour, depth
         self._colour_rows, self._depth_rows = order_c[rgb_index], order_d[depth_index]
         self.timestamps = _seconds(colour.stamps_ns[self._colour_rows])
@@ -120,15 +133,17 @@ class BagSequence(TimedFrames):
         colour_times = self._colour.log_times_ns[self._colour_rows[indices]]
         depth_times = self._depth.log_times_ns[self._depth_rows[indices]]
         # Log times pick the messages to decode; header stamps (what frames are keyed by) confirm them.
-        needed = {(self._colour.topic, int(t)) for t in colour_times} | \
-            {(self._depth.topic, int(t)) for t in depth_times}
+        needed = {(self._colour.topic, int(t)) for t in colour_times} | {
+            (self._depth.topic, int(t)) for t in depth_times
+        }
         log_times = np.concatenate([colour_times, depth_times])
         parts: dict[int, list] = {}
         position = 0
         with _open_reader(self.path) as reader:
             connections = [c for c in reader.connections if c.topic in self.topics]
-            for connection, log_time, raw in _messages(self.path, reader, connections, int(log_times.min()),
-                                                       int(log_times.max()) + 1):
+            for connection, log_time, raw in _messages(
+                self.path, reader, connections, int(log_times.min()), int(log_times.max()) + 1
+            ):
                 if (connection.topic, log_time) not in needed:
                     continue
                 message = _deserialize(self.path, reader, raw, connection)
@@ -144,32 +159,47 @@ class BagSequence(TimedFrames):
                 if position == len(indices):
                     return
         missing = indices[position]
-        raise InputError.at(self.path, f"frame {missing} ({self.timestamps[missing]:.6f} s) was not found "
-                            f"again in the bag")
+        raise InputError.at(
+            self.path, f"frame {missing} ({self.timestamps[missing]:.6f} s) was not found again in the bag"
+        )
 
     def _frame(self, index: int, rgb_message, depth_message) -> Frame:
         try:
             rgb, depth = _colour_image(rgb_message), _depth_image(depth_message)
         except (KeyError, ValueError) as error:  # an encoding that changed, data that do not fill the image
-            raise InputError.at(self.path, f"frame {index} ({self.timestamps[index]:.6f} s): malformed image "
-                                f"({type(error).__name__}: {error})") from None
+            raise InputError.at(
+                self.path,
+                f"frame {index} ({self.timestamps[index]:.6f} s): malformed image ({type(error).__name__}: {error})",
+            ) from None
         far = np.flatnonzero(depth.ravel() > MAX_DEPTH_M)
         if len(far):
             row, col = divmod(int(far[0]), depth.shape[1])
-            raise InputError.at(self.path, f"frame {index} ({self.timestamps[index]:.6f} s): {self.topics[1]}: depth "
-                                f"{depth[row, col]:.6g} m at pixel ({col}, {row}) is beyond any depth sensor's range "
-                                f"({MAX_DEPTH_M:g} m): damaged data")
+            raise InputError.at(
+                self.path,
+                f"frame {index} ({self.timestamps[index]:.6f} s): {self.topics[1]}: depth "
+                f"{depth[row, col]:.6g} m at pixel ({col}, {row}) is beyond any depth sensor's range "
+                f"({MAX_DEPTH_M:g} m): damaged data",
+            )
         expected = (self.camera.height, self.camera.width)
         for topic, image in zip(self.topics, (rgb, depth)):
             if image.shape[:2] != expected:
-                raise InputError.at(self.path, f"{topic}: image is {image.shape[1]}x{image.shape[0]} but the "
-                                    f"camera is {self.camera.width}x{self.camera.height}")
+                raise InputError.at(
+                    self.path,
+                    f"{topic}: image is {image.shape[1]}x{image.shape[0]} but the "
+                    f"camera is {self.camera.width}x{self.camera.height}",
+                )
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
 
-def open_bag(path: Path, *, rgb_topic: str | None = None, depth_topic: str | None = None,
-             camera_info_topic: str | None = None, groundtruth: Path | None = None,
-             groundtruth_topic: str | None = None) -> BagSequence:
+def open_bag(
+    path: Path,
+    *,
+    rgb_topic: str | None = None,
+    depth_topic: str | None = None,
+    camera_info_topic: str | None = None,
+    groundtruth: Path | None = None,
+    groundtruth_topic: str | None = None,
+) -> BagSequence:
     """Open a ROS bag as a sequence (see the module docstring for how topics are found).
 
     Any problem (not a bag, no image topic, a named topic that is missing or of the wrong
@@ -208,12 +238,17 @@ def open_groundtruth(path: Path, *, groundtruth_topic: str | None = None) -> tup
     sequence = open_bag(path, groundtruth_topic=groundtruth_topic) if has_images else None
     if sequence is not None and sequence.groundtruth is not None:
         return sequence.groundtruth, sequence
-    return bag_poses(path, groundtruth_topic, option="--groundtruth-topic",
-                     missing=" and no moving tf chain to the colour camera" if has_images else ""), sequence
+    return bag_poses(
+        path,
+        groundtruth_topic,
+        option="--groundtruth-topic",
+        missing=" and no moving tf chain to the colour camera" if has_images else "",
+    ), sequence
 
 
-def bag_poses(path: Path, topic: str | None = None, *, option: str = "--groundtruth-topic",
-              missing: str = "") -> Trajectory:
+def bag_poses(
+    path: Path, topic: str | None = None, *, option: str = "--groundtruth-topic", missing: str = ""
+) -> Trajectory:
     """The poses of the bag's pose topic ``topic``, or of its only one; the ``option`` that names
     one is in the error (with ``missing``, what else was looked for) when there is none or several."""
     path = Path(path)
@@ -287,21 +322,22 @@ def _image_stream(path: Path, reader: AnyReader, topic: str | None, kind: str, e
         if not connections:
             raise InputError.at(path, f"{option} {topic}: no such topic; topics: {_topic_list(reader)}")
         if connections[0].msgtype != IMAGE:
-            raise InputError.at(path, f"{option} {topic}: is {connections[0].msgtype}, not an image "
-                                f"({IMAGE})")
+            raise InputError.at(path, f"{option} {topic}: is {connections[0].msgtype}, not an image ({IMAGE})")
         candidates = [topic]
     else:
         candidates = list(dict.fromkeys(c.topic for c in reader.connections if c.msgtype == IMAGE))
     encoded = {name: getattr(_first_message(path, reader, name), "encoding", None) for name in candidates}
     suitable = [name for name, encoding in encoded.items() if encoding in encodings]
     if topic is not None and not suitable:
-        raise InputError.at(path, f"{option} {topic}: encoding {encoded[topic]!r} is not a {kind} encoding "
-                            f"({', '.join(encodings)})")
+        raise InputError.at(
+            path, f"{option} {topic}: encoding {encoded[topic]!r} is not a {kind} encoding ({', '.join(encodings)})"
+        )
     if len(suitable) > 1:
         suitable = [name for name in suitable if any(word in name.lower() for word in _TOPIC_WORDS[kind])] or suitable
     if not suitable:
-        raise InputError.at(path, f"no {kind} image topic ({IMAGE} in {', '.join(encodings)}); "
-                            f"topics: {_topic_list(reader)}")
+        raise InputError.at(
+            path, f"no {kind} image topic ({IMAGE} in {', '.join(encodings)}); topics: {_topic_list(reader)}"
+        )
     if len(suitable) > 1:
         raise InputError.at(path, f"several {kind} image topics ({', '.join(suitable)}); choose one with {option}")
     chosen = suitable[0]
@@ -332,17 +368,29 @@ def _camera(path: Path, reader: AnyReader, colour: _Stream, topic: str | None) -
         topic = candidates[0] if len(candidates) == 1 else None
     info = _first_message(path, reader, topic) if topic is not None else None
     if info is None:
-        log.warning("%s: no camera info topic beside %s; using the ROS default camera (fx=fy=525, cx=319.5, "
-                    "cy=239.5)", path, colour.topic)
+        log.warning(
+            "%s: no camera info topic beside %s; using the ROS default camera (fx=fy=525, cx=319.5, cy=239.5)",
+            path,
+            colour.topic,
+        )
         return ROS_DEFAULT_CAMERA
     k = np.asarray(getattr(info, "k", getattr(info, "K", None)), dtype=np.float64)
     distortion = tuple(float(v) for v in getattr(info, "d", getattr(info, "D", ())))[:5]
     if k.shape != (9,) or k[0] <= 0 or k[4] <= 0:
         raise InputError.at(path, f"{topic}: camera info has no focal length (K = {k.tolist()})")
     fx, fy, cx, cy = (float(k[i]) for i in (0, 4, 2, 5))
-    return Camera.checked({"fx": fx, "fy": fy, "cx": cx, "cy": cy, "width": int(info.width),
-                           "height": int(info.height), "distortion": distortion + (0.0,) * (5 - len(distortion))},
-                          f"{path}: {topic}")
+    return Camera.checked(
+        {
+            "fx": fx,
+            "fy": fy,
+            "cx": cx,
+            "cy": cy,
+            "width": int(info.width),
+            "height": int(info.height),
+            "distortion": distortion + (0.0,) * (5 - len(distortion)),
+        },
+        f"{path}: {topic}",
+    )
 
 
 def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--groundtruth-topic") -> Trajectory:
@@ -357,8 +405,15 @@ def _pose_topic(path: Path, reader: AnyReader, topic: str, option: str = "--grou
         pose = getattr(message, "transform", None) or message.pose
         pose = getattr(pose, "pose", pose)  # the ...WithCovariance wrappers
         stamps.append(_stamp_ns(message.header.stamp))
-        poses.append(_pose(path, topic, stamps[-1], getattr(pose, "translation", None) or pose.position,
-                           getattr(pose, "rotation", None) or pose.orientation))
+        poses.append(
+            _pose(
+                path,
+                topic,
+                stamps[-1],
+                getattr(pose, "translation", None) or pose.position,
+                getattr(pose, "rotation", None) or pose.orientation,
+            )
+        )
     return _trajectory(stamps, poses)
 
 
@@ -376,8 +431,14 @@ def _tf_groundtruth(path: Path, reader: AnyReader, frame: str) -> Trajectory | N
             entry = samples.setdefault(child, (parent, []))
             if entry[0] == parent:
                 stamp = _stamp_ns(transform.header.stamp)
-                entry[1].append((stamp, _pose(path, connection.topic, stamp, transform.transform.translation,
-                                              transform.transform.rotation)))
+                entry[1].append(
+                    (
+                        stamp,
+                        _pose(
+                            path, connection.topic, stamp, transform.transform.translation, transform.transform.rotation
+                        ),
+                    )
+                )
     chain: list[Trajectory] = []
     frame, seen = frame.strip("/"), set()
     while frame in samples and frame not in seen:  # up to the root
@@ -434,7 +495,7 @@ def _pixels(message, dtype: str, channels: int) -> np.ndarray:
     """The image's pixels ``(H, W[, C])``, honouring the row stride and byte order."""
     pixel = np.dtype(dtype).newbyteorder(">" if message.is_bigendian else "<")
     rows = np.asarray(message.data, dtype=np.uint8).reshape(message.height, message.step)
-    values = rows[:, :message.width * channels * pixel.itemsize].copy().view(pixel)
+    values = rows[:, : message.width * channels * pixel.itemsize].copy().view(pixel)
     shape = (message.height, message.width) if channels == 1 else (message.height, message.width, channels)
     return values.reshape(shape)
 

@@ -25,9 +25,16 @@ class NotABag(InputError):
         self.option = option
 
 
-def open_source(spec: str | Path, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                seed: int = 0, first: int | None = None, progress: bool = False,
-                bag: Mapping[str, Any] | None = None) -> RgbdSequence:
+def open_source(
+    spec: str | Path,
+    *,
+    frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    first: int | None = None,
+    progress: bool = False,
+    bag: Mapping[str, Any] | None = None,
+) -> RgbdSequence:
     """The sequence ``spec`` names (see the module docstring); an :class:`InputError` naming it otherwise.
 
     ``frames``, ``resolution`` and ``seed`` size a synthetic scenario (generated once into the
@@ -35,8 +42,7 @@ def open_source(spec: str | Path, *, frames: int | None = None, resolution: tupl
     shows the rendering on stderr; ``bag`` holds :func:`~.rosbag.open_bag`'s topic and groundtruth options, of which
     the ones set apply to a bag only (:class:`NotABag` for any other source).
     """
-    path = resolve_sequence(str(spec), frames=frames, resolution=resolution, seed=seed, first=first,
-                            progress=progress)
+    path = resolve_sequence(str(spec), frames=frames, resolution=resolution, seed=seed, first=first, progress=progress)
     options = {key: value for key, value in (bag or {}).items() if value is not None}
     if is_bag(path):
         return open_bag(path, **options)

@@ -49,8 +49,15 @@ class TumSequence(TimedFrames):
     the depth stamps paired with them.
     """
 
-    def __init__(self, path: Path, camera: Camera, rgb: _Listing, depth: _Listing,
-                 groundtruth: Trajectory | None, accelerometer: np.ndarray | None):
+    def __init__(
+        self,
+        path: Path,
+        camera: Camera,
+        rgb: _Listing,
+        depth: _Listing,
+        groundtruth: Trajectory | None,
+        accelerometer: np.ndarray | None,
+    ):
         self.path = path
         self.name = path.resolve().name
         self.camera = camera
@@ -58,8 +65,10 @@ class TumSequence(TimedFrames):
         self.accelerometer = accelerometer
         rgb_index, depth_index = associate(rgb.stamps, depth.stamps, 0.0, ASSOCIATION_MAX_DIFFERENCE_S)
         if len(rgb_index) == 0:
-            raise InputError.at(path / "rgb.txt", f"no colour image has a depth image within "
-                                f"{ASSOCIATION_MAX_DIFFERENCE_S} s in depth.txt")
+            raise InputError.at(
+                path / "rgb.txt",
+                f"no colour image has a depth image within {ASSOCIATION_MAX_DIFFERENCE_S} s in depth.txt",
+            )
         self.timestamps = rgb.stamps[rgb_index]
         self.depth_timestamps = depth.stamps[depth_index]
         self._rgb_files = [rgb.values[i][0] for i in rgb_index]
@@ -71,8 +80,10 @@ class TumSequence(TimedFrames):
         rgb = self._read_image(rgb_path, colour=True, size=self._size_check(rgb_path))
         raw_depth = self._read_image(depth_path, colour=False, size=self._size_check(depth_path))
         if raw_depth.dtype != np.uint16 or raw_depth.ndim != 2:
-            raise InputError.at(depth_path, f"depth image must be single-channel 16-bit, "
-                                f"found {raw_depth.dtype} with shape {raw_depth.shape}")
+            raise InputError.at(
+                depth_path,
+                f"depth image must be single-channel 16-bit, found {raw_depth.dtype} with shape {raw_depth.shape}",
+            )
         depth = metres_per_unit(self.camera.depth_factor)[raw_depth]
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
@@ -101,10 +112,15 @@ class TumSequence(TimedFrames):
 
     def _size_check(self, path: Path) -> Callable[[int, int], None]:
         """Refuses (width, height) other than the camera's, naming the image at ``path``."""
+
         def check(width: int, height: int) -> None:
             if (width, height) != (self.camera.width, self.camera.height):
-                raise InputError.at(path, f"image is {width}x{height} but the camera is "
-                                    f"{self.camera.width}x{self.camera.height} (add a camera.json)")
+                raise InputError.at(
+                    path,
+                    f"image is {width}x{height} but the camera is "
+                    f"{self.camera.width}x{self.camera.height} (add a camera.json)",
+                )
+
         return check
 
     @staticmethod
@@ -197,12 +213,12 @@ def _check_png(path: Path, data: bytes) -> None:
     complete, match its CRC, and the last must be IEND."""
     offset = len(_PNG_SIGNATURE)
     while offset + 12 <= len(data):
-        length, kind = struct.unpack(">I4s", data[offset:offset + 8])
+        length, kind = struct.unpack(">I4s", data[offset : offset + 8])
         end = offset + 12 + length
         if end > len(data):
             break
-        (crc,) = struct.unpack(">I", data[end - 4:end])
-        if zlib.crc32(data[offset + 4:end - 4]) != crc:
+        (crc,) = struct.unpack(">I", data[end - 4 : end])
+        if zlib.crc32(data[offset + 4 : end - 4]) != crc:
             raise InputError.at(path, f"corrupt PNG (bad checksum of its {kind.decode('latin-1')} chunk)")
         if kind == b"IEND":
             return
@@ -231,9 +247,15 @@ def open_tum(path: Path) -> TumSequence:
     )
     groundtruth = sequence.groundtruth
     if groundtruth is not None and len(sequence.frames_outside_groundtruth()) == len(sequence):
-        log.warning("%s: no frame lies within the groundtruth's time span (frames %.3f..%.3f s, groundtruth "
-                    "%.3f..%.3f s); nothing can be evaluated", groundtruth_path, sequence.timestamps[0],
-                    sequence.timestamps[-1], groundtruth.timestamps[0], groundtruth.timestamps[-1])
+        log.warning(
+            "%s: no frame lies within the groundtruth's time span (frames %.3f..%.3f s, groundtruth "
+            "%.3f..%.3f s); nothing can be evaluated",
+            groundtruth_path,
+            sequence.timestamps[0],
+            sequence.timestamps[-1],
+            groundtruth.timestamps[0],
+            groundtruth.timestamps[-1],
+        )
     return sequence
 
 
@@ -244,8 +266,11 @@ def _camera_for(path: Path) -> Camera:
     camera = freiburg_camera(path.resolve().name)
     if camera is not None:
         return camera
-    log.warning("%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
-                "camera (fx=fy=525, cx=319.5, cy=239.5)", path)
+    log.warning(
+        "%s: no camera.json and no freiburg1/2/3 in the folder name; using the ROS default "
+        "camera (fx=fy=525, cx=319.5, cy=239.5)",
+        path,
+    )
     return ROS_DEFAULT_CAMERA
 
 

@@ -4,5 +4,15 @@ from .causes import CAUSE_ORDER, Cause, DiagnosisThresholds, LossSignals, classi
 from .diagnose import diagnose_losses, diagnose_run
 from .signals import DYNAMIC_SHARE_METRIC, FrameSignals, SignalRecorder
 
-__all__ = ["CAUSE_ORDER", "Cause", "DYNAMIC_SHARE_METRIC", "DiagnosisThresholds", "FrameSignals", "LossSignals",
-           "SignalRecorder", "classify", "diagnose_losses", "diagnose_run"]
+__all__ = [
+    "CAUSE_ORDER",
+    "Cause",
+    "DYNAMIC_SHARE_METRIC",
+    "DiagnosisThresholds",
+    "FrameSignals",
+    "LossSignals",
+    "SignalRecorder",
+    "classify",
+    "diagnose_losses",
+    "diagnose_run",
+]

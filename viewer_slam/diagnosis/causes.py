@@ -38,23 +38,39 @@ class DiagnosisThresholds(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    window_frames: int = Field(5, ge=1, description="lost frames examined from the loss on (and tracked frames "
-                                                    "before it, for motion and residuals)")
-    blocked_uniform_share: float = Field(0.9, ge=0.0, le=1.0, description="share of near-median pixels above "
-                                                                          "which the colour image is near uniform")
-    blocked_depth_share: float = Field(0.1, ge=0.0, le=1.0, description="valid depth share at or below which a "
-                                                                        "near-uniform frame is a blocked sensor")
-    min_depth_share: float = Field(0.25, ge=0.0, le=1.0, description="valid depth share below which there is no "
-                                                                     "depth")
-    fast_motion_ratio: float = Field(3.0, gt=1.0, description="groundtruth speed or rotation rate, as a multiple "
-                                                              "of the run's median, above which motion is fast")
+    window_frames: int = Field(
+        5,
+        ge=1,
+        description="lost frames examined from the loss on (and tracked frames before it, for motion and residuals)",
+    )
+    blocked_uniform_share: float = Field(
+        0.9, ge=0.0, le=1.0, description="share of near-median pixels above which the colour image is near uniform"
+    )
+    blocked_depth_share: float = Field(
+        0.1, ge=0.0, le=1.0, description="valid depth share at or below which a near-uniform frame is a blocked sensor"
+    )
+    min_depth_share: float = Field(0.25, ge=0.0, le=1.0, description="valid depth share below which there is no depth")
+    fast_motion_ratio: float = Field(
+        3.0,
+        gt=1.0,
+        description="groundtruth speed or rotation rate, as a multiple of the run's median, above which motion is fast",
+    )
     still_speed: float = Field(0.05, gt=0.0, description="m/s; the median speed is taken as at least this")
-    still_rotation_rate: float = Field(0.1, gt=0.0, description="rad/s; the median rotation rate is taken as at "
-                                                                "least this")
-    dynamic_share: float = Field(0.3, ge=0.0, le=1.0, description="share of matched points moving inconsistently "
-                                                                  "with the camera above which the scene is dynamic")
-    default_minimum: int = Field(20, ge=1, description="keypoints/inliers needed when the run's pipeline declares "
-                                                       "no minimum (plugins, imported estimates)")
+    still_rotation_rate: float = Field(
+        0.1, gt=0.0, description="rad/s; the median rotation rate is taken as at least this"
+    )
+    dynamic_share: float = Field(
+        0.3,
+        ge=0.0,
+        le=1.0,
+        description="share of matched points moving inconsistently with the camera above which the scene is dynamic",
+    )
+    default_minimum: int = Field(
+        20,
+        ge=1,
+        description="keypoints/inliers needed when the run's pipeline declares "
+        "no minimum (plugins, imported estimates)",
+    )
 
 
 _COUNTS = ("frames", "minimum", "corners", "keypoints", "matches", "inliers")
@@ -105,11 +121,15 @@ def classify(signals: LossSignals, thresholds: DiagnosisThresholds = DiagnosisTh
     s, t, minimum = signals, thresholds, signals.minimum
     findings = []
     if s.uniform_share >= t.blocked_uniform_share and s.valid_depth_share <= t.blocked_depth_share:
-        findings.append(Finding(Cause.SENSOR_BLOCKED, f"colour {s.uniform_share:.0%} uniform, "
-                                                      f"{s.valid_depth_share:.0%} valid depth"))
+        findings.append(
+            Finding(
+                Cause.SENSOR_BLOCKED, f"colour {s.uniform_share:.0%} uniform, {s.valid_depth_share:.0%} valid depth"
+            )
+        )
     if s.valid_depth_share < t.min_depth_share:
-        findings.append(Finding(Cause.NO_DEPTH, f"{s.valid_depth_share:.0%} valid depth, "
-                                                f"minimum {t.min_depth_share:.0%}"))
+        findings.append(
+            Finding(Cause.NO_DEPTH, f"{s.valid_depth_share:.0%} valid depth, minimum {t.min_depth_share:.0%}")
+        )
     fast = _fast_motion(s, t)
     if fast:
         findings.append(Finding(Cause.FAST_MOTION, fast))
@@ -118,11 +138,13 @@ def classify(signals: LossSignals, thresholds: DiagnosisThresholds = DiagnosisTh
     if s.keypoints < minimum:
         findings.append(Finding(Cause.TOO_FEW_FEATURES, f"{s.keypoints:.0f} keypoints, minimum {minimum}"))
     elif s.corners < minimum:
-        findings.append(Finding(Cause.TOO_FEW_FEATURES, f"{s.corners:.0f} corners of contrast {CORNER_CONTRAST}, "
-                                                        f"minimum {minimum}"))
+        findings.append(
+            Finding(Cause.TOO_FEW_FEATURES, f"{s.corners:.0f} corners of contrast {CORNER_CONTRAST}, minimum {minimum}")
+        )
     elif s.inliers < minimum:  # NaN (not reported) compares false
-        findings.append(Finding(Cause.TOO_FEW_INLIERS, f"{s.inliers:.0f} inliers of {s.matches:.0f} matches, "
-                                                       f"minimum {minimum}"))
+        findings.append(
+            Finding(Cause.TOO_FEW_INLIERS, f"{s.inliers:.0f} inliers of {s.matches:.0f} matches, minimum {minimum}")
+        )
     if not findings:
         return [Finding(Cause.UNKNOWN, "nothing measured stands out")]
     return sorted(findings, key=lambda finding: CAUSE_ORDER.index(finding.cause))
@@ -134,6 +156,7 @@ def _fast_motion(s: LossSignals, t: DiagnosisThresholds) -> str:
     if s.speed_ratio >= t.fast_motion_ratio:
         candidates.append((s.speed_ratio, f"{s.speed:.2f} m/s, {s.speed_ratio:.1f}x the median"))
     if s.rotation_ratio >= t.fast_motion_ratio:
-        candidates.append((s.rotation_ratio, f"{math.degrees(s.rotation_rate):.0f} deg/s, "
-                                             f"{s.rotation_ratio:.1f}x the median"))
+        candidates.append(
+            (s.rotation_ratio, f"{math.degrees(s.rotation_rate):.0f} deg/s, {s.rotation_ratio:.1f}x the median")
+        )
     return max(candidates)[1] if candidates else ""

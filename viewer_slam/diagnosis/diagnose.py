@@ -16,9 +16,14 @@ from .causes import Cause, DiagnosisThresholds, LossSignals, classify
 from .signals import FrameSignals, SignalRecorder, groundtruth_motion
 
 
-def diagnose_losses(name: str, losses: list[dict[str, Any]], signals: FrameSignals, tracking_minimum: int | None,
-                    groundtruth: Trajectory | None,
-                    thresholds: DiagnosisThresholds = DiagnosisThresholds()) -> list[dict[str, Any]]:
+def diagnose_losses(
+    name: str,
+    losses: list[dict[str, Any]],
+    signals: FrameSignals,
+    tracking_minimum: int | None,
+    groundtruth: Trajectory | None,
+    thresholds: DiagnosisThresholds = DiagnosisThresholds(),
+) -> list[dict[str, Any]]:
     """``losses`` with ``cause``, ranked ``causes``, ``evidence`` and a one-line ``text`` added.
 
     ``tracking_minimum`` is the keypoints/inliers the run needs to track, as its pipeline's
@@ -35,14 +40,26 @@ def diagnose_losses(name: str, losses: list[dict[str, Any]], signals: FrameSigna
         findings = classify(measured, thresholds)
         top = findings[0]
         text = f"{name} lost at {loss['timestamp'] - start:.1f} s: {top.cause.value}"
-        diagnosed.append({**loss, "cause": top.cause.value, "causes": [f.cause.value for f in findings],
-                          "evidence": measured.evidence(),
-                          "text": text if top.cause is Cause.UNKNOWN else f"{text} ({top.text})"})
+        diagnosed.append(
+            {
+                **loss,
+                "cause": top.cause.value,
+                "causes": [f.cause.value for f in findings],
+                "evidence": measured.evidence(),
+                "text": text if top.cause is Cause.UNKNOWN else f"{text} ({top.text})",
+            }
+        )
     return diagnosed
 
 
-def loss_signals(signals: FrameSignals, row: int, minimum: int, speed: np.ndarray, rotation_rate: np.ndarray,
-                 thresholds: DiagnosisThresholds) -> LossSignals:
+def loss_signals(
+    signals: FrameSignals,
+    row: int,
+    minimum: int,
+    speed: np.ndarray,
+    rotation_rate: np.ndarray,
+    thresholds: DiagnosisThresholds,
+) -> LossSignals:
     """Medians over the lost frames from ``row`` on (at most ``window_frames``, stopping at a pose).
 
     Motion is the peak over those frames and as many before them, as a multiple of the run's
@@ -67,14 +84,20 @@ def loss_signals(signals: FrameSignals, row: int, minimum: int, speed: np.ndarra
     top_speed, speed_ratio = peak(speed, thresholds.still_speed)
     top_rotation, rotation_ratio = peak(rotation_rate, thresholds.still_rotation_rate)
     return LossSignals(
-        frames=len(lost), minimum=minimum,
-        corners=median(signals.corners[lost]), color_std=median(signals.color_std[lost]),
+        frames=len(lost),
+        minimum=minimum,
+        corners=median(signals.corners[lost]),
+        color_std=median(signals.color_std[lost]),
         uniform_share=median(signals.uniform_share[lost]),
         valid_depth_share=median(signals.valid_depth_share[lost]),
-        keypoints=median(signals.keypoints[lost]), matches=median(signals.matches[lost]),
+        keypoints=median(signals.keypoints[lost]),
+        matches=median(signals.matches[lost]),
         inliers=median(signals.inliers[lost]),
         dynamic_share=median(signals.dynamic_share[before][signals.tracked[before]]),
-        speed=top_speed, speed_ratio=speed_ratio, rotation_rate=top_rotation, rotation_ratio=rotation_ratio,
+        speed=top_speed,
+        speed_ratio=speed_ratio,
+        rotation_rate=top_rotation,
+        rotation_ratio=rotation_ratio,
     )
 
 
@@ -86,14 +109,19 @@ def _lost_rows(signals: FrameSignals, row: int, window: int) -> np.ndarray:
     return np.array(rows)
 
 
-def diagnose_run(run: PipelineRun, recorder: SignalRecorder, groundtruth: Trajectory | None,
-                 thresholds: DiagnosisThresholds = DiagnosisThresholds()) -> FrameSignals:
+def diagnose_run(
+    run: PipelineRun,
+    recorder: SignalRecorder,
+    groundtruth: Trajectory | None,
+    thresholds: DiagnosisThresholds = DiagnosisThresholds(),
+) -> FrameSignals:
     """Give every loss of ``run`` its cause (in ``run.tracking_lost``, which the report reads).
 
     ``recorder`` is the signal sink that saw the run's frames and events; its signals are
     returned for the recording.
     """
     signals = recorder.signals()
-    run.tracking_lost = diagnose_losses(run.pipeline, run.tracking_lost, signals, run.tracking_minimum, groundtruth,
-                                        thresholds)
+    run.tracking_lost = diagnose_losses(
+        run.pipeline, run.tracking_lost, signals, run.tracking_minimum, groundtruth, thresholds
+    )
     return signals

@@ -112,8 +112,9 @@ class SignalRecorder:
         counted = any(event.features or event.matches or event.inliers for event in self._tracked.values())
 
         def tracker(value) -> np.ndarray:
-            return np.array([np.nan if event is None or not counted else value(event) for event in tracked],
-                            dtype=np.float64)
+            return np.array(
+                [np.nan if event is None or not counted else value(event) for event in tracked], dtype=np.float64
+            )
 
         return FrameSignals(
             frame_indices=np.array(indices, dtype=np.int64),
@@ -125,8 +126,10 @@ class SignalRecorder:
             keypoints=tracker(lambda event: event.features),
             matches=tracker(lambda event: event.matches),
             inliers=tracker(lambda event: event.inliers),
-            dynamic_share=np.array([np.nan if event is None else event.metrics.get(DYNAMIC_SHARE_METRIC, np.nan)
-                                    for event in tracked], dtype=np.float64),
+            dynamic_share=np.array(
+                [np.nan if event is None else event.metrics.get(DYNAMIC_SHARE_METRIC, np.nan) for event in tracked],
+                dtype=np.float64,
+            ),
             tracked=np.array([event is not None and event.pose is not None for event in tracked], dtype=bool),
         )
 
@@ -146,8 +149,11 @@ def groundtruth_motion(groundtruth: Trajectory | None, timestamps: np.ndarray) -
     elapsed = np.diff(timestamps)[both]
     before, after = poses[:-1][both], poses[1:][both]
     moved = np.linalg.norm(after[:, :3, 3] - before[:, :3, 3], axis=1)
-    turned = Rotation.from_matrix(np.swapaxes(before[:, :3, :3], 1, 2) @ after[:, :3, :3]).magnitude() \
-        if len(before) else np.zeros(0)
+    turned = (
+        Rotation.from_matrix(np.swapaxes(before[:, :3, :3], 1, 2) @ after[:, :3, :3]).magnitude()
+        if len(before)
+        else np.zeros(0)
+    )
     rows = np.flatnonzero(both) + 1
     speed[rows] = moved / elapsed
     rotation_rate[rows] = turned / elapsed

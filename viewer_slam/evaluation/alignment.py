@@ -43,8 +43,13 @@ def fit_alignment(kind: Alignment, estimate_poses: np.ndarray, reference_poses: 
     raise ValueError(f"alignment must be a global one, got {kind!r}")
 
 
-def segment_alignments(kind: Alignment, estimate_poses: np.ndarray, reference_poses: np.ndarray,
-                       pair_segments: np.ndarray, segment_count: int) -> np.ndarray:
+def segment_alignments(
+    kind: Alignment,
+    estimate_poses: np.ndarray,
+    reference_poses: np.ndarray,
+    pair_segments: np.ndarray,
+    segment_count: int,
+) -> np.ndarray:
     """``(segment_count, 4, 4)``: each tracked segment's own transform of ``kind``, fitted on its pairs.
 
     ``pair_segments`` is the segment of each associated pair. A segment with fewer than
@@ -60,7 +65,7 @@ def segment_alignments(kind: Alignment, estimate_poses: np.ndarray, reference_po
         return np.broadcast_to(fit_alignment(kind, estimate_poses, reference_poses), (segment_count, 4, 4)).copy()
     by_segment = np.argsort(pair_segments, kind="stable")  # pair indices grouped by segment, in time order
     ends = np.cumsum(counts)
-    pairs = [by_segment[ends[segment] - counts[segment]:ends[segment]] for segment in donors]
+    pairs = [by_segment[ends[segment] - counts[segment] : ends[segment]] for segment in donors]
     transforms = np.stack([fit_alignment(kind, estimate_poses[index], reference_poses[index]) for index in pairs])
     earlier = np.searchsorted(donors, np.arange(segment_count), side="right") - 1
     return transforms[np.maximum(earlier, 0)]
@@ -79,8 +84,13 @@ class FittedAlignment:
     per_segment: np.ndarray
 
 
-def fit_estimate(kind: Alignment, estimate_poses: np.ndarray, reference_poses: np.ndarray,
-                 pose_segments: np.ndarray, matched: np.ndarray) -> FittedAlignment:
+def fit_estimate(
+    kind: Alignment,
+    estimate_poses: np.ndarray,
+    reference_poses: np.ndarray,
+    pose_segments: np.ndarray,
+    matched: np.ndarray,
+) -> FittedAlignment:
     """Fit ``kind`` and the per-segment alignment of the same kind.
 
     ``reference_poses`` are the groundtruth poses associated with the estimate poses at
@@ -88,8 +98,9 @@ def fit_estimate(kind: Alignment, estimate_poses: np.ndarray, reference_poses: n
     The segments are fitted rigidly for "segments".
     """
     segment_kind = Alignment.RIGID if kind == Alignment.SEGMENTS else kind
-    by_segment = segment_alignments(segment_kind, estimate_poses[matched], reference_poses, pose_segments[matched],
-                                    int(pose_segments[-1]) + 1)
+    by_segment = segment_alignments(
+        segment_kind, estimate_poses[matched], reference_poses, pose_segments[matched], int(pose_segments[-1]) + 1
+    )
     per_segment = by_segment[pose_segments]
     if kind == Alignment.SEGMENTS:
         return FittedAlignment(None, per_segment, per_segment)

@@ -3,8 +3,9 @@
 import numpy as np
 
 
-def absolute_errors(reference_positions: np.ndarray, estimate_positions: np.ndarray,
-                    alignment: np.ndarray) -> np.ndarray:
+def absolute_errors(
+    reference_positions: np.ndarray, estimate_positions: np.ndarray, alignment: np.ndarray
+) -> np.ndarray:
     """``||trans(Q_i^-1 S P_i)||`` for every associated pair, computed as ``||S p_i - q_i||``.
 
     ``alignment`` is S (estimate frame → reference frame), rigid or a similarity: one 4x4

@@ -80,8 +80,11 @@ class Coverage:
         return None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"ratio": self.ratio, "lost_intervals": [[start, end] for start, end in self.lost_intervals],
-                "span": self.span.to_dict()}
+        return {
+            "ratio": self.ratio,
+            "lost_intervals": [[start, end] for start, end in self.lost_intervals],
+            "span": self.span.to_dict(),
+        }
 
 
 def median_period(stamps: np.ndarray) -> float | None:
@@ -134,12 +137,19 @@ class _CameraMotion:
 
     def between(self, starts: np.ndarray, ends: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Metres travelled and radians turned from each start to its end."""
-        return (np.interp(ends, self.stamps, self.path) - np.interp(starts, self.stamps, self.path),
-                np.interp(ends, self.stamps, self.turn) - np.interp(starts, self.stamps, self.turn))
+        return (
+            np.interp(ends, self.stamps, self.path) - np.interp(starts, self.stamps, self.path),
+            np.interp(ends, self.stamps, self.turn) - np.interp(starts, self.stamps, self.turn),
+        )
 
 
-def coverage(span: Span | tuple[float, float], stamps: np.ndarray, frame_period: float | None = None,
-             groundtruth: Trajectory | None = None, resumptions: np.ndarray | None = None) -> Coverage:
+def coverage(
+    span: Span | tuple[float, float],
+    stamps: np.ndarray,
+    frame_period: float | None = None,
+    groundtruth: Trajectory | None = None,
+    resumptions: np.ndarray | None = None,
+) -> Coverage:
     """Coverage of ``span`` (start, end[, rule]) by pose ``stamps`` (sorted, on the span's clock).
 
     The span's ends and the stamps inside it form a chain of instants; every gap in that
@@ -176,8 +186,9 @@ def _moved_enough(motion: _CameraMotion, stamps: np.ndarray, starts: np.ndarray,
     return (path > LOST_GAP_MOTIONS * typical_path) | (turn > LOST_GAP_MOTIONS * typical_turn)
 
 
-def tracked_segments(stamps: np.ndarray, frame_period: float | None = None,
-                     resumptions: np.ndarray | None = None) -> np.ndarray:
+def tracked_segments(
+    stamps: np.ndarray, frame_period: float | None = None, resumptions: np.ndarray | None = None
+) -> np.ndarray:
     """The segment number (0, 1, ...) of every pose: a new segment starts after each gap that is lost.
 
     The same threshold and ``resumptions`` as :func:`coverage`, so the segments are exactly
@@ -191,9 +202,13 @@ def tracked_segments(stamps: np.ndarray, frame_period: float | None = None,
     return np.concatenate([[0], np.cumsum(breaks)])
 
 
-def held_pose_errors(groundtruth: Trajectory, estimate: Trajectory, pose_alignment: np.ndarray,
-                     lost_intervals: list[tuple[float, float]],
-                     frame_period: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def held_pose_errors(
+    groundtruth: Trajectory,
+    estimate: Trajectory,
+    pose_alignment: np.ndarray,
+    lost_intervals: list[tuple[float, float]],
+    frame_period: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Stamps and errors of the penalty samples inside the lost intervals.
 
     Samples lie every frame period (else median estimate period) inside each interval (so lost time weighs as
@@ -202,7 +217,9 @@ def held_pose_errors(groundtruth: Trajectory, estimate: Trajectory, pose_alignme
     first). ``pose_alignment`` holds the transform ``(N, 4, 4)`` of each estimate pose;
     ``estimate`` stamps are on the groundtruth's clock.
     """
-    period = frame_period or median_period(estimate.timestamps) or median_period(groundtruth.timestamps) or MIN_LOST_GAP_S
+    period = (
+        frame_period or median_period(estimate.timestamps) or median_period(groundtruth.timestamps) or MIN_LOST_GAP_S
+    )
     samples = [np.arange(start + period, end, period) for start, end in lost_intervals]
     stamps = np.concatenate(samples) if samples else np.zeros(0)
     reference, covered = interpolate_poses(groundtruth, stamps)

@@ -61,8 +61,13 @@ class Evaluation:
             "alignment": self.alignment_name,
             "ate": stats_or_none(self.ate),
             "ate_segments": stats_or_none(self.segment_ate),
-            "rpe": {"trans": stats_or_none(self.rpe_trans), "rot": stats_or_none(self.rpe_rot),
-                    "delta": self.delta, "delta_unit": self.delta_unit, "mode": self.rpe_mode},
+            "rpe": {
+                "trans": stats_or_none(self.rpe_trans),
+                "rot": stats_or_none(self.rpe_rot),
+                "delta": self.delta,
+                "delta_unit": self.delta_unit,
+                "mode": self.rpe_mode,
+            },
             "coverage": self.coverage.to_dict(),
             "penalized_ate": stats_or_none(self.penalized_ate),
         }
@@ -132,23 +137,39 @@ def evaluate(
     on_groundtruth_clock = Trajectory(estimate.timestamps + offset, estimate.poses)
     if span is None:
         span = file_span(groundtruth.timestamps, on_groundtruth_clock.timestamps)
-    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth,
-                       estimate.resumptions + offset)
+    covered = coverage(span, on_groundtruth_clock.timestamps, frame_period, groundtruth, estimate.resumptions + offset)
     every_delta = all_deltas or rpe_mode == RpeMode.TUM
     reported_delta = None if every_delta else (int(delta) if delta_unit == DeltaUnit.FRAMES else float(delta))
     reported_unit = "all" if every_delta else delta_unit
 
     gt_index, est_index = associate(groundtruth.timestamps, estimate.timestamps, offset, max_difference)
     if len(gt_index) == 0:
-        return Evaluation(ate=None, segment_ate=None, rpe_trans=None, rpe_rot=None, coverage=covered,
-                          penalized_ate=None, alignment_name=align, alignment=None, pose_alignment=None,
-                          pairs=(gt_index, est_index), delta=reported_delta, delta_unit=reported_unit, offset=offset,
-                          rpe_mode=rpe_mode)
+        return Evaluation(
+            ate=None,
+            segment_ate=None,
+            rpe_trans=None,
+            rpe_rot=None,
+            coverage=covered,
+            penalized_ate=None,
+            alignment_name=align,
+            alignment=None,
+            pose_alignment=None,
+            pairs=(gt_index, est_index),
+            delta=reported_delta,
+            delta_unit=reported_unit,
+            offset=offset,
+            rpe_mode=rpe_mode,
+        )
 
     reference, matched = groundtruth.poses[gt_index], estimate.poses[est_index]
     stamps = estimate.timestamps[est_index]
-    fitted = fit_estimate(align, estimate.poses, reference,
-                          tracked_segments(estimate.timestamps, frame_period, estimate.resumptions), est_index)
+    fitted = fit_estimate(
+        align,
+        estimate.poses,
+        reference,
+        tracked_segments(estimate.timestamps, frame_period, estimate.resumptions),
+        est_index,
+    )
     ate_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_pose[est_index])
     segment_errors = absolute_errors(reference[:, :3, 3], matched[:, :3, 3], fitted.per_segment[est_index])
 
@@ -158,8 +179,11 @@ def evaluate(
         first, second = pairs_by_frames(len(stamps), int(delta))
     else:
         first, second = pairs_by_seconds(stamps, delta)
-    sim3_scale = float(np.linalg.norm(fitted.transform[:3, 0])) \
-        if align == Alignment.SIM3 and fitted.transform is not None else 1.0
+    sim3_scale = (
+        float(np.linalg.norm(fitted.transform[:3, 0]))
+        if align == Alignment.SIM3 and fitted.transform is not None
+        else 1.0
+    )
     metric_scale = matched.copy()  # RPE is alignment-free, but a similarity's scale must apply
     if align == Alignment.SIM3:
         metric_scale[:, :3, 3] *= sim3_scale
@@ -170,8 +194,9 @@ def evaluate(
         rpe_stamps, rpe_trans, rpe_rot = _tum_rpe(groundtruth, estimate, offset, sim3_scale)
         has_pairs = len(rpe_stamps) > 0
 
-    penalty_stamps, penalty_errors = held_pose_errors(groundtruth, on_groundtruth_clock, fitted.per_pose,
-                                                      covered.lost_intervals, frame_period)
+    penalty_stamps, penalty_errors = held_pose_errors(
+        groundtruth, on_groundtruth_clock, fitted.per_pose, covered.lost_intervals, frame_period
+    )
     penalized_stamps = np.concatenate([stamps, penalty_stamps - offset])
     order = np.argsort(penalized_stamps, kind="stable")
     penalized = ErrorSeries(penalized_stamps[order], np.concatenate([ate_errors, penalty_errors])[order])
@@ -193,24 +218,29 @@ def evaluate(
     )
 
 
-def why_no_pairs(groundtruth: Trajectory, estimate: Trajectory, offset: float = 0.0,
-                 max_difference: float = 0.02) -> str:
+def why_no_pairs(
+    groundtruth: Trajectory, estimate: Trajectory, offset: float = 0.0, max_difference: float = 0.02
+) -> str:
     """Why ``estimate`` has no pose pair with ``groundtruth``: no overlap in time, or none close enough."""
     start, end = estimate.timestamps[0] + offset, estimate.timestamps[-1] + offset
     gt_start, gt_end = groundtruth.timestamps[0], groundtruth.timestamps[-1]
     if end < gt_start or start > gt_end:
-        return (f"no temporal overlap with the groundtruth (estimate {start:.3f}..{end:.3f} s, "
-                f"groundtruth {gt_start:.3f}..{gt_end:.3f} s)")
+        return (
+            f"no temporal overlap with the groundtruth (estimate {start:.3f}..{end:.3f} s, "
+            f"groundtruth {gt_start:.3f}..{gt_end:.3f} s)"
+        )
     return f"no pose within {max_difference} s of a groundtruth pose"
 
 
-def _tum_rpe(groundtruth: Trajectory, estimate: Trajectory, offset: float,
-             scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _tum_rpe(
+    groundtruth: Trajectory, estimate: Trajectory, offset: float, scale: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stamps (the second pose of each pair), translation [m] and rotation [deg] of TUM's default
     RPE; empty where the script would give up (fewer than two comparable pairs)."""
     try:
-        result = tum_rpe(groundtruth.timestamps, groundtruth.poses, estimate.timestamps, estimate.poses,
-                         offset=offset, scale=scale)
+        result = tum_rpe(
+            groundtruth.timestamps, groundtruth.poses, estimate.timestamps, estimate.poses, offset=offset, scale=scale
+        )
     except ValueError:
         empty = np.zeros(0)
         return empty, empty, empty

@@ -69,18 +69,24 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
     The legend, below the panels, names only what is drawn.
     """
     alignment = scored[0].evaluation.alignment_name if scored else Alignment.RIGID
-    panels = [(title, attribute) for title, attribute in (
-        (f"ATE ({alignment} alignment)", "ate"), ("ATE, each tracked segment aligned on its own", "segment_ate"),
-        ("penalised ATE (while lost, the last pose is held)", "penalized_ate"))
-        if any(getattr(item.evaluation, attribute) is not None for item in scored)]
+    panels = [
+        (title, attribute)
+        for title, attribute in (
+            (f"ATE ({alignment} alignment)", "ate"),
+            ("ATE, each tracked segment aligned on its own", "segment_ate"),
+            ("penalised ATE (while lost, the last pose is held)", "penalized_ate"),
+        )
+        if any(getattr(item.evaluation, attribute) is not None for item in scored)
+    ]
     rows = max(len(panels), 1)
     figure = plt.figure(figsize=(12, 2.2 + 1.6 * rows), layout="constrained")
     grid = figure.add_gridspec(rows, 2, width_ratios=(1, 1.35))
     top = figure.add_subplot(grid[:, 0])
     errors = [figure.add_subplot(grid[0, 1])]
     errors += [figure.add_subplot(grid[row, 1], sharex=errors[0]) for row in range(1, rows)]
-    top.plot(groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex,
-             label="groundtruth")
+    top.plot(
+        groundtruth.positions[:, 0], groundtruth.positions[:, 1], color=palette.GROUNDTRUTH.hex, label="groundtruth"
+    )
     origin = groundtruth.timestamps[0]  # the error plot's x axis is groundtruth time from its first pose
     lost = False
     for position, item in enumerate(scored):
@@ -88,8 +94,11 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
         gap = lost_gap_threshold(item.estimate.timestamps)
         aligned = evaluation.aligned_positions(item.estimate)
         if aligned is not None:
-            top.plot(*_broken(item.estimate.timestamps, aligned[:, :2], gap).T[1:], color=color,
-                     label=f"{item.label} ({evaluation.alignment_name})")
+            top.plot(
+                *_broken(item.estimate.timestamps, aligned[:, :2], gap).T[1:],
+                color=color,
+                label=f"{item.label} ({evaluation.alignment_name})",
+            )
         for axes, (_, attribute) in zip(errors, panels):
             for start, end in evaluation.coverage.lost_intervals:
                 axes.axvspan(start - origin, end - origin, color=color, alpha=0.12, linewidth=0)
@@ -112,8 +121,9 @@ def draw_evaluation(groundtruth: Trajectory, scored: list[Scored]) -> Figure:
     handles, labels = top.get_legend_handles_labels()
     if lost:
         handles.append(Patch(color="0.2", alpha=0.12, label="lost (shaded in the estimate's colour)"))
-    figure.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small",
-                  frameon=False)
+    figure.legend(
+        handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize="small", frameon=False
+    )
     return figure
 
 

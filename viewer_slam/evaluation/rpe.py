@@ -41,8 +41,9 @@ def sampled_pairs(count: int, samples: int, seed: int) -> tuple[np.ndarray, np.n
     return first, first + delta
 
 
-def relative_errors(reference: np.ndarray, estimate: np.ndarray, first: np.ndarray,
-                    second: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def relative_errors(
+    reference: np.ndarray, estimate: np.ndarray, first: np.ndarray, second: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Translation (metres) and rotation (degrees) of ``E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j)``.
 
     ``||trans(E)|| = ||R_Qi^T (q_j - q_i) - R_Pi^T (p_j - p_i)||`` since rotating a vector
@@ -60,4 +61,3 @@ def _relative_motion(poses: np.ndarray, first: np.ndarray, second: np.ndarray) -
     rotation_t = np.swapaxes(poses[first, :3, :3], 1, 2)
     step = poses[second, :3, 3] - poses[first, :3, 3]
     return rotation_t @ poses[second, :3, :3], np.einsum("nij,nj->ni", rotation_t, step)
-

@@ -24,8 +24,10 @@ from .python27_random import Python27Random
 
 MAX_PAIRS = 10_000
 SEED = 0
-MODE_TEXT = ("TUM evaluate_rpe.py's default: all pose pairs under 100 poses, else 10,000 pairs drawn by "
-             "Python 2.7's random seeded 0")
+MODE_TEXT = (
+    "TUM evaluate_rpe.py's default: all pose pairs under 100 poses, else 10,000 pairs drawn by "
+    "Python 2.7's random seeded 0"
+)
 
 
 @dataclass
@@ -79,9 +81,17 @@ def _last_row_per_stamp(stamps: np.ndarray, poses: np.ndarray) -> tuple[np.ndarr
     return unique, poses[len(stamps) - 1 - reversed_index]
 
 
-def tum_rpe(groundtruth_stamps: np.ndarray, groundtruth_poses: np.ndarray, estimate_stamps: np.ndarray,
-            estimate_poses: np.ndarray, *, max_pairs: int = MAX_PAIRS, seed: int = SEED, offset: float = 0.0,
-            scale: float = 1.0) -> TumRpe:
+def tum_rpe(
+    groundtruth_stamps: np.ndarray,
+    groundtruth_poses: np.ndarray,
+    estimate_stamps: np.ndarray,
+    estimate_poses: np.ndarray,
+    *,
+    max_pairs: int = MAX_PAIRS,
+    seed: int = SEED,
+    offset: float = 0.0,
+    scale: float = 1.0,
+) -> TumRpe:
     """``evaluate_rpe.py GT EST`` with ``--max_pairs``, ``--offset``, ``--scale`` as given and no
     ``--fixed_delta``; poses are 4x4 camera-to-world. ValueError where the script raises
     (fewer than 2 comparable pairs)."""

@@ -80,8 +80,10 @@ class AdjustedDetector:
 
 def cell_ranges(length: int, cells: int) -> list[tuple[int, int]]:
     """Each cell's [start, end) along one image axis, widened by CELL_OVERLAP_PX within the image."""
-    return [(max(i * length // cells - CELL_OVERLAP_PX, 0), min(length, (i + 1) * length // cells + CELL_OVERLAP_PX))
-            for i in range(cells)]
+    return [
+        (max(i * length // cells - CELL_OVERLAP_PX, 0), min(length, (i + 1) * length // cells + CELL_OVERLAP_PX))
+        for i in range(cells)
+    ]
 
 
 class GridDetector:
@@ -92,14 +94,15 @@ class GridDetector:
         high = int(max_keypoints * 1.5)
         self.grid = grid
         self.per_cell = high // cells
-        self.detectors = [AdjustedDetector(kind, round(max_keypoints / cells), round(high / cells), iterations)
-                          for _ in range(cells)]
+        self.detectors = [
+            AdjustedDetector(kind, round(max_keypoints / cells), round(high / cells), iterations) for _ in range(cells)
+        ]
 
     def _detect_cell(self, gray: np.ndarray, cell: int, rows: tuple[int, int], cols: tuple[int, int]) -> list:
         """The cell's strongest keypoints, in image coordinates."""
         (top, bottom), (left, right) = rows, cols
         found = self.detectors[cell].detect(np.ascontiguousarray(gray[top:bottom, left:right]))
-        found = sorted(found, key=lambda k: -abs(k.response))[:self.per_cell]
+        found = sorted(found, key=lambda k: -abs(k.response))[: self.per_cell]
         for keypoint in found:
             keypoint.pt = (keypoint.pt[0] + left, keypoint.pt[1] + top)
         return found

@@ -48,15 +48,18 @@ class Features:
         return ~np.isnan(self.points[:, 0])
 
     def subset(self, index) -> "Features":
-        return Features(self.keypoints[index], self.descriptors[index], self.responses[index],
-                        self.points[index], self.binary)
+        return Features(
+            self.keypoints[index], self.descriptors[index], self.responses[index], self.points[index], self.binary
+        )
 
 
 def _make_detector(kind: str, max_features: int):
     """(detector, describer) pair; ``describer`` None means the detector describes itself."""
     if kind == "SURF":
-        raise InputError("feature detector SURF is patented and absent from the pip OpenCV builds; "
-                         f"choose one of {', '.join(DETECTORS)}")
+        raise InputError(
+            "feature detector SURF is patented and absent from the pip OpenCV builds; "
+            f"choose one of {', '.join(DETECTORS)}"
+        )
     if kind == "ORB":
         return cv2.ORB.create(nfeatures=max_features * 2, fastThreshold=int(ORB_THRESHOLD.start)), None
     if kind == "SIFT":
@@ -93,9 +96,18 @@ class FeatureExtractor:
     ``util3d::generateKeypoints3DDepth`` does (:func:`smoothed_depth`).
     """
 
-    def __init__(self, kind: str, max_features: int, camera: Camera, grid: int = 1,
-                 min_depth: float = 0.3, max_depth: float = 6.0, adjuster_iterations: int = 0,
-                 depth_mask: bool = False, depth_smoothing: bool = False):
+    def __init__(
+        self,
+        kind: str,
+        max_features: int,
+        camera: Camera,
+        grid: int = 1,
+        min_depth: float = 0.3,
+        max_depth: float = 6.0,
+        adjuster_iterations: int = 0,
+        depth_mask: bool = False,
+        depth_smoothing: bool = False,
+    ):
         self.kind = kind
         self.depth_mask = depth_mask
         self.depth_smoothing = depth_smoothing
@@ -105,8 +117,11 @@ class FeatureExtractor:
         self.max_depth = max_depth
         self.detector, self.describer = _make_detector(kind, max_features)
         self.binary = kind in BINARY_DESCRIPTORS
-        self.adjusted = (GridDetector(kind, max_features, grid, adjuster_iterations)
-                         if adjuster_iterations > 0 and kind in ADJUSTABLE else None)
+        self.adjusted = (
+            GridDetector(kind, max_features, grid, adjuster_iterations)
+            if adjuster_iterations > 0 and kind in ADJUSTABLE
+            else None
+        )
 
     def _detect(self, gray: np.ndarray, depth: np.ndarray) -> list:
         if self.adjusted is not None:
@@ -127,8 +142,13 @@ class FeatureExtractor:
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ([], None)
         if descriptors is None or not len(keypoints):
             width = 128 if not self.binary else 32
-            return Features(np.zeros((0, 2), np.float32), np.zeros((0, width), np.float32 if not self.binary else np.uint8),
-                            np.zeros(0, np.float32), np.zeros((0, 3)), self.binary)
+            return Features(
+                np.zeros((0, 2), np.float32),
+                np.zeros((0, width), np.float32 if not self.binary else np.uint8),
+                np.zeros(0, np.float32),
+                np.zeros((0, 3)),
+                self.binary,
+            )
         xy = np.array([k.pt for k in keypoints], dtype=np.float32)
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
@@ -149,8 +169,9 @@ class FeatureExtractor:
         z = (smoothed_depth(depth, rows, cols) if self.depth_smoothing else depth[rows, cols]).astype(np.float64)
         pixels: np.ndarray = xy.astype(np.float64)
         if any(self.camera.distortion) and len(pixels):  # OpenCV 4 returns None for no points
-            pixels = cv2.undistortPoints(pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion),
-                                         P=self.camera.K).reshape(-1, 2)
+            pixels = cv2.undistortPoints(
+                pixels.reshape(-1, 1, 2), self.camera.K, np.asarray(self.camera.distortion), P=self.camera.K
+            ).reshape(-1, 2)
         points = self.camera.backproject(pixels, z)
         points[(z < self.min_depth) | (z > self.max_depth)] = np.nan
         return points
@@ -162,18 +183,27 @@ def smoothed_depth(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.
     to the centre's than :data:`SMOOTHING_DEPTH_ERROR_RATIO` times it; 0 where the centre has none."""
     neighbour_rows = rows[:, None] + SMOOTHING_OFFSETS[:, 0]
     neighbour_cols = cols[:, None] + SMOOTHING_OFFSETS[:, 1]
-    inside = ((neighbour_rows >= 0) & (neighbour_rows < depth.shape[0])
-              & (neighbour_cols >= 0) & (neighbour_cols < depth.shape[1]))
-    window = depth[np.clip(neighbour_rows, 0, depth.shape[0] - 1),
-                   np.clip(neighbour_cols, 0, depth.shape[1] - 1)].astype(np.float64)
+    inside = (
+        (neighbour_rows >= 0)
+        & (neighbour_rows < depth.shape[0])
+        & (neighbour_cols >= 0)
+        & (neighbour_cols < depth.shape[1])
+    )
+    window = depth[
+        np.clip(neighbour_rows, 0, depth.shape[0] - 1), np.clip(neighbour_cols, 0, depth.shape[1] - 1)
+    ].astype(np.float64)
     centre = window[:, 4:5]
-    counted = inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre)
+    counted = (
+        inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre)
+    )
     weights = SMOOTHING_WEIGHTS * counted
     mean = (weights * np.where(counted, window, 0.0)).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
     return np.where(centre[:, 0] > 0, mean, 0.0)
 
 
-def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio: float) -> tuple[np.ndarray, np.ndarray]:
+def match_descriptors(
+    query: np.ndarray, train: np.ndarray, binary: bool, ratio: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Nearest-neighbour matches that pass Lowe's ratio test (best < ratio * second best).
 
     Returns index arrays into ``query`` and ``train``; a query whose two nearest neighbours
@@ -183,8 +213,9 @@ def match_descriptors(query: np.ndarray, train: np.ndarray, binary: bool, ratio:
     return query_index, train_index
 
 
-def match_with_ratios(query: np.ndarray, train: np.ndarray, binary: bool,
-                      ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def match_with_ratios(
+    query: np.ndarray, train: np.ndarray, binary: bool, ratio: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`match_descriptors` with each match's nearest / second-nearest distance ratio."""
     q, t, d, ratios = nearest_passing_ratio(query, train, binary, ratio)
     best_first = np.argsort(d, kind="stable")
@@ -193,8 +224,9 @@ def match_with_ratios(query: np.ndarray, train: np.ndarray, binary: bool,
     return q[keep], t[keep], ratios[keep]
 
 
-def nearest_passing_ratio(query: np.ndarray, train: np.ndarray, binary: bool,
-                          ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def nearest_passing_ratio(
+    query: np.ndarray, train: np.ndarray, binary: bool, ratio: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each query's nearest train descriptor where it passes the ratio test against the second
     nearest: query indices (ascending), train indices (a train descriptor may be the nearest
     of several queries), the nearest distances and the distance ratios."""

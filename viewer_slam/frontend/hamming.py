@@ -143,7 +143,7 @@ def _near_cells(grid, cell, x, y, found):
     count = 0
     for r in range(max(row - 1, 0), min(row + 2, rows)):
         for c in range(max(column - 1, 0), min(column + 2, columns)):
-            for member in members[starts[r * columns + c]:starts[r * columns + c + 1]]:
+            for member in members[starts[r * columns + c] : starts[r * columns + c + 1]]:
                 found[count] = member
                 count += 1
     return count
@@ -157,17 +157,21 @@ def _nearest_within_radius(positions, query, train_positions, train, radius, rat
     if train_positions.shape[0] == 0 or not radius > 0.0:
         return chosen
     grid = _grid(train_positions, radius)
-    near, within = np.empty(train_positions.shape[0], dtype=np.int64), np.empty(train_positions.shape[0], dtype=np.int64)
+    near, within = (
+        np.empty(train_positions.shape[0], dtype=np.int64),
+        np.empty(train_positions.shape[0], dtype=np.int64),
+    )
     for i in range(positions.shape[0]):
         count = 0
-        for member in near[:_near_cells(grid, radius, positions[i, 0], positions[i, 1], near)]:
-            if (train_positions[member, 0] - positions[i, 0]) ** 2 + (train_positions[member, 1] - positions[i, 1]) ** 2 \
-                    < radius * radius:
+        for member in near[: _near_cells(grid, radius, positions[i, 0], positions[i, 1], near)]:
+            if (train_positions[member, 0] - positions[i, 0]) ** 2 + (
+                train_positions[member, 1] - positions[i, 1]
+            ) ** 2 < radius * radius:
                 within[count] = member
                 count += 1
         if count == 1:
             chosen[i] = within[0]
-        elif count > 1:                              # equal nearest distances fail the test, so order is moot
+        elif count > 1:  # equal nearest distances fail the test, so order is moot
             first, second, best = _two_nearest(query, i, train, within[:count])
             if first < ratio * second:
                 chosen[i] = best
@@ -205,8 +209,9 @@ def packed(descriptors: "np.ndarray | PackedDescriptors") -> PackedDescriptors:
     return descriptors if isinstance(descriptors, PackedDescriptors) else PackedDescriptors.of(descriptors)
 
 
-def hamming_ratio_matches(query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors",
-                          ratio: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def hamming_ratio_matches(
+    query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors", ratio: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Matches of binary descriptors ``(N, B)`` uint8 (or packed) that pass the ratio test: query
     indices (ascending), train indices and distance ratios."""
     if len(query) == 0 or len(train) < 2:
@@ -214,8 +219,9 @@ def hamming_ratio_matches(query: "np.ndarray | PackedDescriptors", train: "np.nd
     return _ratio_matches(packed(query).rows, packed(train).columns, float(ratio))
 
 
-def hamming_nearest_matches(query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors",
-                            max_distance: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def hamming_nearest_matches(
+    query: "np.ndarray | PackedDescriptors", train: "np.ndarray | PackedDescriptors", max_distance: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each query descriptor's nearest train descriptor (``(N, B)`` uint8, or packed), the first
     on ties, when fewer than ``max_distance`` bits apart: query indices (ascending), train indices
     (a train descriptor may be matched by several queries) and Hamming distances."""
@@ -224,8 +230,14 @@ def hamming_nearest_matches(query: "np.ndarray | PackedDescriptors", train: "np.
     return _nearest_matches(packed(query).rows, packed(train).columns, int(max_distance))
 
 
-def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positions: np.ndarray, train: np.ndarray,
-                          radius: float, ratio: float) -> np.ndarray:
+def nearest_within_radius(
+    positions: np.ndarray,
+    query: np.ndarray,
+    train_positions: np.ndarray,
+    train: np.ndarray,
+    radius: float,
+    ratio: float,
+) -> np.ndarray:
     """Per query descriptor ``(N,)``, the index of the train descriptor it matches, or -1,
     among the train descriptors positioned closer than ``radius`` pixels to the query's
     position: the nearest by Hamming distance if it passes the ratio test against the
@@ -234,5 +246,11 @@ def nearest_within_radius(positions: np.ndarray, query: np.ndarray, train_positi
     several queries choose the same train descriptor is the caller's rule."""
     if len(query) == 0:
         return np.zeros(0, int)
-    return _nearest_within_radius(np.asarray(positions, np.float64), _words(query),
-                                  np.asarray(train_positions, np.float64), _words(train), float(radius), float(ratio))
+    return _nearest_within_radius(
+        np.asarray(positions, np.float64),
+        _words(query),
+        np.asarray(train_positions, np.float64),
+        _words(train),
+        float(radius),
+        float(ratio),
+    )

@@ -25,8 +25,9 @@ def motion_residuals(source: np.ndarray, target: np.ndarray, motion: np.ndarray)
     return np.linalg.norm(transform_points(np.asarray(motion, dtype=np.float64), source) - target, axis=1)
 
 
-def inconsistent_share(source: np.ndarray, target: np.ndarray, motion: np.ndarray,
-                       threshold: float | np.ndarray) -> float:
+def inconsistent_share(
+    source: np.ndarray, target: np.ndarray, motion: np.ndarray, threshold: float | np.ndarray
+) -> float:
     """The share (0 to 1) of matched points whose residual under ``motion`` exceeds ``threshold``.
 
     ``threshold`` is in the points' unit (metres), one for all pairs or one per pair (a noise

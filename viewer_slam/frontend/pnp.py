@@ -35,12 +35,12 @@ from ..compiled import jit
 from ..geometry.se3 import invert, make_pose
 
 RANSAC_CONFIDENCE = 0.99
-SAMPLE_SIZE = 6                            # cv3::solvePnPRansac's EPnP sample
-RNG_MULTIPLIER = np.uint64(4164903690)     # cv::RNG's multiply-with-carry (CV_RNG_COEFF)
-RNG_SEED = np.uint64((1 << 64) - 1)        # RNG((uint64)-1)
+SAMPLE_SIZE = 6  # cv3::solvePnPRansac's EPnP sample
+RNG_MULTIPLIER = np.uint64(4164903690)  # cv::RNG's multiply-with-carry (CV_RNG_COEFF)
+RNG_SEED = np.uint64((1 << 64) - 1)  # RNG((uint64)-1)
 LOW_32 = np.uint64((1 << 32) - 1)
 HIGH_SHIFT = np.uint64(32)
-DISTORTION_COEFFICIENTS = 14               # OpenCV's longest model: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 tau_x tau_y
+DISTORTION_COEFFICIENTS = 14  # OpenCV's longest model: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 tau_x tau_y
 
 
 @dataclass
@@ -104,10 +104,13 @@ class Lens:
     def of(cls, K: np.ndarray, distortion: np.ndarray | None) -> "Lens":
         coefficients = np.zeros(DISTORTION_COEFFICIENTS)
         if distortion is not None:
-            coefficients[:len(distortion)] = distortion
+            coefficients[: len(distortion)] = distortion
         tilted = distortion is not None and len(distortion) == DISTORTION_COEFFICIENTS
-        return cls(np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]], dtype=np.float64), coefficients,
-                   _tilt_matrix(coefficients[12], coefficients[13]) if tilted else np.eye(3))
+        return cls(
+            np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]], dtype=np.float64),
+            coefficients,
+            _tilt_matrix(coefficients[12], coefficients[13]) if tilted else np.eye(3),
+        )
 
 
 def _tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
@@ -116,8 +119,9 @@ def _tilt_matrix(tau_x: float, tau_y: float) -> np.ndarray:
     rotation_x = np.array([[1, 0, 0], [0, cos_x, sin_x], [0, -sin_x, cos_x]], dtype=np.float64)
     rotation_y = np.array([[cos_y, 0, -sin_y], [0, 1, 0], [sin_y, 0, cos_y]], dtype=np.float64)
     rotation = _matx_product(rotation_y, rotation_x)
-    projection = np.array([[rotation[2, 2], 0, -rotation[0, 2]], [0, rotation[2, 2], -rotation[1, 2]], [0, 0, 1]],
-                          dtype=np.float64)
+    projection = np.array(
+        [[rotation[2, 2], 0, -rotation[0, 2]], [0, rotation[2, 2], -rotation[1, 2]], [0, 0, 1]], dtype=np.float64
+    )
     return _matx_product(projection, rotation)
 
 
@@ -170,22 +174,41 @@ def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, 
     return errors
 
 
-def reprojection_errors(objects: np.ndarray, pixels: np.ndarray, lens: Lens, rvec: np.ndarray,
-                        tvec: np.ndarray) -> np.ndarray:
+def reprojection_errors(
+    objects: np.ndarray, pixels: np.ndarray, lens: Lens, rvec: np.ndarray, tvec: np.ndarray
+) -> np.ndarray:
     """Each correspondence's reprojection distance in pixels, float32, the same to the bit as
     ``cv2.projectPoints`` and RTAB-Map's copy compute it (float32 ``objects`` and ``pixels``)."""
-    return _reprojection_errors(objects, pixels, cv2.Rodrigues(rvec)[0], np.asarray(tvec, dtype=np.float64).ravel(),
-                                lens.intrinsics, lens.coefficients, lens.tilt)
+    return _reprojection_errors(
+        objects,
+        pixels,
+        cv2.Rodrigues(rvec)[0],
+        np.asarray(tvec, dtype=np.float64).ravel(),
+        lens.intrinsics,
+        lens.coefficients,
+        lens.tilt,
+    )
 
 
-def refine(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, distortion: np.ndarray | None, lens: Lens,
-           rvec: np.ndarray, tvec: np.ndarray, inliers: np.ndarray, distance: float, iterations: int,
-           min_inliers: int) -> tuple[np.ndarray, np.ndarray]:
+def refine(
+    objects: np.ndarray,
+    pixels: np.ndarray,
+    K: np.ndarray,
+    distortion: np.ndarray | None,
+    lens: Lens,
+    rvec: np.ndarray,
+    tvec: np.ndarray,
+    inliers: np.ndarray,
+    distance: float,
+    iterations: int,
+    min_inliers: int,
+) -> tuple[np.ndarray, np.ndarray]:
     """``util3d::solvePnPRansac``'s refinement of RANSAC's pose (module docstring)."""
     current, threshold = inliers, np.float32(distance)
     for _ in range(iterations):
-        _, rvec, tvec = cv2.solvePnP(objects[current], pixels[current], K, distortion, rvec, tvec, True,
-                                     cv2.SOLVEPNP_ITERATIVE)
+        _, rvec, tvec = cv2.solvePnP(
+            objects[current], pixels[current], K, distortion, rvec, tvec, True, cv2.SOLVEPNP_ITERATIVE
+        )
         errors = reprojection_errors(objects, pixels, lens, rvec, tvec)
         counted = np.flatnonzero(errors <= threshold)
         if len(counted) < min_inliers or np.array_equal(counted, current):
@@ -195,10 +218,18 @@ def refine(objects: np.ndarray, pixels: np.ndarray, K: np.ndarray, distortion: n
     return rvec, tvec
 
 
-def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.ndarray, *,
-                     reprojection_error: float, iterations: int, min_inliers: int,
-                     distortion: tuple[float, ...] | None = None, refine_iterations: int = 0,
-                     refine_distance: float | None = None) -> PnpResult | None:
+def solve_pnp_ransac(
+    object_points: np.ndarray,
+    image_points: np.ndarray,
+    K: np.ndarray,
+    *,
+    reprojection_error: float,
+    iterations: int,
+    min_inliers: int,
+    distortion: tuple[float, ...] | None = None,
+    refine_iterations: int = 0,
+    refine_distance: float | None = None,
+) -> PnpResult | None:
     """Camera pose from 3D points ``(N, 3)`` seen at pixels ``(N, 2)``, or None when fewer
     than ``min_inliers`` (at least 4) correspondences agree with the best hypothesis.
 
@@ -224,10 +255,9 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
         sample = samples[iteration]
         iteration += 1
         try:
-            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, coefficients,
-                                              flags=cv2.SOLVEPNP_EPNP)
+            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, coefficients, flags=cv2.SOLVEPNP_EPNP)
         except cv2.error:
-            continue                                 # a degenerate sample: no model, as runKernel's 0
+            continue  # a degenerate sample: no model, as runKernel's 0
         if not solved:
             continue
         mask = reprojection_errors(objects, pixels, lens, rvec, tvec) <= threshold
@@ -239,7 +269,17 @@ def solve_pnp_ransac(object_points: np.ndarray, image_points: np.ndarray, K: np.
         return None
     rvec, tvec = best
     if refine_iterations > 0:
-        rvec, tvec = refine(objects, pixels, K, coefficients, lens, rvec, tvec, np.flatnonzero(best_mask),
-                            refine_distance if refine_distance is not None else reprojection_error,
-                            refine_iterations, max(min_inliers, 4))
+        rvec, tvec = refine(
+            objects,
+            pixels,
+            K,
+            coefficients,
+            lens,
+            rvec,
+            tvec,
+            np.flatnonzero(best_mask),
+            refine_distance if refine_distance is not None else reprojection_error,
+            refine_iterations,
+            max(min_inliers, 4),
+        )
     return PnpResult(invert(make_pose(cv2.Rodrigues(rvec)[0], np.asarray(tvec).ravel())), best_mask)

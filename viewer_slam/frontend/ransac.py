@@ -47,7 +47,6 @@ JACOBI_SWEEPS = 30
 PAIR_TERMS = 13
 
 
-
 @dataclass
 class RansacResult:
     """``transform`` maps source points onto target points; ``inliers`` is a mask over
@@ -98,8 +97,15 @@ def _distances_into(r, terms, out):
     """
     r00, r01, r02, r03, r10, r11, r12, r13, r20, r21, r22, r23 = r
     sx, sy, z_source, tx, ty, z_target = terms[0], terms[1], terms[2], terms[3], terms[4], terms[5]
-    cx, cy, cz, target_x, target_y, target_z, bound = (terms[6], terms[7], terms[8], terms[9], terms[10], terms[11],
-                                                       terms[12])
+    cx, cy, cz, target_x, target_y, target_z, bound = (
+        terms[6],
+        terms[7],
+        terms[8],
+        terms[9],
+        terms[10],
+        terms[11],
+        terms[12],
+    )
     for n in range(out.shape[0]):
         x = r00 * sx[n] + r01 * sy[n] + r02 * z_source[n] + r03 - tx[n]
         y = r10 * sx[n] + r11 * sy[n] + r12 * z_source[n] + r13 - ty[n]
@@ -113,16 +119,29 @@ def _distances_into(r, terms, out):
         a00, a11, a22 = s11 * s22 - s12 * s12, s00 * s22 - s02 * s02, s00 * s11 - s01 * s01
         a01, a02, a12 = s02 * s12 - s01 * s22, s01 * s12 - s11 * s02, s01 * s02 - s00 * s12
         determinant = s00 * a00 + s01 * a01 + s02 * a02
-        distance = (a00 * x * x + a11 * y * y + a22 * z * z + 2.0 * (a01 * x * y + a02 * x * z + a12 * y * z)) / determinant
+        distance = (
+            a00 * x * x + a11 * y * y + a22 * z * z + 2.0 * (a01 * x * y + a02 * x * z + a12 * y * z)
+        ) / determinant
         out[n] = np.inf if x * x + y * y + z * z > bound[n] else distance
 
 
 @jit
 def _top_rows(transform):
     """The transform's top 3x4, row by row, as a tuple of scalars."""
-    return (transform[0, 0], transform[0, 1], transform[0, 2], transform[0, 3],
-            transform[1, 0], transform[1, 1], transform[1, 2], transform[1, 3],
-            transform[2, 0], transform[2, 1], transform[2, 2], transform[2, 3])
+    return (
+        transform[0, 0],
+        transform[0, 1],
+        transform[0, 2],
+        transform[0, 3],
+        transform[1, 0],
+        transform[1, 1],
+        transform[1, 2],
+        transform[1, 3],
+        transform[2, 0],
+        transform[2, 1],
+        transform[2, 2],
+        transform[2, 3],
+    )
 
 
 @jit
@@ -133,8 +152,9 @@ def _distances(transforms, terms):
     return out
 
 
-def mahalanobis_squared(transforms: np.ndarray, source: np.ndarray, target: np.ndarray,
-                        sigma_depth: float) -> np.ndarray:
+def mahalanobis_squared(
+    transforms: np.ndarray, source: np.ndarray, target: np.ndarray, sigma_depth: float
+) -> np.ndarray:
     """v2's ``errorFunction2`` ``(H, N)`` for transforms ``(H, 4, 4)`` and pairs ``(N, 3)``:
     squared Mahalanobis distances, inf for pairs beyond the shortcut."""
     terms = pair_terms(np.asarray(source, dtype=np.float64), np.asarray(target, dtype=np.float64), float(sigma_depth))
@@ -282,12 +302,25 @@ def _fit(source, target, weights, members):
     horn[2, 3] = horn[3, 2] = m12 + m21
     w, x, y, z = _largest_eigenvector(horn)
     transform = np.eye(4)
-    transform[0, 0], transform[0, 1], transform[0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
-    transform[1, 0], transform[1, 1], transform[1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
-    transform[2, 0], transform[2, 1], transform[2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    transform[0, 0], transform[0, 1], transform[0, 2] = (
+        1 - 2 * (y * y + z * z),
+        2 * (x * y - w * z),
+        2 * (x * z + w * y),
+    )
+    transform[1, 0], transform[1, 1], transform[1, 2] = (
+        2 * (x * y + w * z),
+        1 - 2 * (x * x + z * z),
+        2 * (y * z - w * x),
+    )
+    transform[2, 0], transform[2, 1], transform[2, 2] = (
+        2 * (x * z - w * y),
+        2 * (y * z + w * x),
+        1 - 2 * (x * x + y * y),
+    )
     for i, target_mean in enumerate((target_x, target_y, target_z)):
-        transform[i, 3] = target_mean - (transform[i, 0] * source_x + transform[i, 1] * source_y
-                                         + transform[i, 2] * source_z)
+        transform[i, 3] = target_mean - (
+            transform[i, 0] * source_x + transform[i, 1] * source_y + transform[i, 2] * source_z
+        )
     return transform
 
 
@@ -341,8 +374,9 @@ def _search(samples, source, target, terms, iterations, max_distance, min_inlier
     best_error = NO_HYPOTHESIS_ERROR
     valid, drawn = 0, 0
     while drawn < iterations:
-        transform, members, error = _refine(samples[drawn], source, target, weights, terms, distances, max_distance,
-                                            min_inliers)
+        transform, members, error = _refine(
+            samples[drawn], source, target, weights, terms, distances, max_distance, min_inliers
+        )
         drawn += 1
         inliers = len(members)
         if inliers == 0:
@@ -356,8 +390,16 @@ def _search(samples, source, target, terms, iterations, max_distance, min_inlier
     return best_transform, best_members, best_error, valid
 
 
-def ransac_rigid(source: np.ndarray, target: np.ndarray, *, iterations: int, max_mahalanobis: float,
-                 min_inliers: int, sigma_depth: float, rng: np.random.Generator) -> RansacResult | None:
+def ransac_rigid(
+    source: np.ndarray,
+    target: np.ndarray,
+    *,
+    iterations: int,
+    max_mahalanobis: float,
+    min_inliers: int,
+    sigma_depth: float,
+    rng: np.random.Generator,
+) -> RansacResult | None:
     """The rigid transform best supported by correspondences ``source[i] <-> target[i]``,
     ordered best match first, or None when it has fewer than ``min_inliers`` inliers.
 
@@ -371,8 +413,9 @@ def ransac_rigid(source: np.ndarray, target: np.ndarray, *, iterations: int, max
     min_inliers = min(min_inliers, int(0.75 * count))
     samples = preferred_samples(count, iterations, rng)
     terms = pair_terms(source, target, float(sigma_depth))
-    transform, members, error, valid = _search(samples, source, target, terms, iterations, float(max_mahalanobis),
-                                               min_inliers)
+    transform, members, error, valid = _search(
+        samples, source, target, terms, iterations, float(max_mahalanobis), min_inliers
+    )
     if valid == 0:
         identity = np.eye(4)
         members, error = _inliers(identity, terms, float(max_mahalanobis) ** 2, np.empty(count))

@@ -49,9 +49,15 @@ class Camera:
     def scaled(self, width: int, height: int) -> "Camera":
         """The same lens at another resolution (pixel-centre convention kept)."""
         sx, sy = width / self.width, height / self.height
-        return replace(self, fx=self.fx * sx, fy=self.fy * sy,
-                       cx=(self.cx + 0.5) * sx - 0.5, cy=(self.cy + 0.5) * sy - 0.5,
-                       width=width, height=height)
+        return replace(
+            self,
+            fx=self.fx * sx,
+            fy=self.fy * sy,
+            cx=(self.cx + 0.5) * sx - 0.5,
+            cy=(self.cy + 0.5) * sy - 0.5,
+            width=width,
+            height=height,
+        )
 
     def backproject(self, uv: np.ndarray, depth: np.ndarray) -> np.ndarray:
         """3D points ``(N, 3)`` in the camera frame from pixels ``(N, 2)`` and depths ``(N,)``."""
@@ -67,7 +73,7 @@ class Camera:
 
     def depth_to_points(self, depth: np.ndarray, step: int = 1) -> tuple[np.ndarray, np.ndarray]:
         """Points ``(N, 3)`` of every ``step``-th pixel with valid depth, and their ``(row, col)``."""
-        rows, cols = np.mgrid[0:depth.shape[0]:step, 0:depth.shape[1]:step]
+        rows, cols = np.mgrid[0 : depth.shape[0] : step, 0 : depth.shape[1] : step]
         z = depth[rows, cols]
         valid = z > 0
         rows, cols, z = rows[valid], cols[valid], z[valid]
@@ -108,13 +114,17 @@ def _problem(error: "pydantic.ValidationError") -> str:
         return f"camera calibration lacks {', '.join(missing)}"
     detail = error.errors()[0]
     if detail["type"] == "model_type":
-        return f"bad camera calibration: expected a JSON object with fx, fy, cx, cy, width, height, " \
-               f"got {detail['input']!r}"
+        return (
+            f"bad camera calibration: expected a JSON object with fx, fy, cx, cy, width, height, "
+            f"got {detail['input']!r}"
+        )
     if not detail["loc"]:  # a rule between fields, whose message says it all
         return f"bad camera calibration: {detail['msg'].removeprefix('Value error, ')}"
     where = ".".join(map(str, detail["loc"]))
-    return f"bad camera calibration: {where} {detail['msg'].replace('Input should be', 'must be')}, " \
-           f"got {detail['input']!r}"
+    return (
+        f"bad camera calibration: {where} {detail['msg'].replace('Input should be', 'must be')}, "
+        f"got {detail['input']!r}"
+    )
 
 
 @cache
@@ -136,9 +146,16 @@ def _camera_schema() -> type["pydantic.BaseModel"]:
         return camera
 
     return pydantic.create_model(
-        "CameraFile", __config__=pydantic.ConfigDict(extra="ignore"),
+        "CameraFile",
+        __config__=pydantic.ConfigDict(extra="ignore"),
         # pydantic's annotation asks for plain functions, though it documents decorated ones here.
         __validators__={"principal_point": pydantic.model_validator(mode="after")(principal_point)},  # type: ignore[dict-item]
-        fx=(focal, ...), fy=(focal, ...), cx=(offset, ...), cy=(offset, ...), width=(pixels, ...),
-        height=(pixels, ...), depth_factor=(per_metre, TUM_DEPTH_FACTOR),
-        distortion=(tuple[coefficient, ...], (0.0,) * 5))
+        fx=(focal, ...),
+        fy=(focal, ...),
+        cx=(offset, ...),
+        cy=(offset, ...),
+        width=(pixels, ...),
+        height=(pixels, ...),
+        depth_factor=(per_metre, TUM_DEPTH_FACTOR),
+        distortion=(tuple[coefficient, ...], (0.0,) * 5),
+    )

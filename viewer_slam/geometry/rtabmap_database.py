@@ -32,11 +32,21 @@ from .trajectory import Trajectory
 
 SQLITE_MAGIC = b"SQLite format 3\x00"
 # Link.type in RTAB-Map (Link.h): the kinds a user sees as graph edges.
-LINK_KINDS = {0: "neighbor", 1: "global_loop", 2: "local_space", 3: "local_time", 4: "user", 5: "virtual",
-              6: "neighbor_merged", 7: "pose_prior", 8: "landmark", 9: "gravity"}
+LINK_KINDS = {
+    0: "neighbor",
+    1: "global_loop",
+    2: "local_space",
+    3: "local_time",
+    4: "user",
+    5: "virtual",
+    6: "neighbor_merged",
+    7: "pose_prior",
+    8: "landmark",
+    9: "gravity",
+}
 POSE_FLOATS = 12
-MATRIX_HEADER_BYTES = 12          # rows, cols, type after the compressed data
-MAX_INFLATED_BYTES = 64 << 20     # no statistics or graph blob inflates beyond this
+MATRIX_HEADER_BYTES = 12  # rows, cols, type after the compressed data
+MAX_INFLATED_BYTES = 64 << 20  # no statistics or graph blob inflates beyond this
 # The camera's optical axes (x right, y down, z forward) in RTAB-Map's base frame.
 OPTICAL_IN_BASE = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 # The dataset tool's world change before that: the world's axes swapped as its export does.
@@ -81,8 +91,9 @@ class RtabmapDatabase:
         in its dataset tool, lost)."""
         poses = [node.pose if optimised and node.pose is not None else node.odometry_pose for node in self.nodes]
         starts = [node.stamp for previous, node in zip(self.nodes, self.nodes[1:]) if node.map_id != previous.map_id]
-        return Trajectory(np.array([node.stamp for node in self.nodes]), np.array(poses).reshape(-1, 4, 4),
-                          np.array(starts))
+        return Trajectory(
+            np.array([node.stamp for node in self.nodes]), np.array(poses).reshape(-1, 4, 4), np.array(starts)
+        )
 
 
 def is_sqlite(path: Path) -> bool:
@@ -133,24 +144,36 @@ def _read(path: Path, connection: sqlite3.Connection) -> RtabmapDatabase:
     nodes = []
     for node_id, map_id, stamp, blob in connection.execute("SELECT id, map_id, stamp, pose FROM Node ORDER BY id"):
         if node_id <= 0:
-            continue                      # negative ids are landmarks, not locations
-        nodes.append(RtabmapNode(int(node_id), int(map_id), float(stamp),
-                                 to_camera_frame(_pose(path, f"node {node_id}", blob)),
-                                 optimised.get(int(node_id)), statistics.get(int(node_id), {})))
+            continue  # negative ids are landmarks, not locations
+        nodes.append(
+            RtabmapNode(
+                int(node_id),
+                int(map_id),
+                float(stamp),
+                to_camera_frame(_pose(path, f"node {node_id}", blob)),
+                optimised.get(int(node_id)),
+                statistics.get(int(node_id), {}),
+            )
+        )
     if not nodes:
         raise InputError.at(path, "the database holds no node (no location was added)")
     nodes.sort(key=lambda node: (node.stamp, node.id))
     known = {node.id for node in nodes}
-    links = sorted({RtabmapLink(min(a, b), max(a, b), LINK_KINDS.get(kind, f"type {kind}"))
-                    for a, b, kind in connection.execute("SELECT from_id, to_id, type FROM Link")
-                    if a in known and b in known and a != b}, key=lambda link: (link.to_id, link.from_id, link.kind))
+    links = sorted(
+        {
+            RtabmapLink(min(a, b), max(a, b), LINK_KINDS.get(kind, f"type {kind}"))
+            for a, b, kind in connection.execute("SELECT from_id, to_id, type FROM Link")
+            if a in known and b in known and a != b
+        },
+        key=lambda link: (link.to_id, link.from_id, link.kind),
+    )
     return RtabmapDatabase(path, version, nodes, links)
 
 
 def _pose(path: Path, what: str, blob: bytes | None) -> np.ndarray:
     if blob is None or len(blob) < 4 * POSE_FLOATS:
         raise InputError.at(path, f"{what}: no pose (a pose is {POSE_FLOATS} float32)")
-    matrix = np.array(struct.unpack(f"<{POSE_FLOATS}f", bytes(blob[:4 * POSE_FLOATS])), dtype=np.float64)
+    matrix = np.array(struct.unpack(f"<{POSE_FLOATS}f", bytes(blob[: 4 * POSE_FLOATS])), dtype=np.float64)
     if not np.isfinite(matrix).all():
         raise InputError.at(path, f"{what}: the pose is not finite")
     pose = np.eye(4)

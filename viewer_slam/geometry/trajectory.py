@@ -77,7 +77,9 @@ def parse_numbers(path: Path, fields: list[str], line: int) -> list[float]:
 MAX_COORDINATE_M = 1e8
 
 
-def pose_problem(translation: Sequence[float] | np.ndarray, quaternion: Sequence[float] | np.ndarray | None = None) -> str | None:
+def pose_problem(
+    translation: Sequence[float] | np.ndarray, quaternion: Sequence[float] | np.ndarray | None = None
+) -> str | None:
     """What keeps a position (and an xyzw quaternion) read from a file from being a pose, or None:
     a value that is not finite, a coordinate beyond :data:`MAX_COORDINATE_M`, a zero quaternion
     or one too large to normalise."""
@@ -111,14 +113,15 @@ def read_tum(path: Path, *, in_order: bool = False) -> Trajectory:
             continue
         fields = stripped.replace(",", " ").split()
         if len(fields) != 8:
-            raise InputError.at(path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number)
+            raise InputError.at(
+                path, f"expected 8 fields (timestamp tx ty tz qx qy qz qw), found {len(fields)}", number
+            )
         values = parse_numbers(path, fields, number)
         problem = pose_problem(values[1:4], values[4:])
         if problem is not None:
             raise InputError.at(path, problem, number)
         if in_order and rows and values[0] <= rows[-1][0]:
-            raise InputError.at(path, f"timestamp {fields[0]} does not increase (previous {rows[-1][0]:.6f})",
-                                number)
+            raise InputError.at(path, f"timestamp {fields[0]} does not increase (previous {rows[-1][0]:.6f})", number)
         rows.append(values)
     if not rows:
         raise InputError.at(path, "no poses in trajectory file")

@@ -45,15 +45,16 @@ KITTI_FIELDS = 12
 # How far R^T R of a KITTI pose may be from the identity (files print 6 to 9 digits).
 ORTHONORMAL_TOLERANCE = 1e-3
 _TIMESTAMP_NAMES = ("timestamp", "time", "t", "stamp")
-_POSITION_NAMES = {axis: (f"p_rs_r_{axis}", f"t{axis}", axis, f"p{axis}", f"p_{axis}", f"pos_{axis}",
-                          f"position_{axis}") for axis in "xyz"}
-_QUATERNION_NAMES = {axis: (f"q_rs_{axis}", f"q{axis}", f"q_{axis}", f"orientation_{axis}")
-                     for axis in "xyzw"}
+_POSITION_NAMES = {
+    axis: (f"p_rs_r_{axis}", f"t{axis}", axis, f"p{axis}", f"p_{axis}", f"pos_{axis}", f"position_{axis}")
+    for axis in "xyz"
+}
+_QUATERNION_NAMES = {axis: (f"q_rs_{axis}", f"q{axis}", f"q_{axis}", f"orientation_{axis}") for axis in "xyzw"}
 
 
-def read_trajectory(path: Path, format: str | None = None,
-                    timestamps: Sequence[float] | np.ndarray | Path | None = None,
-                    ) -> tuple[Trajectory, TrajectoryFormat]:
+def read_trajectory(
+    path: Path, format: str | None = None, timestamps: Sequence[float] | np.ndarray | Path | None = None
+) -> tuple[Trajectory, TrajectoryFormat]:
     """The trajectory in ``path`` and its format (detected unless ``format``, one of
     :class:`TrajectoryFormat` or its value, is given).
 
@@ -76,8 +77,9 @@ def read_trajectory(path: Path, format: str | None = None,
     return _read_euroc(path, text), kind
 
 
-def read_estimate(path: Path, format: str | None = None, timestamps: np.ndarray | None = None,
-                  ) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
+def read_estimate(
+    path: Path, format: str | None = None, timestamps: np.ndarray | None = None
+) -> tuple[Trajectory, TrajectoryFormat, RtabmapDatabase | None]:
     """An estimate file (``format``, else detected), the format it was read as and, for an RTAB-Map
     database, the database itself: its nodes, links and statistics say more than its poses."""
     if reads_as_rtabmap(path, format):
@@ -124,8 +126,9 @@ def _header_names(line: str) -> list[str] | None:
 def _check_increasing(path: Path, stamps: list[float], numbers: list[int]) -> None:
     for k in range(1, len(stamps)):
         if stamps[k] <= stamps[k - 1]:
-            raise InputError.at(path, f"timestamp {stamps[k]:.9f} does not increase "
-                                f"(previous {stamps[k - 1]:.9f})", numbers[k])
+            raise InputError.at(
+                path, f"timestamp {stamps[k]:.9f} does not increase (previous {stamps[k - 1]:.9f})", numbers[k]
+            )
 
 
 def _read_kitti(path: Path, text: str, timestamps: Sequence[float] | np.ndarray | Path | None) -> Trajectory:
@@ -133,17 +136,24 @@ def _read_kitti(path: Path, text: str, timestamps: Sequence[float] | np.ndarray 
     if not rows:
         raise InputError.at(path, "no poses in trajectory file")
     if timestamps is None:
-        raise InputError.at(path, "KITTI poses carry no timestamps; evaluate them against a sequence "
-                            "(its frame stamps are used) or give a times file")
+        raise InputError.at(
+            path,
+            "KITTI poses carry no timestamps; evaluate them against a sequence "
+            "(its frame stamps are used) or give a times file",
+        )
     stamps = _times(Path(timestamps)) if isinstance(timestamps, (str, Path)) else np.asarray(timestamps, float)
     if len(stamps) != len(rows):
-        raise InputError.at(path, f"{len(rows)} KITTI poses but {len(stamps)} timestamps; the file must hold "
-                            f"one pose per frame of the sequence")
+        raise InputError.at(
+            path,
+            f"{len(rows)} KITTI poses but {len(stamps)} timestamps; the file must hold "
+            f"one pose per frame of the sequence",
+        )
     matrices = np.empty((len(rows), 3, 4))
     for k, (number, fields) in enumerate(rows):
         if len(fields) != KITTI_FIELDS:
-            raise InputError.at(path, f"expected {KITTI_FIELDS} fields (a 3x4 pose, row by row), "
-                                f"found {len(fields)}", number)
+            raise InputError.at(
+                path, f"expected {KITTI_FIELDS} fields (a 3x4 pose, row by row), found {len(fields)}", number
+            )
         matrices[k] = np.reshape(parse_numbers(path, fields, number), (3, 4))
         problem = pose_problem(matrices[k, :, 3])
         if problem is not None:
@@ -173,10 +183,14 @@ def _read_euroc(path: Path, text: str) -> Trajectory:
     header_number, header = lines[0] if lines else (None, "")
     names = _header_names(header)
     if names is None:
-        raise InputError.at(path, "not an EuRoC/ASL CSV: the first line must be a header such as "
-                            "'#timestamp [ns],tx,ty,tz,qw,qx,qy,qz'", header_number)
-    columns = [_column(path, header_number, names, _POSITION_NAMES[axis], f"position {axis}") for axis in "xyz"] + \
-              [_column(path, header_number, names, _QUATERNION_NAMES[axis], f"quaternion {axis}") for axis in "xyzw"]
+        raise InputError.at(
+            path,
+            "not an EuRoC/ASL CSV: the first line must be a header such as '#timestamp [ns],tx,ty,tz,qw,qx,qy,qz'",
+            header_number,
+        )
+    columns = [_column(path, header_number, names, _POSITION_NAMES[axis], f"position {axis}") for axis in "xyz"] + [
+        _column(path, header_number, names, _QUATERNION_NAMES[axis], f"quaternion {axis}") for axis in "xyzw"
+    ]
     in_seconds = "[s]" in header.split(",")[0]
     stamps, values, numbers = [], [], []
     for number, line in lines[1:]:
@@ -203,8 +217,7 @@ def _column(path: Path, header_number: int | None, names: list[str], candidates:
     for candidate in candidates:
         if candidate in names:
             return names.index(candidate)
-    raise InputError.at(path, f"the header names no {what} column (looked for {', '.join(candidates)})",
-                        header_number)
+    raise InputError.at(path, f"the header names no {what} column (looked for {', '.join(candidates)})", header_number)
 
 
 def _stamp(path: Path, field: str, number: int, in_seconds: bool) -> float:

@@ -25,10 +25,7 @@ ENTRY_POINT_GROUP = "viewslam.pipelines"
 RUN_NAME = re.compile(r"[A-Za-z0-9_.-]+")
 """The names a run may have (a pipeline, a plugin, an estimate): each names entity paths and a file."""
 # Pipelines are imported on first use so that `viewslam evaluate` never pays for them.
-PIPELINE_MODULES = {
-    "rgbdslam": "viewer_slam.pipelines.rgbdslam",
-    "rtabmap": "viewer_slam.pipelines.rtabmap",
-}
+PIPELINE_MODULES = {"rgbdslam": "viewer_slam.pipelines.rgbdslam", "rtabmap": "viewer_slam.pipelines.rtabmap"}
 
 
 class Pipeline(ABC):
@@ -85,13 +82,17 @@ def load_plugin(plugin: EntryPoint) -> type[Pipeline]:
     if plugin.name in PIPELINE_MODULES:
         raise InputError(f"{where}: the name is taken by a built-in pipeline")
     if not RUN_NAME.fullmatch(plugin.name):
-        raise InputError(f"{where}: a pipeline's name holds letters, digits, '_', '-' and '.' only (it names "
-                         f"entities and files)")
+        raise InputError(
+            f"{where}: a pipeline's name holds letters, digits, '_', '-' and '.' only (it names entities and files)"
+        )
     try:
         loaded = plugin.load()
     except (Exception, SystemExit) as error:  # whatever the plugin's import raises, it is the plugin's fault
-        problem = f"called sys.exit({error.code!r})" if isinstance(error, SystemExit) else \
-            f"{type(error).__name__}: {' '.join(str(error).split())}"
+        problem = (
+            f"called sys.exit({error.code!r})"
+            if isinstance(error, SystemExit)
+            else f"{type(error).__name__}: {' '.join(str(error).split())}"
+        )
         raise InputError(f"{where}: cannot be imported: {problem}") from None
     unusable = interface_problem(loaded)
     if unusable is not None:
@@ -109,8 +110,10 @@ def interface_problem(candidate: Any) -> str | None:
 
     params = getattr(candidate, "Params", None)
     if not (isinstance(params, type) and issubclass(params, PipelineParams)):
-        return (f"{candidate.__name__}.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams "
-                f"(parameters are a pydantic model, one field per parameter: docs/plugins.md)")
+        return (
+            f"{candidate.__name__}.Params is not a subclass of viewer_slam.pipelines.params.PipelineParams "
+            f"(parameters are a pydantic model, one field per parameter: docs/plugins.md)"
+        )
     return declaration_problem(params, f"{candidate.__name__}.Params")
 
 

@@ -123,8 +123,13 @@ class MapUpdated:
         self._build: Callable[[], tuple[np.ndarray, np.ndarray]] | None = None
 
     @classmethod
-    def deferred(cls, frame_index: int, build: Callable[[], tuple[np.ndarray, np.ndarray]], point_count: int,
-                 replace: bool = False) -> "MapUpdated":
+    def deferred(
+        cls,
+        frame_index: int,
+        build: Callable[[], tuple[np.ndarray, np.ndarray]],
+        point_count: int,
+        replace: bool = False,
+    ) -> "MapUpdated":
         """The event whose ``(points, colors)`` ``build()`` returns, ``point_count`` of them."""
         event = cls(frame_index, np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), replace)
         event.point_count, event._cloud, event._build = point_count, None, build
@@ -179,5 +184,14 @@ class TrajectoryFinal:
     resumptions: np.ndarray | None = None
 
 
-Event = (FrameTracked | KeyframeAdded | FeatureMatches | GraphEdge | GraphOptimized
-         | MapUpdated | TrackingLost | TrackingRecovered | TrajectoryFinal)
+Event = (
+    FrameTracked
+    | KeyframeAdded
+    | FeatureMatches
+    | GraphEdge
+    | GraphOptimized
+    | MapUpdated
+    | TrackingLost
+    | TrackingRecovered
+    | TrajectoryFinal
+)

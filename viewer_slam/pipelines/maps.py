@@ -8,8 +8,9 @@ from ..geometry.se3 import transform_points
 from .events import MapUpdated
 
 
-def rebuilt_map(frame_index: int, clouds: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray]],
-                max_points: int) -> MapUpdated:
+def rebuilt_map(
+    frame_index: int, clouds: Iterable[tuple[np.ndarray, np.ndarray, np.ndarray]], max_points: int
+) -> MapUpdated:
     """A replacing MapUpdated from ``(pose, camera-frame points, colours)`` per node, every
     k-th point kept so that at most ``max_points`` remain; computed when a sink reads it
     (:meth:`MapUpdated.deferred`), from the poses as they are now."""

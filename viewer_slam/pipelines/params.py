@@ -68,13 +68,15 @@ class PipelineParams(BaseModel):
         if type(value) is int and value > INT_MAX:
             raise PydanticCustomError("less_than_equal", "Input should be less than or equal to {le}", {"le": INT_MAX})
         if type(value) is int and value < -INT_MAX:
-            raise PydanticCustomError("greater_than_equal", "Input should be greater than or equal to {ge}",
-                                      {"ge": -INT_MAX})
+            raise PydanticCustomError(
+                "greater_than_equal", "Input should be greater than or equal to {ge}", {"ge": -INT_MAX}
+            )
         return value
 
 
-def check_ordered(params: P, info: ValidationInfo, lower: str, upper: str, *, strict: bool = True,
-                  off: float | None = None) -> P:
+def check_ordered(
+    params: P, info: ValidationInfo, lower: str, upper: str, *, strict: bool = True, off: float | None = None
+) -> P:
     """``params`` if parameter ``lower`` is below ``upper`` (at most equal to it when not
     ``strict``) or ``upper`` is ``off`` (a value that means "no limit"): the body of a model's
     ``model_validator(mode="after")`` for a rule between two parameters.
@@ -91,8 +93,9 @@ def check_ordered(params: P, info: ValidationInfo, lower: str, upper: str, *, st
     fields = type(params).model_fields
     relation = "above" if strict else "at least"
     unless = f", or {off:g} for no limit" if off is not None else ""
-    raise invalid(f"{key_of(upper, fields[upper])} must be {relation} {key_of(lower, fields[lower])} ({low})"
-                  f"{unless}, got {high}")
+    raise invalid(
+        f"{key_of(upper, fields[upper])} must be {relation} {key_of(lower, fields[lower])} ({low}){unless}, got {high}"
+    )
 
 
 def invalid(problem: str) -> PydanticCustomError:
@@ -124,8 +127,12 @@ def kind_of(field: FieldInfo) -> type:
 def bounds_of(field: FieldInfo) -> dict[str, float]:
     """The field's declared bounds by name (``ge``, ``gt``, ``le``, ``lt``); integers are also
     within the C int range (:data:`INT_MAX`)."""
-    return {name: getattr(item, name) for item in field.metadata for name in ("ge", "gt", "le", "lt")
-            if getattr(item, name, None) is not None}
+    return {
+        name: getattr(item, name)
+        for item in field.metadata
+        for name in ("ge", "gt", "le", "lt")
+        if getattr(item, name, None) is not None
+    }
 
 
 def from_text(field: FieldInfo, text: str) -> Any:
@@ -145,8 +152,7 @@ def from_text(field: FieldInfo, text: str) -> Any:
     return text
 
 
-_EXPECTED = {int: "expects an integer", float: "expects a number", bool: "expects true or false",
-             str: "expects text"}
+_EXPECTED = {int: "expects an integer", float: "expects a number", bool: "expects true or false", str: "expects text"}
 _TYPE_ERRORS = {"int": int, "float": float, "bool": bool, "string": str}
 
 
@@ -174,8 +180,9 @@ def problem_of(error: ValidationError, params_type: type[BaseModel]) -> str:
     return f"{key} {problem}, got {value!r}"
 
 
-def apply_overrides(params: P, overrides: dict[str, Any], source: str, relations: bool = True, *,
-                    text: bool = False) -> P:
+def apply_overrides(
+    params: P, overrides: dict[str, Any], source: str, relations: bool = True, *, text: bool = False
+) -> P:
     """A copy of ``params`` with ``overrides`` (external key -> value) applied and checked.
 
     Values are of the field's type (a float field takes an int too), as a TOML config gives
@@ -216,8 +223,9 @@ def load_config(path: Path) -> dict[str, Any]:
     return read_toml(path, "config", max_bytes=CONFIG_BYTES)
 
 
-def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequence[str] = (),
-                   config: Path | None = None) -> dict[str, BaseModel]:
+def resolve_params(
+    params_types: dict[str, type[BaseModel]], assignments: Sequence[str] = (), config: Path | None = None
+) -> dict[str, BaseModel]:
     """Parameters per pipeline from defaults, then ``config``, then ``--param`` assignments.
 
     A config table named after a pipeline applies to it alone; flat keys and ``--param``
@@ -231,8 +239,11 @@ def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequen
         for table in (key for key, value in data.items() if isinstance(value, dict) and key not in params_types):
             close = difflib.get_close_matches(table, params_types, n=1)
             hint = f"did you mean [{close[0]}]? " if close else ""
-            raise InputError.at(config, f"table [{table}] names no selected pipeline; {hint}"
-                                f"tables: {', '.join(f'[{name}]' for name in params_types)}")
+            raise InputError.at(
+                config,
+                f"table [{table}] names no selected pipeline; {hint}"
+                f"tables: {', '.join(f'[{name}]' for name in params_types)}",
+            )
         for name in params_types:
             section = data.get(name)
             if isinstance(section, dict):
@@ -245,21 +256,24 @@ def resolve_params(params_types: dict[str, type[BaseModel]], assignments: Sequen
             owners = [name for name, kind in params_types.items() if key in keyed_fields(kind)]
             if not owners:
                 valid = sorted({k for kind in params_types.values() for k in keyed_fields(kind)})
-                raise InputError(f"{source}: unknown parameter {key!r} for {', '.join(params_types)}; valid: {', '.join(valid)}")
+                raise InputError(
+                    f"{source}: unknown parameter {key!r} for {', '.join(params_types)}; valid: {', '.join(valid)}"
+                )
             for name in owners:
-                resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False,
-                                                 text=text)
+                resolved[name] = apply_overrides(resolved[name], {key: value}, source, relations=False, text=text)
     sources = [str(config)] * (config is not None) + ["--param"] * bool(assignments)
     # Relations on the final values: one layer may set what another relies on.
-    return {name: _validated(type(params), params.model_dump(by_alias=True), " and ".join(sources) or "the defaults")
-            for name, params in resolved.items()}
+    return {
+        name: _validated(type(params), params.model_dump(by_alias=True), " and ".join(sources) or "the defaults")
+        for name, params in resolved.items()
+    }
 
 
 _REPLACED = {
-    "param": "a field of a PipelineParams subclass: `name: int = Field(5, alias=\"Original/Name\", ge=0, "
-             "description=...)`",
-    "Ordered": "a model_validator(mode=\"after\") that calls check_ordered",
-    "check_relations": "a model_validator(mode=\"after\") that calls check_ordered",
+    "param": 'a field of a PipelineParams subclass: `name: int = Field(5, alias="Original/Name", ge=0, '
+    "description=...)`",
+    "Ordered": 'a model_validator(mode="after") that calls check_ordered',
+    "check_relations": 'a model_validator(mode="after") that calls check_ordered',
     "param_fields": "keyed_fields",
     "params_to_dict": "params.model_dump(by_alias=True)",
 }
@@ -269,6 +283,8 @@ _REPLACED = {
 def __getattr__(name: str) -> Any:
     """A plugin written against the earlier API fails to import in one line saying what replaced it."""
     if name in _REPLACED:
-        raise ImportError(f"{__name__}.{name} is gone: pipeline parameters are a pydantic model now; use "
-                          f"{_REPLACED[name]} (docs/plugins.md)")
+        raise ImportError(
+            f"{__name__}.{name} is gone: pipeline parameters are a pydantic model now; use "
+            f"{_REPLACED[name]} (docs/plugins.md)"
+        )
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -69,11 +69,14 @@ class PipelineRun:
                 else:
                     self.loop_closures_rejected += 1
         elif isinstance(event, TrackingLost):
-            self.tracking_lost.append({"frame": event.frame_index, "timestamp": event.timestamp, "reason": event.reason})
+            self.tracking_lost.append(
+                {"frame": event.frame_index, "timestamp": event.timestamp, "reason": event.reason}
+            )
         elif isinstance(event, TrajectoryFinal):
             self.frame_indices = np.asarray(event.frame_indices, dtype=int)
-            self.trajectory = Trajectory(event.timestamps, event.poses,
-                                         event.resumptions if event.resumptions is not None else np.zeros(0))
+            self.trajectory = Trajectory(
+                event.timestamps, event.poses, event.resumptions if event.resumptions is not None else np.zeros(0)
+            )
             if event.odometry_poses is not None:
                 self.odometry = Trajectory(event.timestamps, event.odometry_poses)
 
@@ -92,8 +95,16 @@ def run_pipeline(
 ) -> PipelineRun:
     """Run ``pipeline_name`` over ``sequence`` and return its summary (see :func:`drive`)."""
     pipeline = make_pipeline(pipeline_name, sequence.camera, params, seed)
-    return drive(pipeline, pipeline_name, sequence, max_frames=max_frames, stride=stride, sinks=sinks,
-                 frame_sinks=frame_sinks, should_stop=should_stop)
+    return drive(
+        pipeline,
+        pipeline_name,
+        sequence,
+        max_frames=max_frames,
+        stride=stride,
+        sinks=sinks,
+        frame_sinks=frame_sinks,
+        should_stop=should_stop,
+    )
 
 
 def _shown_ahead(frames: Iterator[Frame], pipeline: Pipeline) -> Iterator[Frame]:
@@ -136,8 +147,13 @@ def drive(
     pipeline still finishes (final optimisation, final trajectory of the frames seen) and
     the run is marked interrupted, so everything up to that point is kept.
     """
-    run = PipelineRun(pipeline=name, parameters=pipeline.params.model_dump(by_alias=True), seed=pipeline.seed,
-                      source=pipeline.source, tracking_minimum=pipeline.params.tracking_minimum())
+    run = PipelineRun(
+        pipeline=name,
+        parameters=pipeline.params.model_dump(by_alias=True),
+        seed=pipeline.seed,
+        source=pipeline.source,
+        tracking_minimum=pipeline.params.tracking_minimum(),
+    )
     sinks = [run.observe, *sinks]
 
     def emit(events: list[Event]) -> None:

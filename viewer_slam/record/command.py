@@ -17,11 +17,24 @@ from .outputs import output_path
 from .session import record_runs
 
 
-def record(sequence: str | Path | None = None, *, pipeline: str | Sequence[str] | None = None,
-           estimates: Sequence[str] = (), format: TrajectoryFormat | None = None, out: Path | None = None,
-           max_frames: int | None = None, stride: int = 1, params: Sequence[str] = (), config: Path | None = None,
-           seed: int = 0, quiet: bool = True, spawn: bool = False, connect: str | None = None,
-           bag: BagTopics = BagTopics(), groundtruth: Path | None = None) -> RecordResult:
+def record(
+    sequence: str | Path | None = None,
+    *,
+    pipeline: str | Sequence[str] | None = None,
+    estimates: Sequence[str] = (),
+    format: TrajectoryFormat | None = None,
+    out: Path | None = None,
+    max_frames: int | None = None,
+    stride: int = 1,
+    params: Sequence[str] = (),
+    config: Path | None = None,
+    seed: int = 0,
+    quiet: bool = True,
+    spawn: bool = False,
+    connect: str | None = None,
+    bag: BagTopics = BagTopics(),
+    groundtruth: Path | None = None,
+) -> RecordResult:
     """Run SLAM pipelines over ``sequence`` into one Rerun recording ``out`` (default
     ``recordings/<sequence>.rrd``), with the report ``NAME.json`` and a trajectory per run beside it.
 
@@ -45,25 +58,51 @@ def record(sequence: str | Path | None = None, *, pipeline: str | Sequence[str] 
     if sequence is None and groundtruth is not None:
         _check_files_only(groundtruth, choice, estimates, frames, params, config, bag)
         target = Path(out) if out is not None else Path("recordings") / f"{Path(groundtruth).stem}.rrd"
-        return record_trajectory_files(Path(groundtruth), named_estimates(list(estimates), []), target,
-                                       format=format, quiet=quiet, viewer=live_viewer(spawn, connect, target))
+        return record_trajectory_files(
+            Path(groundtruth),
+            named_estimates(list(estimates), []),
+            target,
+            format=format,
+            quiet=quiet,
+            viewer=live_viewer(spawn, connect, target),
+        )
     pipelines, named = select_runs(choice, estimates)
     specs = run_specs(pipelines, named, assignments=params, config=config, seed=seed, format=format)
     source = None if sequence is None else str(sequence)
     target = output_path(source, out)
-    return record_runs(source, specs, target, frames=frames, quiet=quiet, bag=bag, groundtruth=groundtruth,
-                       config=config, viewer=live_viewer(spawn, connect, target))
+    return record_runs(
+        source,
+        specs,
+        target,
+        frames=frames,
+        quiet=quiet,
+        bag=bag,
+        groundtruth=groundtruth,
+        config=config,
+        viewer=live_viewer(spawn, connect, target),
+    )
 
 
-def _check_files_only(groundtruth: Path, pipeline: str | None, estimates: Sequence[str], frames: FrameSelection, params: Sequence[str],
-                      config: Path | None, bag: BagTopics) -> None:
+def _check_files_only(
+    groundtruth: Path,
+    pipeline: str | None,
+    estimates: Sequence[str],
+    frames: FrameSelection,
+    params: Sequence[str],
+    config: Path | None,
+    bag: BagTopics,
+) -> None:
     """Refuse, in one line naming the option, what a recording of trajectory files alone cannot use."""
     if pipeline is not None:
         raise InputError(f"--pipeline: {FILES_ONLY} has no images to run a pipeline on; give SEQUENCE to run one")
     if not estimates:
         raise InputError(f"--groundtruth {groundtruth}: {FILES_ONLY} needs at least one --estimate NAME=FILE")
-    frame_options = {"--max-frames": frames.max_frames is not None, "--stride": frames.stride != 1,
-                     "--param": bool(params), "--config": config is not None}
+    frame_options = {
+        "--max-frames": frames.max_frames is not None,
+        "--stride": frames.stride != 1,
+        "--param": bool(params),
+        "--config": config is not None,
+    }
     for flag, given in frame_options.items():
         if given:
             raise InputError(f"{flag}: applies to a sequence's frames and pipelines; {FILES_ONLY} has neither")

@@ -18,8 +18,9 @@ class DiffResult:
     written: tuple[Path, ...]
 
 
-def diff(a: Path, b: Path, *, runs: tuple[str, str] | None = None, json: Path | None = None,
-         out: Path | None = None) -> DiffResult:
+def diff(
+    a: Path, b: Path, *, runs: tuple[str, str] | None = None, json: Path | None = None, out: Path | None = None
+) -> DiffResult:
     """Compare the runs of report ``a`` with those of report ``b`` (``NAME.json`` of a record, the
     trajectories beside it; one sequence): errors, frames only one tracked, losses, parameters,
     scores. ``runs`` pairs run A_RUN of ``a`` with B_RUN of ``b`` (default: the runs of the same

@@ -24,10 +24,16 @@ from .outputs import check_outputs, earlier_trajectories, report_paths
 FILES_ONLY = "a recording of trajectory files alone (--groundtruth without SEQUENCE)"
 
 
-def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]], out: Path, *,
-                            format: TrajectoryFormat | None = None, name: str | None = None,
-                            viewer: LiveViewer | None = None,
-                            quiet: bool = True) -> RecordResult:
+def record_trajectory_files(
+    groundtruth: Path,
+    estimates: list[tuple[str, Path]],
+    out: Path,
+    *,
+    format: TrajectoryFormat | None = None,
+    name: str | None = None,
+    viewer: LiveViewer | None = None,
+    quiet: bool = True,
+) -> RecordResult:
     """Record the ``(name, file)`` estimates against the groundtruth file into ``out`` (.rrd), the
     report and trajectories beside it (module docstring).
 
@@ -37,13 +43,16 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
     and are written under temporary names renamed into place together at the end.
     """
     names = [run for run, _ in estimates]
-    inputs = {Path(groundtruth): f"--groundtruth {groundtruth}",
-              **{Path(file): f"--estimate {run}={file}" for run, file in estimates}}
+    inputs = {
+        Path(groundtruth): f"--groundtruth {groundtruth}",
+        **{Path(file): f"--estimate {run}={file}" for run, file in estimates},
+    }
     check_outputs(out, names, inputs)
     with exclusive([out]):
         if Path(groundtruth).is_dir():
-            raise InputError.at(groundtruth, "is a folder; --groundtruth takes a trajectory file (a sequence folder "
-                                             "is SEQUENCE)")
+            raise InputError.at(
+                groundtruth, "is a folder; --groundtruth takes a trajectory file (a sequence folder is SEQUENCE)"
+            )
         scored = score_files(read_groundtruth(groundtruth), estimates, format, name=name)
         if not quiet:
             how = "given" if format else "detected"
@@ -54,8 +63,9 @@ def record_trajectory_files(groundtruth: Path, estimates: list[tuple[str, Path]]
         earlier = earlier_trajectories(out)
         error_top = max(float(run.ate.errors.max()) for run in scored.runs)
         with StagedFiles() as staged:
-            recording = RecordingFile(staged.path(out), out,
-                                      files_blueprint(names, scored.groundtruth.poses, error_top), viewer)
+            recording = RecordingFile(
+                staged.path(out), out, files_blueprint(names, scored.groundtruth.poses, error_top), viewer
+            )
             try:
                 log_files(recording.stream, scored, error_top)
             finally:

@@ -29,8 +29,13 @@ class BagTopics:
                 yield "--" + topic.name.replace("_", "-")
 
 
-def open_input(sequence: str | None, bag: BagTopics = BagTopics(), groundtruth: Path | None = None,
-               first: int | None = None, progress: bool = False) -> RgbdSequence:
+def open_input(
+    sequence: str | None,
+    bag: BagTopics = BagTopics(),
+    groundtruth: Path | None = None,
+    first: int | None = None,
+    progress: bool = False,
+) -> RgbdSequence:
     """The sequence to record; the ``bag`` topics and ``groundtruth`` file (set ones only) for a ROS
     bag, an error naming the flag for anything else.
 
@@ -40,12 +45,18 @@ def open_input(sequence: str | None, bag: BagTopics = BagTopics(), groundtruth: 
     if sequence is None:
         from ..dataset.synth import cached_scenario  # the scene renderer loads only for the demo
 
-        source: str | Path = cached_scenario(DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION,
-                                             first=first, progress=progress)
+        source: str | Path = cached_scenario(
+            DEMO_SCENARIO, frames=DEMO_FRAMES, resolution=DEMO_RESOLUTION, first=first, progress=progress
+        )
     else:
         source = sequence
-    options = {"rgb_topic": bag.rgb_topic, "depth_topic": bag.depth_topic, "camera_info_topic": bag.camera_info_topic,
-               "groundtruth": groundtruth, "groundtruth_topic": bag.groundtruth_topic}  # the command line's order
+    options = {
+        "rgb_topic": bag.rgb_topic,
+        "depth_topic": bag.depth_topic,
+        "camera_info_topic": bag.camera_info_topic,
+        "groundtruth": groundtruth,
+        "groundtruth_topic": bag.groundtruth_topic,
+    }  # the command line's order
     try:
         return open_source(source, bag=options, first=first, progress=progress)
     except NotABag as error:

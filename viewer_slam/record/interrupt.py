@@ -15,11 +15,13 @@ class StopRequest:
     @staticmethod
     def _announce(name: str, count: int) -> None:
         if count == 1:
-            print(f"\nviewslam: {name}: stopping after this frame and writing what was recorded (a third "
-                  f"stop signal aborts)", file=sys.stderr)
+            print(
+                f"\nviewslam: {name}: stopping after this frame and writing what was recorded (a third "
+                f"stop signal aborts)",
+                file=sys.stderr,
+            )
         else:
-            print(f"viewslam: {name}: already stopping after this frame (one more stop signal aborts)",
-                  file=sys.stderr)
+            print(f"viewslam: {name}: already stopping after this frame (one more stop signal aborts)", file=sys.stderr)
 
     @contextmanager
     def installed(self) -> Iterator[SafePoints]:

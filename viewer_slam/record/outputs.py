@@ -30,8 +30,7 @@ def check_outputs(out: Path, pipelines: list[str], inputs: dict[Path, str] | Non
     if out.is_dir():
         raise InputError.at(out, "is a folder; --out takes a file name ending in .rrd")
     report, trajectories = report_paths(out, pipelines)
-    refuse_inputs_as_outputs({path: "--out" for path in (out, report, *trajectories.values())},
-                             inputs or {})
+    refuse_inputs_as_outputs({path: "--out" for path in (out, report, *trajectories.values())}, inputs or {})
     for path in (out, report, *trajectories.values()):
         check_writable(path)
 

@@ -75,9 +75,18 @@ class GuardedSequence(TimedFrames):
             self.error = error
 
 
-def record_runs(sequence: str | None, specs: dict[str, RunSpec], out: Path, *, frames: FrameSelection = FrameSelection(),
-                quiet: bool = True, bag: BagTopics = BagTopics(), groundtruth: Path | None = None,
-                config: Path | None = None, viewer: LiveViewer | None = None) -> RecordResult:
+def record_runs(
+    sequence: str | None,
+    specs: dict[str, RunSpec],
+    out: Path,
+    *,
+    frames: FrameSelection = FrameSelection(),
+    quiet: bool = True,
+    bag: BagTopics = BagTopics(),
+    groundtruth: Path | None = None,
+    config: Path | None = None,
+    viewer: LiveViewer | None = None,
+) -> RecordResult:
     """Record the runs ``specs`` over ``sequence`` (None: the demo; ``bag`` and ``groundtruth`` for a
     ROS bag) into ``out``, also shown live by ``viewer``.
 
@@ -87,10 +96,13 @@ def record_runs(sequence: str | None, specs: dict[str, RunSpec], out: Path, *, f
     """
     check_outputs(out, list(specs), _inputs(sequence, specs, config))
     with exclusive([out]):
-        opened = open_input(sequence, bag, groundtruth, first=frames_read(frames.max_frames, frames.stride),
-                            progress=not quiet)
-        runs = {name: build_run(spec, opened, max_frames=frames.max_frames, stride=frames.stride)
-                for name, spec in specs.items()}
+        opened = open_input(
+            sequence, bag, groundtruth, first=frames_read(frames.max_frames, frames.stride), progress=not quiet
+        )
+        runs = {
+            name: build_run(spec, opened, max_frames=frames.max_frames, stride=frames.stride)
+            for name, spec in specs.items()
+        }
         if not quiet:
             _say_estimate_formats(specs, runs)
         return record_sequence(opened, runs, out, frames=frames, quiet=quiet, viewer=viewer)
@@ -98,8 +110,11 @@ def record_runs(sequence: str | None, specs: dict[str, RunSpec], out: Path, *, f
 
 def _inputs(sequence: str | None, specs: dict[str, RunSpec], config: Path | None) -> dict[Path, str]:
     """The files the record reads, which no output may replace (path -> how it was given)."""
-    inputs = {Path(spec.file): f"--estimate {name}={spec.file}" for name, spec in specs.items()
-              if isinstance(spec, EstimateSpec)}
+    inputs = {
+        Path(spec.file): f"--estimate {name}={spec.file}"
+        for name, spec in specs.items()
+        if isinstance(spec, EstimateSpec)
+    }
     if config is not None:
         inputs[Path(config)] = f"--config {config}"
     if sequence is not None and Path(sequence).exists():
@@ -126,9 +141,15 @@ class Recorded:
     failure: Exception | None = None
 
 
-def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, *,
-                    frames: FrameSelection = FrameSelection(), quiet: bool = True,
-                    viewer: LiveViewer | None = None) -> RecordResult:
+def record_sequence(
+    sequence: Sequence,
+    runs: dict[str, Pipeline],
+    out: Path,
+    *,
+    frames: FrameSelection = FrameSelection(),
+    quiet: bool = True,
+    viewer: LiveViewer | None = None,
+) -> RecordResult:
     """Record the ``runs`` (name -> pipeline or estimate replay), in order, over the ``frames`` of
     ``sequence`` into ``out`` (trusted: checked by the caller); ``viewer`` is also shown the
     recording live.
@@ -147,8 +168,10 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, *,
             recording.close()
         if recording.error is not None:
             staged.discard(out)  # an incomplete file that readers refuse; the previous one stays
-        errors = [str(recorded.failure) if recorded.failure is not None else None,
-                  f"{out}: {recording.error}" if recording.error is not None else None]
+        errors = [
+            str(recorded.failure) if recorded.failure is not None else None,
+            f"{out}: {recording.error}" if recording.error is not None else None,
+        ]
         report = _stage_results(staged, sequence, recorded, list(runs), trajectory_paths, report_path, errors)
         staged.commit()
     kept = {trajectory_paths[name] for name in recorded.scored}
@@ -156,19 +179,24 @@ def record_sequence(sequence: Sequence, runs: dict[str, Pipeline], out: Path, *,
         path.unlink(missing_ok=True)  # the earlier run's, which the report now in place does not list
     written = [path for path in (out, report_path, *trajectory_paths.values()) if path.exists()]
     _raise_failure(out, report_path, recording.error, recorded.failure)
-    return RecordResult(out, report_path, {name: trajectory_paths[name] for name in recorded.scored}, report,
-                        written, recorded.scored)
+    return RecordResult(
+        out, report_path, {name: trajectory_paths[name] for name in recorded.scored}, report, written, recorded.scored
+    )
 
 
 def _blueprint(sequence: Sequence, runs: dict[str, Pipeline]) -> Any:
     """The layout the recording opens with: every run's views, the groundtruth's path framing the 3D view."""
     groundtruth = sequence.groundtruth
-    return default_blueprint(list(runs), None if groundtruth is None else groundtruth.poses,
-                             [name for name, run in runs.items() if _counts_features(run)])
+    return default_blueprint(
+        list(runs),
+        None if groundtruth is None else groundtruth.poses,
+        [name for name, run in runs.items() if _counts_features(run)],
+    )
 
 
-def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], frames: FrameSelection, quiet: bool,
-                 stop: SafePoints) -> Recorded:
+def _record_runs(
+    stream: Any, sequence: Sequence, runs: dict[str, Pipeline], frames: FrameSelection, quiet: bool, stop: SafePoints
+) -> Recorded:
     """Drive every run in turn into ``stream``, one recorder each, until all ran, a stop is requested
     or one fails; what came before a failure is kept."""
     recorded = Recorded()
@@ -180,12 +208,27 @@ def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], fra
         for position, name in enumerate(runs):
             if stop.requested:
                 break
-            recorder = PipelineRecorder(stream, name, sequence.camera, palette.run_colour(name, position),
-                                        scene_extent, tracker_counts=_counts_features(runs[name]))
+            recorder = PipelineRecorder(
+                stream,
+                name,
+                sequence.camera,
+                palette.run_colour(name, position),
+                scene_extent,
+                tracker_counts=_counts_features(runs[name]),
+            )
             guarded = GuardedSequence(sequence)
             try:
-                scored = _record_run(guarded, runs[name], name, recorder, background, progress.sink(name),
-                                     images=stream if position == 0 else None, frames=frames, stop=stop)
+                scored = _record_run(
+                    guarded,
+                    runs[name],
+                    name,
+                    recorder,
+                    background,
+                    progress.sink(name),
+                    images=stream if position == 0 else None,
+                    frames=frames,
+                    stop=stop,
+                )
             except (Exception, SystemExit) as error:  # an unexpected failure: keep what was recorded
                 recorded.failure = _run_failure(name, error)
                 if not recorded.scored and not guarded.read:  # nothing to keep
@@ -204,9 +247,18 @@ def _record_runs(stream: Any, sequence: Sequence, runs: dict[str, Pipeline], fra
     return recorded
 
 
-def _record_run(sequence: GuardedSequence, run: Pipeline, name: str, recorder: PipelineRecorder,
-                background: RecordingThread, progress: Sink, *, images: Any, frames: FrameSelection,
-                stop: SafePoints) -> ScoredRun:
+def _record_run(
+    sequence: GuardedSequence,
+    run: Pipeline,
+    name: str,
+    recorder: PipelineRecorder,
+    background: RecordingThread,
+    progress: Sink,
+    *,
+    images: Any,
+    frames: FrameSelection,
+    stop: SafePoints,
+) -> ScoredRun:
     """Drive one run over the frames with ``recorder`` as a sink on the recording thread, and score
     it once all its events are recorded; ``images`` is the stream that gets each frame's image (the
     first run's only: one copy serves every run's view)."""
@@ -216,8 +268,16 @@ def _record_run(sequence: GuardedSequence, run: Pipeline, name: str, recorder: P
         if images is not None:
             background.submit(log_frame_image, images, frame)
 
-    scored = score_run(sequence, run, name, max_frames=frames.max_frames, stride=frames.stride,
-                       sinks=[background.sink(recorder), progress], frame_sinks=[on_frame], should_stop=stop)
+    scored = score_run(
+        sequence,
+        run,
+        name,
+        max_frames=frames.max_frames,
+        stride=frames.stride,
+        sinks=[background.sink(recorder), progress],
+        frame_sinks=[on_frame],
+        should_stop=stop,
+    )
     background.drain()  # the run's events are recorded before its evaluation
     return scored
 
@@ -237,15 +297,23 @@ def _log_scores(stream: Any, name: str, scored: ScoredRun) -> None:
         log_evaluation(stream, name, scored.evaluation, scored.frame_indices, scored.frame_timestamps)
 
 
-def _stage_results(staged: StagedFiles, sequence: Sequence, recorded: Recorded, names: list[str],
-                   trajectory_paths: dict[str, Path], report_path: Path, errors: list[str | None]) -> dict[str, Any]:
+def _stage_results(
+    staged: StagedFiles,
+    sequence: Sequence,
+    recorded: Recorded,
+    names: list[str],
+    trajectory_paths: dict[str, Path],
+    report_path: Path,
+    errors: list[str | None],
+) -> dict[str, Any]:
     """Stage every finished run's trajectory and the report (which says whether the record was cut
     short or failed, and why); the report."""
     for name, scored in recorded.scored.items():  # written once a failed recording made room
         staged.write(trajectory_paths[name], partial(write_tum, trajectory=scored.run.trajectory))
     blocks = {name: scored.report for name, scored in recorded.scored.items()}
-    report = build_report(sequence, blocks, recorded.interrupted or recorded.failure is not None
-                          or len(blocks) < len(names))
+    report = build_report(
+        sequence, blocks, recorded.interrupted or recorded.failure is not None or len(blocks) < len(names)
+    )
     report["failed"] = any(errors)
     if report["failed"]:
         report["error"] = "; ".join(error for error in errors if error)
@@ -256,11 +324,13 @@ def _stage_results(staged: StagedFiles, sequence: Sequence, recorded: Recorded, 
 def _raise_failure(out: Path, report_path: Path, recording_error: str | None, failure: Exception | None) -> None:
     """Raise what ended the record early, saying what was kept of it."""
     if recording_error is not None:
-        raise InputError(f"{out}: recording not written: {recording_error}; the report and trajectories "
-                         f"are in {report_path.parent}")
+        raise InputError(
+            f"{out}: recording not written: {recording_error}; the report and trajectories are in {report_path.parent}"
+        )
     if isinstance(failure, InputError):
-        raise InputError(f"{failure}; the frames before it are recorded in {out}, with the report and "
-                         f"trajectories beside it")
+        raise InputError(
+            f"{failure}; the frames before it are recorded in {out}, with the report and trajectories beside it"
+        )
     if failure is not None:
         raise failure
 

@@ -87,17 +87,27 @@ def overview_eye(groundtruth: np.ndarray, path_only: bool = False) -> rrb.EyeCon
     framed = float(np.max(across / np.tan(half_angle) - along))
     distance = max(scene if path_only else EYE_DISTANCE_SHARE * scene + EYE_DISTANCE_M, framed)
     position = target - distance * axis
-    return rrb.EyeControls3D(kind="Orbital", position=position, look_target=target, eye_up=[0.0, 0.0, 1.0],
-                             speed=max(scene, 0.5))
+    return rrb.EyeControls3D(
+        kind="Orbital", position=position, look_target=target, eye_up=[0.0, 0.0, 1.0], speed=max(scene, 0.5)
+    )
 
 
 def recent_window() -> rrb.VisibleTimeRanges:
     """The last RECENT_LOOP_S seconds up to the playhead, on whichever timeline is shown."""
-    return rrb.VisibleTimeRanges([
-        rrb.VisibleTimeRange("frame", start=rrb.TimeRangeBoundary.cursor_relative(seq=-RECENT_LOOP_FRAMES),
-                             end=rrb.TimeRangeBoundary.cursor_relative()),
-        rrb.VisibleTimeRange("time", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-RECENT_LOOP_S),
-                             end=rrb.TimeRangeBoundary.cursor_relative())])
+    return rrb.VisibleTimeRanges(
+        [
+            rrb.VisibleTimeRange(
+                "frame",
+                start=rrb.TimeRangeBoundary.cursor_relative(seq=-RECENT_LOOP_FRAMES),
+                end=rrb.TimeRangeBoundary.cursor_relative(),
+            ),
+            rrb.VisibleTimeRange(
+                "time",
+                start=rrb.TimeRangeBoundary.cursor_relative(seconds=-RECENT_LOOP_S),
+                end=rrb.TimeRangeBoundary.cursor_relative(),
+            ),
+        ]
+    )
 
 
 def colour_legend(pipelines: list[str]) -> str:
@@ -118,41 +128,59 @@ def lost_band_widths(count: int) -> list[float]:
 
 def lost_band_overrides(paths: list[str]) -> dict[EntityPathLike, VisualizerLike]:
     """The width of each lost band at ``paths`` (one per run, in the runs' order) in a plot."""
-    return {path: rr.SeriesLines.from_fields(widths=[width]) for path, width in zip(paths, lost_band_widths(len(paths)))}
+    return {
+        path: rr.SeriesLines.from_fields(widths=[width]) for path, width in zip(paths, lost_band_widths(len(paths)))
+    }
 
 
 def whole_timeline() -> rrb.TimeAxis:
     """A time axis that spans all the data: the viewer's default, while it follows the playhead,
     is a window of a couple of thousand steps, a small part of a 100 Hz groundtruth's frames."""
-    return rrb.TimeAxis(view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(),
-                                                 end=rrb.TimeRangeBoundary.infinite()))
+    return rrb.TimeAxis(
+        view_range=rrb.TimeRange(start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.infinite())
+    )
 
 
 # The error plots' titles (each followed by the runs' colours): short enough for the right column.
-ERROR_PLOTS = {"ate": "ATE [m]", "ate_segments": "seg. ATE [m]", "rpe_trans": "RPE [m]", "rpe_rot": "RPE [deg]",
-               "coverage": "coverage"}
+ERROR_PLOTS = {
+    "ate": "ATE [m]",
+    "ate_segments": "seg. ATE [m]",
+    "rpe_trans": "RPE [m]",
+    "rpe_rot": "RPE [deg]",
+    "coverage": "coverage",
+}
 
 
 def error_plot(title: str, pipelines: list[str], series: str, axis_x: rrb.TimeAxis | None = None) -> rrb.TimeSeriesView:
     """One series of every run and the runs' lost bands, its colours named in the title."""
     bands = lost_band_overrides(_series(pipelines, LOST_BAND))
-    return rrb.TimeSeriesView(name=f"{title} · {colour_legend(pipelines)} · bar: no pose",
-                              contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
-                              plot_legend=hidden_legend(), overrides=bands, axis_x=axis_x)
+    return rrb.TimeSeriesView(
+        name=f"{title} · {colour_legend(pipelines)} · bar: no pose",
+        contents=_series(pipelines, series) + _series(pipelines, LOST_BAND),
+        plot_legend=hidden_legend(),
+        overrides=bands,
+        axis_x=axis_x,
+    )
 
 
 def log_columns() -> rrb.archetypes.TextLogColumns:
     """Frame, level and text: each line starts with its run, so the entity path column is left out."""
     return rrb.archetypes.TextLogColumns(
         timeline_columns=[rrb.encodings.TimelineColumn("frame"), rrb.encodings.TimelineColumn("time", visible=False)],
-        text_log_columns=[rrb.encodings.TextLogColumn("LogLevel"), rrb.encodings.TextLogColumn("Body"),
-                          rrb.encodings.TextLogColumn("EntityPath", visible=False)])
+        text_log_columns=[
+            rrb.encodings.TextLogColumn("LogLevel"),
+            rrb.encodings.TextLogColumn("Body"),
+            rrb.encodings.TextLogColumn("EntityPath", visible=False),
+        ],
+    )
 
 
 def scene_title(pipelines: list[str]) -> str:
     """The 3D view's colours: groundtruth, each run (dim while lost), loop closures (bright while recent)."""
-    return (f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(pipelines)}, dim when lost · "
-            f"loops {palette.ACCEPTED.name}, bright {RECENT_LOOP_S:g} s")
+    return (
+        f"groundtruth {palette.GROUNDTRUTH.name} · {colour_legend(pipelines)}, dim when lost · "
+        f"loops {palette.ACCEPTED.name}, bright {RECENT_LOOP_S:g} s"
+    )
 
 
 def matches_title(name: str, side_by_side: int) -> str:
@@ -162,8 +190,9 @@ def matches_title(name: str, side_by_side: int) -> str:
     return full if len(full) <= title_chars(column_px(RIGHT_SHARE, side_by_side)) else f"{name} matches"
 
 
-def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = None,
-                      counted: list[str] | None = None) -> rrb.Blueprint:
+def default_blueprint(
+    pipelines: list[str], groundtruth: np.ndarray | None = None, counted: list[str] | None = None
+) -> rrb.Blueprint:
     """3D view of groundtruth and every pipeline; per pipeline its image with matches; the
     ATE of all pipelines in one plot, the other metrics in tabs, tracking state and log.
 
@@ -175,35 +204,62 @@ def default_blueprint(pipelines: list[str], groundtruth: np.ndarray | None = Non
     # Keyframe depth clouds, the many rejected loop closures and the local edges (short chords
     # among recent keyframes) would bury the map and the trajectories; one click shows them.
     overrides: dict[EntityPathLike, VisualizerLike] = {
-        f"/{path}": rrb.EntityBehavior(visible=False) for name in pipelines
-              for path in (f"{layout.latest_keyframe(name)}/depth", layout.rejected_loop_closures(name),
-                           layout.edges(name, EdgeKind.LOCAL.value))}
+        f"/{path}": rrb.EntityBehavior(visible=False)
+        for name in pipelines
+        for path in (
+            f"{layout.latest_keyframe(name)}/depth",
+            layout.rejected_loop_closures(name),
+            layout.edges(name, EdgeKind.LOCAL.value),
+        )
+    }
     overrides.update({f"/{layout.recent_loop_closures(name)}": recent_window() for name in pipelines})
-    scene = rrb.Spatial3DView(origin="world", name=scene_title(pipelines), eye_controls=eye,
-                              overrides=overrides)
-    matches = rrb.Horizontal(*[
-        rrb.Spatial2DView(origin=layout.matches(name), contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
-                          name=matches_title(name, len(pipelines)))
-        for name in pipelines])
+    scene = rrb.Spatial3DView(origin="world", name=scene_title(pipelines), eye_controls=eye, overrides=overrides)
+    matches = rrb.Horizontal(
+        *[
+            rrb.Spatial2DView(
+                origin=layout.matches(name),
+                contents=[f"/{layout.CAMERA_IMAGE}", "$origin/**"],
+                name=matches_title(name, len(pipelines)),
+            )
+            for name in pipelines
+        ]
+    )
     ate = error_plot(ERROR_PLOTS["ate"], pipelines, "ate")
     details = rrb.Tabs(
-        *[error_plot(ERROR_PLOTS[series], pipelines, series) for series in ("ate_segments", "rpe_trans", "rpe_rot",
-                                                                            "coverage")],
-        rrb.TimeSeriesView(name=f"features thin, inliers thick · {colour_legend(counted)}",
-                           contents=_series(counted, "features") + _series(counted, "inliers"),
-                           plot_legend=hidden_legend()),
-        rrb.TimeSeriesView(name=f"pose-graph error · {colour_legend(pipelines)}",
-                           contents=_series(pipelines, "graph_error"), plot_legend=hidden_legend()),
-        *[rrb.TimeSeriesView(name=f"{name}: time per stage [ms]", origin=layout.metric(name, "time"),
-                             plot_legend=rrb.Corner2D.LeftTop)
-          for name in pipelines],
+        *[
+            error_plot(ERROR_PLOTS[series], pipelines, series)
+            for series in ("ate_segments", "rpe_trans", "rpe_rot", "coverage")
+        ],
+        rrb.TimeSeriesView(
+            name=f"features thin, inliers thick · {colour_legend(counted)}",
+            contents=_series(counted, "features") + _series(counted, "inliers"),
+            plot_legend=hidden_legend(),
+        ),
+        rrb.TimeSeriesView(
+            name=f"pose-graph error · {colour_legend(pipelines)}",
+            contents=_series(pipelines, "graph_error"),
+            plot_legend=hidden_legend(),
+        ),
+        *[
+            rrb.TimeSeriesView(
+                name=f"{name}: time per stage [ms]",
+                origin=layout.metric(name, "time"),
+                plot_legend=rrb.Corner2D.LeftTop,
+            )
+            for name in pipelines
+        ],
     )
-    state = rrb.StateTimelineView(name="tracking state and the cause of each loss",
-                                  contents=[path for name in pipelines
-                                            for path in _series([name], "tracking_state") + _series([name], "cause")])
+    state = rrb.StateTimelineView(
+        name="tracking state and the cause of each loss",
+        contents=[path for name in pipelines for path in _series([name], "tracking_state") + _series([name], "cause")],
+    )
     # Rejected loop-closure candidates are DEBUG lines: there are many; the view's menu shows them.
-    log = rrb.TextLogView(origin="log", name="tracking and loop-closure log", columns=log_columns(),
-                          rows=rrb.TextLogRows(filter_by_log_level=["INFO", "WARN", "ERROR", "CRITICAL"]))
+    log = rrb.TextLogView(
+        origin="log",
+        name="tracking and loop-closure log",
+        columns=log_columns(),
+        rows=rrb.TextLogRows(filter_by_log_level=["INFO", "WARN", "ERROR", "CRITICAL"]),
+    )
     state_share = 1.0 + 0.9 * len(pipelines)  # every run's two rows stay in view
     side = rrb.Vertical(matches, ate, details, state, row_shares=[2.4, 2, 2, state_share])
     return rrb.Blueprint(
@@ -225,17 +281,28 @@ def files_blueprint(runs: list[str], groundtruth: np.ndarray, error_top: float) 
     runs over the summary and the log of losses; the ATE of all runs, the other error series in
     tabs and the tracking state. ``groundtruth`` (poses or positions) places the 3D view's eye;
     ``error_top`` is the error the pose colours saturate at, named in the 3D view's title."""
-    scene = rrb.Spatial3DView(origin="world", name=files_scene_title(runs, error_top),
-                              eye_controls=overview_eye(groundtruth, path_only=True))
-    text = rrb.Tabs(rrb.TextDocumentView(origin=layout.SUMMARY, name="summary"),
-                    rrb.TextLogView(origin="log", name="losses and recoveries", columns=log_columns()))
+    scene = rrb.Spatial3DView(
+        origin="world", name=files_scene_title(runs, error_top), eye_controls=overview_eye(groundtruth, path_only=True)
+    )
+    text = rrb.Tabs(
+        rrb.TextDocumentView(origin=layout.SUMMARY, name="summary"),
+        rrb.TextLogView(origin="log", name="losses and recoveries", columns=log_columns()),
+    )
     axis = whole_timeline()
-    details = rrb.Tabs(*[error_plot(ERROR_PLOTS[series], runs, series, axis)
-                         for series in ("ate_segments", "rpe_trans", "rpe_rot", "coverage")])
-    state = rrb.StateTimelineView(name="tracking state (lost: no pose for longer than the gap rule)",
-                                  contents=_series(runs, "tracking_state"), time_view=axis)
-    side = rrb.Vertical(error_plot(ERROR_PLOTS["ate"], runs, "ate", axis), details, state,
-                        row_shares=[2, 2, 0.5 + 0.35 * len(runs)])
+    details = rrb.Tabs(
+        *[
+            error_plot(ERROR_PLOTS[series], runs, series, axis)
+            for series in ("ate_segments", "rpe_trans", "rpe_rot", "coverage")
+        ]
+    )
+    state = rrb.StateTimelineView(
+        name="tracking state (lost: no pose for longer than the gap rule)",
+        contents=_series(runs, "tracking_state"),
+        time_view=axis,
+    )
+    side = rrb.Vertical(
+        error_plot(ERROR_PLOTS["ate"], runs, "ate", axis), details, state, row_shares=[2, 2, 0.5 + 0.35 * len(runs)]
+    )
     return rrb.Blueprint(
         rrb.Horizontal(rrb.Vertical(scene, text, row_shares=[2.6, 1]), side, column_shares=[LEFT_SHARE, RIGHT_SHARE]),
         rrb.BlueprintPanel(state="collapsed"),

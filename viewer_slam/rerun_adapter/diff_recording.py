@@ -19,13 +19,7 @@ from ..comparison.compare import Comparison, RunComparison
 from ..comparison.reports import RecordedRun
 from ..errors import InputError
 from . import layout
-from .blueprint import (
-    LOST_BAND,
-    hidden_legend,
-    log_columns,
-    lost_band_overrides,
-    overview_eye,
-)
+from .blueprint import LOST_BAND, hidden_legend, log_columns, lost_band_overrides, overview_eye
 from .fit import LEFT_SHARE, RIGHT_SHARE
 from .recorder import log_world, lost_colour, transform
 from .rrd_file import RecordingFile
@@ -49,26 +43,36 @@ def diff_blueprint(comparison: Comparison) -> rrb.Blueprint:
     groundtruth = comparison.sequence.groundtruth
     # No map here: the eye looks at the path itself rather than ahead of it.
     eye = overview_eye(groundtruth.positions) if groundtruth is not None and len(groundtruth) else None
-    labels = [side_label(side, run.a.name if side == "A" else run.b.name)
-              for run in comparison.runs for side in SIDE_COLORS]  # A's, then B's, of each compared run
+    labels = [
+        side_label(side, run.a.name if side == "A" else run.b.name) for run in comparison.runs for side in SIDE_COLORS
+    ]  # A's, then B's, of each compared run
     bands = [f"/{layout.metric(label, LOST_BAND)}" for label in labels]
     overrides = lost_band_overrides(bands)
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Spatial3DView(origin="world", name="groundtruth grey, A orange, B blue", eye_controls=eye),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="ATE per frame [m] · A orange, B blue · bar: no pose",
-                                   contents=[f"/{layout.metric(label, 'ate')}" for label in labels] + bands,
-                                   plot_legend=hidden_legend(), overrides=overrides),
-                rrb.StateTimelineView(name="frames with a pose, A and B",
-                                      contents=[f"/{layout.metric(label, 'pose')}" for label in labels]),
-                rrb.TimeSeriesView(name="ATE difference B - A [m] · purple · bar: no pose",
-                                   contents=[f"/{layout.metric(difference_label(run), 'ate')}"
-                                             for run in comparison.runs] + bands,
-                                   plot_legend=hidden_legend(), overrides=overrides),
+                rrb.TimeSeriesView(
+                    name="ATE per frame [m] · A orange, B blue · bar: no pose",
+                    contents=[f"/{layout.metric(label, 'ate')}" for label in labels] + bands,
+                    plot_legend=hidden_legend(),
+                    overrides=overrides,
+                ),
+                rrb.StateTimelineView(
+                    name="frames with a pose, A and B",
+                    contents=[f"/{layout.metric(label, 'pose')}" for label in labels],
+                ),
+                rrb.TimeSeriesView(
+                    name="ATE difference B - A [m] · purple · bar: no pose",
+                    contents=[f"/{layout.metric(difference_label(run), 'ate')}" for run in comparison.runs] + bands,
+                    plot_legend=hidden_legend(),
+                    overrides=overrides,
+                ),
                 rrb.TextLogView(origin="log", name="losses and their causes", columns=log_columns()),
-                row_shares=[2, 1.4, 2, 1.2]),
-            column_shares=[LEFT_SHARE, RIGHT_SHARE]),
+                row_shares=[2, 1.4, 2, 1.2],
+            ),
+            column_shares=[LEFT_SHARE, RIGHT_SHARE],
+        ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
         rrb.TimePanel(state="collapsed", timeline="frame", play_state="following"),
@@ -93,25 +97,45 @@ def write_diff_recording(comparison: Comparison, out: Path) -> None:
 
 def _log_run(stream: rr.RecordingStream, run: RunComparison) -> None:
     frames, stamps = run.frame_indices, run.timestamps
-    for side, recorded, errors, alignment, tracked in (("A", run.a, run.ate_a, run.alignment_a, run.tracked_a),
-                                                       ("B", run.b, run.ate_b, run.alignment_b, run.tracked_b)):
+    for side, recorded, errors, alignment, tracked in (
+        ("A", run.a, run.ate_a, run.alignment_a, run.tracked_a),
+        ("B", run.b, run.ate_b, run.alignment_b, run.tracked_b),
+    ):
         label, color = side_label(side, recorded.name), SIDE_COLORS[side]
         if alignment is not None:
             stream.log(layout.world(label), transform(alignment), static=True)
         if len(recorded.trajectory):
-            stream.log(layout.trajectory(label), rr.LineStrips3D(_tracked_segments(recorded), colors=[color],
-                                                                 radii=rr.Radius.ui_points(2.5)), static=True)
+            stream.log(
+                layout.trajectory(label),
+                rr.LineStrips3D(_tracked_segments(recorded), colors=[color], radii=rr.Radius.ui_points(2.5)),
+                static=True,
+            )
         _log_series(stream, layout.metric(label, "ate"), frames, stamps, errors, color, f"{side}: {recorded.name}")
         _log_pose_states(stream, layout.metric(label, "pose"), frames, stamps, tracked)
-        stream.log(layout.metric(label, LOST_BAND), rr.SeriesLines(colors=[lost_colour(palette.Colour(color, side))], names=[f"{side}: no pose"]),
-                   static=True)
+        stream.log(
+            layout.metric(label, LOST_BAND),
+            rr.SeriesLines(colors=[lost_colour(palette.Colour(color, side))], names=[f"{side}: no pose"]),
+            static=True,
+        )
         log_lost_band(stream, layout.metric(label, LOST_BAND), frames, stamps, ~np.asarray(tracked, dtype=bool))
         losses = recorded.block["tracking_lost"]
-        send_log_messages(stream, layout.text_log(label), np.array([loss["frame"] for loss in losses], dtype=np.int64),
-                          np.array([loss["timestamp"] for loss in losses], dtype=np.float64),
-                          [f"{side}: {loss.get('text') or loss['reason']}" for loss in losses], rr.TextLogLevel.WARN)
-    _log_series(stream, layout.metric(difference_label(run), "ate"), frames, stamps, run.ate_difference,
-                DIFFERENCE_COLOR, "B - A")
+        send_log_messages(
+            stream,
+            layout.text_log(label),
+            np.array([loss["frame"] for loss in losses], dtype=np.int64),
+            np.array([loss["timestamp"] for loss in losses], dtype=np.float64),
+            [f"{side}: {loss.get('text') or loss['reason']}" for loss in losses],
+            rr.TextLogLevel.WARN,
+        )
+    _log_series(
+        stream,
+        layout.metric(difference_label(run), "ate"),
+        frames,
+        stamps,
+        run.ate_difference,
+        DIFFERENCE_COLOR,
+        "B - A",
+    )
 
 
 def _tracked_segments(recorded: RecordedRun) -> list[np.ndarray]:
@@ -123,22 +147,33 @@ def _tracked_segments(recorded: RecordedRun) -> list[np.ndarray]:
     return np.split(trajectory.positions, breaks[(breaks > 0) & (breaks < len(trajectory))])
 
 
-def _log_pose_states(stream: rr.RecordingStream, path: str, frames: np.ndarray, stamps: np.ndarray,
-                     tracked: np.ndarray) -> None:
-    """"pose" / "no pose" from the first frame on, a row wherever that changes."""
-    stream.log(path, rr.StateConfiguration(values=list(POSE_STATES), labels=list(POSE_STATES),
-                                           colors=list(POSE_STATES.values())), static=True)
+def _log_pose_states(
+    stream: rr.RecordingStream, path: str, frames: np.ndarray, stamps: np.ndarray, tracked: np.ndarray
+) -> None:
+    """ "pose" / "no pose" from the first frame on, a row wherever that changes."""
+    stream.log(
+        path,
+        rr.StateConfiguration(values=list(POSE_STATES), labels=list(POSE_STATES), colors=list(POSE_STATES.values())),
+        static=True,
+    )
     changes = np.flatnonzero(np.diff(tracked.astype(np.int8), prepend=np.int8(-1)) != 0)
-    send_frame_columns(stream, path, frames[changes], stamps[changes],
-                       rr.StateChange.columns(state=["pose" if tracked[k] else "no pose" for k in changes]))
+    send_frame_columns(
+        stream,
+        path,
+        frames[changes],
+        stamps[changes],
+        rr.StateChange.columns(state=["pose" if tracked[k] else "no pose" for k in changes]),
+    )
 
 
-def _log_series(stream: rr.RecordingStream, path: str, frames: np.ndarray, stamps: np.ndarray, values: np.ndarray,
-                color, name: str) -> None:
+def _log_series(
+    stream: rr.RecordingStream, path: str, frames: np.ndarray, stamps: np.ndarray, values: np.ndarray, color, name: str
+) -> None:
     """The finite values as a line, broken where values are missing."""
     stream.log(path, rr.SeriesLines(colors=[color], names=[name], widths=[2.0]), static=True)
     present = np.isfinite(values)
     send_frame_columns(stream, path, frames[present], stamps[present], rr.Scalars.columns(scalars=values[present]))
     breaks = gap_starts(present)
-    send_frame_columns(stream, path, frames[breaks], stamps[breaks],
-                       rr.Clear.columns(is_recursive=[False] * len(breaks)))
+    send_frame_columns(
+        stream, path, frames[breaks], stamps[breaks], rr.Clear.columns(is_recursive=[False] * len(breaks))
+    )

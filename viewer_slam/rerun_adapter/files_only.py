@@ -44,8 +44,7 @@ def log_files(stream: rr.RecordingStream, scored: ScoredFiles, error_top: float)
     """Everything of the module docstring into ``stream``; pose colours saturate at ``error_top`` metres."""
     groundtruth = scored.groundtruth
     log_world(stream, groundtruth)
-    stream.log(layout.SUMMARY, rr.TextDocument(summary_markdown(scored), media_type=rr.MediaType.MARKDOWN),
-               static=True)
+    stream.log(layout.SUMMARY, rr.TextDocument(summary_markdown(scored), media_type=rr.MediaType.MARKDOWN), static=True)
     axis_length = scene_sizes(extent(groundtruth.positions)).frustum_depth
     for position, run in enumerate(scored.runs):
         colour = palette.run_colour(run.name, position)
@@ -71,15 +70,18 @@ def run_clock(groundtruth_stamps: np.ndarray, run: ScoredFile) -> tuple[np.ndarr
     inside each lost interval, one instant per pose interval of the run up to the interval's end."""
     stamps = run.trajectory.timestamps
     period = median_period(stamps) or MIN_LOST_GAP_S
-    lost = [np.append(np.arange(start + period, end - period / 2, period), end)
-            for start, end in run.evaluation.coverage.lost_intervals]
+    lost = [
+        np.append(np.arange(start + period, end - period / 2, period), end)
+        for start, end in run.evaluation.coverage.lost_intervals
+    ]
     lost_stamps = np.concatenate(lost) if lost else np.zeros(0)
     instants = np.sort(np.concatenate([stamps, lost_stamps[~np.isin(lost_stamps, stamps)]]), kind="stable")
     return nearest_frames(groundtruth_stamps, instants), instants
 
 
-def log_shape(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory,
-              error_top: float) -> None:
+def log_shape(
+    stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory, error_top: float
+) -> None:
     """The static geometry of a run in its own frame (``world/<run>`` carries the alignment): the
     trajectory broken where it was lost, the poses coloured by error and the correspondence lines."""
     positions = run.trajectory.positions
@@ -87,17 +89,32 @@ def log_shape(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colou
     breaks = np.flatnonzero(np.isin(run.trajectory.timestamps[:-1], starts)) + 1
     segments = [segment for segment in np.split(positions, breaks) if len(segment) > 1]
     if segments:
-        stream.log(layout.trajectory(run.name), rr.LineStrips3D(segments, colors=[colour.rgb],
-                                                                radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)),
-                   static=True)
-    stream.log(layout.poses(run.name), rr.Points3D(positions, colors=palette.error_colours(run.pose_errors(), error_top),
-                                                   radii=rr.Radius.ui_points(POSE_RADIUS)), static=True)
+        stream.log(
+            layout.trajectory(run.name),
+            rr.LineStrips3D(segments, colors=[colour.rgb], radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)),
+            static=True,
+        )
+    stream.log(
+        layout.poses(run.name),
+        rr.Points3D(
+            positions,
+            colors=palette.error_colours(run.pose_errors(), error_top),
+            radii=rr.Radius.ui_points(POSE_RADIUS),
+        ),
+        static=True,
+    )
     gt_index, est_index = run.evaluation.pairs
     to_estimate = np.linalg.inv(run.alignment)
     reference = groundtruth.positions[gt_index] @ to_estimate[:3, :3].T + to_estimate[:3, 3]
-    stream.log(layout.correspondences(run.name),
-               rr.LineStrips3D(np.stack([positions[est_index], reference], axis=1), colors=[palette.faded(colour, CORRESPONDENCE_FADE, towards=40)],
-                               radii=rr.Radius.ui_points(CORRESPONDENCE_WIDTH)), static=True)
+    stream.log(
+        layout.correspondences(run.name),
+        rr.LineStrips3D(
+            np.stack([positions[est_index], reference], axis=1),
+            colors=[palette.faded(colour, CORRESPONDENCE_FADE, towards=40)],
+            radii=rr.Radius.ui_points(CORRESPONDENCE_WIDTH),
+        ),
+        static=True,
+    )
 
 
 def log_graph(stream: rr.RecordingStream, run: ScoredFile, groundtruth: Trajectory) -> None:
@@ -115,29 +132,41 @@ def log_graph(stream: rr.RecordingStream, run: ScoredFile, groundtruth: Trajecto
                 continue
             closures[edge.accepted].append(np.stack([position[edge.from_id], position[edge.to_id]]))
             verdict = "loop closure" if edge.accepted else "rejected hypothesis"
-            lines.append(f"{run.name}: {verdict} {edge.from_id} -> {edge.to_id} by {edge.detection}"
-                         + (f" (hypothesis {edge.score:.2f}, {edge.inliers} inliers)" if edge.detection == "appearance"
-                            else ""))
+            lines.append(
+                f"{run.name}: {verdict} {edge.from_id} -> {edge.to_id} by {edge.detection}"
+                + (f" (hypothesis {edge.score:.2f}, {edge.inliers} inliers)" if edge.detection == "appearance" else "")
+            )
         if lines:
             set_frame_time(stream, int(frame), node.stamp)
             for line in lines:
                 stream.log(layout.text_log(run.name), rr.TextLog(line, level=rr.TextLogLevel.INFO))
-    for accepted, path, colour in ((True, layout.loop_closures(run.name), palette.ACCEPTED),
-                                   (False, layout.rejected_loop_closures(run.name), palette.REJECTED)):
+    for accepted, path, colour in (
+        (True, layout.loop_closures(run.name), palette.ACCEPTED),
+        (False, layout.rejected_loop_closures(run.name), palette.REJECTED),
+    ):
         if closures[accepted]:
-            stream.log(path, rr.LineStrips3D(closures[accepted], colors=[colour.rgb],
-                                             radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)), static=True)
+            stream.log(
+                path,
+                rr.LineStrips3D(closures[accepted], colors=[colour.rgb], radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)),
+                static=True,
+            )
 
 
-def log_motion(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory,
-               axis_length: float) -> None:
+def log_motion(
+    stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colour, groundtruth: Trajectory, axis_length: float
+) -> None:
     """What changes along the timelines: the camera axes at each pose, and at each loss and recovery
     the tracking state, a log line and the label at the last pose."""
     name, trajectory = run.name, run.trajectory
     frames = nearest_frames(groundtruth.timestamps, trajectory.timestamps)
     stream.log(layout.camera(name), rr.TransformAxes3D(axis_length), static=True)
-    send_frame_columns(stream, layout.camera(name), frames, trajectory.timestamps,
-                       rr.Transform3D.columns(translation=trajectory.positions, mat3x3=trajectory.poses[:, :3, :3]))
+    send_frame_columns(
+        stream,
+        layout.camera(name),
+        frames,
+        trajectory.timestamps,
+        rr.Transform3D.columns(translation=trajectory.positions, mat3x3=trajectory.poses[:, :3, :3]),
+    )
     set_frame_time(stream, frames[0], trajectory.timestamps[0])
     stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["ok"]))
     lost_intervals = run.evaluation.coverage.lost_intervals
@@ -146,13 +175,22 @@ def log_motion(stream: rr.RecordingStream, run: ScoredFile, colour: palette.Colo
         stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["lost"]))
         stream.log(layout.text_log(name), rr.TextLog(f"{loss['text']} ({loss['reason']})", level=rr.TextLogLevel.WARN))
         last = trajectory.positions[max(int(np.searchsorted(trajectory.timestamps, start, side="right")) - 1, 0)]
-        stream.log(layout.lost_label(name), rr.Points3D([last], colors=[colour.rgb],
-                                                        radii=rr.Radius.ui_points(POSE_RADIUS + 1.0),
-                                                        labels=[f"{name} lost"], show_labels=True))
+        stream.log(
+            layout.lost_label(name),
+            rr.Points3D(
+                [last],
+                colors=[colour.rgb],
+                radii=rr.Radius.ui_points(POSE_RADIUS + 1.0),
+                labels=[f"{name} lost"],
+                show_labels=True,
+            ),
+        )
         if start == run.evaluation.coverage.stopped_at:
             continue
         set_frame_time(stream, int(nearest_frames(groundtruth.timestamps, np.array([end]))[0]), end)
         stream.log(layout.metric(name, "tracking_state"), rr.StateChange(state=["ok"]))
-        stream.log(layout.text_log(name), rr.TextLog(f"{name}: poses again after {end - start:.1f} s",
-                                                     level=rr.TextLogLevel.INFO))
+        stream.log(
+            layout.text_log(name),
+            rr.TextLog(f"{name}: poses again after {end - start:.1f} s", level=rr.TextLogLevel.INFO),
+        )
         stream.log(layout.lost_label(name), rr.Clear(recursive=False))

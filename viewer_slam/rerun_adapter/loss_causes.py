@@ -21,8 +21,7 @@ TRACKING = "tracking"
 # a sink that stalled (a full disk, a viewer that stopped reading) never gets there, and
 # closing the recording finds out which and says so.
 FLUSH_WAIT_S = 10.0
-CAUSE_COLORS = {TRACKING: palette.STATUS["ok"].rgb,
-                **{cause.value: palette.CAUSES[cause.value].rgb for cause in Cause}}
+CAUSE_COLORS = {TRACKING: palette.STATUS["ok"].rgb, **{cause.value: palette.CAUSES[cause.value].rgb for cause in Cause}}
 
 
 def cause_path(name: str) -> str:
@@ -41,18 +40,31 @@ def log_loss_causes(stream: rr.RecordingStream, name: str, losses: list[dict], s
     # failed or stalled does not stop the causes: closing the recording reports the sink.
     with contextlib.suppress(RuntimeError):
         stream.flush(timeout_sec=FLUSH_WAIT_S)
-    stream.log(cause_path(name), rr.StateConfiguration(values=list(CAUSE_COLORS), labels=list(CAUSE_COLORS),
-                                                       colors=list(CAUSE_COLORS.values())), static=True)
+    stream.log(
+        cause_path(name),
+        rr.StateConfiguration(values=list(CAUSE_COLORS), labels=list(CAUSE_COLORS), colors=list(CAUSE_COLORS.values())),
+        static=True,
+    )
     frames = np.array([loss["frame"] for loss in diagnosed], dtype=np.int64)
     stamps = np.array([loss["timestamp"] for loss in diagnosed], dtype=np.float64)
-    send_log_messages(stream, layout.text_log(name), frames, stamps,
-                      [f"{loss['text']}; the pipeline: {loss['reason']}" for loss in diagnosed], rr.TextLogLevel.WARN)
+    send_log_messages(
+        stream,
+        layout.text_log(name),
+        frames,
+        stamps,
+        [f"{loss['text']}; the pipeline: {loss['reason']}" for loss in diagnosed],
+        rr.TextLogLevel.WARN,
+    )
     changes = [(frame, stamp, loss["cause"]) for frame, stamp, loss in zip(frames, stamps, diagnosed)]
     changes += _recoveries(frames, signals)
     changes.sort(key=lambda change: change[0])
-    send_frame_columns(stream, cause_path(name), np.array([c[0] for c in changes], dtype=np.int64),
-                       np.array([c[1] for c in changes], dtype=np.float64),
-                       rr.StateChange.columns(state=[c[2] for c in changes]))
+    send_frame_columns(
+        stream,
+        cause_path(name),
+        np.array([c[0] for c in changes], dtype=np.int64),
+        np.array([c[1] for c in changes], dtype=np.float64),
+        rr.StateChange.columns(state=[c[2] for c in changes]),
+    )
 
 
 def _recoveries(loss_frames: np.ndarray, signals: FrameSignals) -> list[tuple[int, float, str]]:

@@ -88,15 +88,23 @@ def log_world(stream: rr.RecordingStream, groundtruth: Trajectory | None) -> Non
     stream.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     if groundtruth is None or len(groundtruth.positions) < 2:
         return
-    stream.log(layout.GROUNDTRUTH, rr.LineStrips3D([groundtruth.positions], colors=[palette.GROUNDTRUTH.rgb],
-                                                   radii=rr.Radius.ui_points(2.0)), static=True)
+    stream.log(
+        layout.GROUNDTRUTH,
+        rr.LineStrips3D([groundtruth.positions], colors=[palette.GROUNDTRUTH.rgb], radii=rr.Radius.ui_points(2.0)),
+        static=True,
+    )
 
 
 def pinhole(camera: Camera, color, depth: float, width: float = FRUSTUM_WIDTH) -> rr.Pinhole:
     """A frustum ``depth`` metres deep (see :mod:`.sizes`)."""
-    return rr.Pinhole(image_from_camera=camera.K, resolution=[camera.width, camera.height],
-                      camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=depth, color=color,
-                      line_width=float(np.asarray(rr.Radius.ui_points(width))))
+    return rr.Pinhole(
+        image_from_camera=camera.K,
+        resolution=[camera.width, camera.height],
+        camera_xyz=rr.ViewCoordinates.RDF,
+        image_plane_distance=depth,
+        color=color,
+        line_width=float(np.asarray(rr.Radius.ui_points(width))),
+    )
 
 
 def lost_colour(colour: palette.Colour) -> tuple[int, int, int]:
@@ -119,6 +127,7 @@ def loop_closure_line(edges: list[GraphEdge], verdict: str) -> str:
     """One log message for all the loop-closure hypotheses of one frame that share a verdict:
     for each, its keyframes, how it was found and the pipeline's reason, with the score and
     the inlier count where the reason does not already say them."""
+
     def detail(edge: GraphEdge) -> str:
         parts = [edge.detection, edge.reason]
         if edge.score != edge.inliers:
@@ -135,13 +144,23 @@ def log_run_styles(stream: rr.RecordingStream, name: str, colour: palette.Colour
     """The static styles of a run's evaluation series (ATE, segment ATE, RPE, coverage), its lost
     band and its tracking-state timeline: the same for a pipeline and for a trajectory file."""
     for series in EVALUATION_SERIES:
-        stream.log(layout.metric(name, series), rr.SeriesLines(colors=[colour.rgb], names=[name], widths=[2.0]),
-                   static=True)
-    stream.log(layout.metric(name, LOST_BAND), rr.SeriesLines(colors=[lost_colour(colour)], names=[f"{name}: no pose"],
-                                                              widths=[LOST_BAND_WIDTH]), static=True)
-    stream.log(layout.metric(name, "tracking_state"),
-               rr.StateConfiguration(values=list(palette.STATUS), labels=list(palette.STATUS),
-                                     colors=[status.rgb for status in palette.STATUS.values()]), static=True)
+        stream.log(
+            layout.metric(name, series), rr.SeriesLines(colors=[colour.rgb], names=[name], widths=[2.0]), static=True
+        )
+    stream.log(
+        layout.metric(name, LOST_BAND),
+        rr.SeriesLines(colors=[lost_colour(colour)], names=[f"{name}: no pose"], widths=[LOST_BAND_WIDTH]),
+        static=True,
+    )
+    stream.log(
+        layout.metric(name, "tracking_state"),
+        rr.StateConfiguration(
+            values=list(palette.STATUS),
+            labels=list(palette.STATUS),
+            colors=[status.rgb for status in palette.STATUS.values()],
+        ),
+        static=True,
+    )
 
 
 class PipelineRecorder:
@@ -157,8 +176,15 @@ class PipelineRecorder:
     inliers) leaves those series out rather than plotting zeros.
     """
 
-    def __init__(self, stream: rr.RecordingStream, name: str, camera: Camera, colour: palette.Colour,
-                 scene_extent: float | None = None, tracker_counts: bool = True):
+    def __init__(
+        self,
+        stream: rr.RecordingStream,
+        name: str,
+        camera: Camera,
+        colour: palette.Colour,
+        scene_extent: float | None = None,
+        tracker_counts: bool = True,
+    ):
         self.stream = stream
         self.tracker_counts = tracker_counts
         self.name = name
@@ -186,9 +212,12 @@ class PipelineRecorder:
         self._thumbnail_budget = SnapshotBudget(THUMBNAIL_BYTES_PER_FRAME)
         # Each handler takes the event type it is keyed by.
         self._handlers: dict[type, Callable[[Any], None]] = {
-            FrameTracked: self._frame_tracked, KeyframeAdded: self._keyframe_added,
-            FeatureMatches: self._feature_matches, GraphEdge: self._graph_edge,
-            GraphOptimized: self._graph_optimized, MapUpdated: self._map_updated,
+            FrameTracked: self._frame_tracked,
+            KeyframeAdded: self._keyframe_added,
+            FeatureMatches: self._feature_matches,
+            GraphEdge: self._graph_edge,
+            GraphOptimized: self._graph_optimized,
+            MapUpdated: self._map_updated,
             TrackingRecovered: self._tracking_recovered,
             TrajectoryFinal: self._trajectory_final,
         }
@@ -229,14 +258,19 @@ class PipelineRecorder:
     def _log_styles(self) -> None:
         name, rgb = self.name, self.colour.rgb
         log_run_styles(self.stream, name, self.colour)
-        self._log(layout.metric(name, "graph_error"), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]),
-                  static=True)
+        self._log(
+            layout.metric(name, "graph_error"), rr.SeriesLines(colors=[rgb], names=[name], widths=[2.0]), static=True
+        )
         for series, width in TRACKER_COUNTS.items() if self.tracker_counts else ():
-            self._log(layout.metric(name, series),
-                      rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]), static=True)
+            self._log(
+                layout.metric(name, series),
+                rr.SeriesLines(colors=[rgb], names=[f"{name} {series}"], widths=[width]),
+                static=True,
+            )
         self._log(layout.matches(name), rr.LineStrips2D.from_fields(colors=[palette.INLIER.rgb]), static=True)
-        self._log(f"{layout.matches(name)}/outliers", rr.LineStrips2D.from_fields(colors=[palette.OUTLIER.rgb]),
-                  static=True)
+        self._log(
+            f"{layout.matches(name)}/outliers", rr.LineStrips2D.from_fields(colors=[palette.OUTLIER.rgb]), static=True
+        )
 
     # --- per frame ----------------------------------------------------------------------
 
@@ -263,7 +297,8 @@ class PipelineRecorder:
         """The state when it changes; the frustum then (red while lost) and when the scene has grown."""
         depth = self.sizes.frustum_depth
         resized = self._frustum_depth is not None and not (
-            1 / FRUSTUM_RESIZE_FACTOR < depth / self._frustum_depth < FRUSTUM_RESIZE_FACTOR)
+            1 / FRUSTUM_RESIZE_FACTOR < depth / self._frustum_depth < FRUSTUM_RESIZE_FACTOR
+        )
         changed = status.value != self.status
         if changed:
             self.status = status.value
@@ -271,25 +306,41 @@ class PipelineRecorder:
         if changed or resized:
             self._frustum_depth = depth
             lost = status is TrackingStatus.LOST
-            self._log(layout.camera(self.name),
-                      pinhole(self.camera, lost_colour(self.colour), depth, LOST_FRUSTUM_WIDTH) if lost
-                      else pinhole(self.camera, self.colour.rgb, depth))
+            self._log(
+                layout.camera(self.name),
+                pinhole(self.camera, lost_colour(self.colour), depth, LOST_FRUSTUM_WIDTH)
+                if lost
+                else pinhole(self.camera, self.colour.rgb, depth),
+            )
         if changed:  # while lost, a label at the last pose says whose frustum it is
             last_pose = self._last_pose
-            self._log(layout.lost_label(self.name),
-                      rr.Points3D([last_pose[:3, 3]], colors=[self.colour.rgb], radii=rr.Radius.ui_points(3.0),
-                                  labels=[f"{self.name} lost"], show_labels=True)
-                      if status is TrackingStatus.LOST and last_pose is not None else rr.Clear(recursive=False))
+            self._log(
+                layout.lost_label(self.name),
+                rr.Points3D(
+                    [last_pose[:3, 3]],
+                    colors=[self.colour.rgb],
+                    radii=rr.Radius.ui_points(3.0),
+                    labels=[f"{self.name} lost"],
+                    show_labels=True,
+                )
+                if status is TrackingStatus.LOST and last_pose is not None
+                else rr.Clear(recursive=False),
+            )
 
     def _feature_matches(self, event: FeatureMatches) -> None:
         """Lines from each keypoint to its match, inliers and outliers apart, thinned evenly."""
         self._matched_frame = event.frame_index
         inliers = np.asarray(event.inlier_mask, dtype=bool)
         segments = np.stack([event.points_current, event.points_reference], axis=1).astype(np.float32)
-        for path, subset in ((layout.matches(self.name), segments[inliers]),
-                             (f"{layout.matches(self.name)}/outliers", segments[~inliers])):
-            self._log_instances(path, subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)],
-                                lambda drawn: rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)))
+        for path, subset in (
+            (layout.matches(self.name), segments[inliers]),
+            (f"{layout.matches(self.name)}/outliers", segments[~inliers]),
+        ):
+            self._log_instances(
+                path,
+                subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)],
+                lambda drawn: rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)),
+            )
 
     def _tracking_recovered(self, event: TrackingRecovered) -> None:
         self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.WARN)
@@ -308,11 +359,15 @@ class PipelineRecorder:
         png = depth_png(small)
         self._depth_budget.dirty = True
         if self._depth_budget.due(event.frame_index, len(png)):
-            self._log(layout.latest_keyframe(self.name), transform(event.pose),
-                      pinhole(self.camera.scaled(small.shape[1], small.shape[0]), self.colour.rgb,
-                              self.sizes.frustum_depth))
-            self._log(f"{layout.latest_keyframe(self.name)}/depth",
-                      rr.EncodedDepthImage(png, media_type="image/png", meter=1000.0, colormap="turbo"))
+            self._log(
+                layout.latest_keyframe(self.name),
+                transform(event.pose),
+                pinhole(self.camera.scaled(small.shape[1], small.shape[0]), self.colour.rgb, self.sizes.frustum_depth),
+            )
+            self._log(
+                f"{layout.latest_keyframe(self.name)}/depth",
+                rr.EncodedDepthImage(png, media_type="image/png", meter=1000.0, colormap="turbo"),
+            )
             self._depth_budget.logged(event.frame_index)
             self._log_thumbnail(event, small.shape)
 
@@ -324,8 +379,10 @@ class PipelineRecorder:
         encoded = jpeg_bytes(cv2.resize(event.image, (shape[1], shape[0]), interpolation=cv2.INTER_AREA))
         self._thumbnail_budget.dirty = True
         if self._thumbnail_budget.due(event.frame_index, len(encoded)):
-            self._log(f"{layout.latest_keyframe(self.name)}/thumbnail",
-                      rr.EncodedImage(contents=encoded, media_type="image/jpeg"))
+            self._log(
+                f"{layout.latest_keyframe(self.name)}/thumbnail",
+                rr.EncodedImage(contents=encoded, media_type="image/jpeg"),
+            )
             self._thumbnail_budget.logged(event.frame_index)
 
     def _graph_edge(self, event: GraphEdge) -> None:
@@ -335,16 +392,19 @@ class PipelineRecorder:
             self._loops_budget.dirty = True
             self._unlogged_loops.append(event)
             if event.accepted:  # drawn once, at its frame; the 3D view shows the last second of them
-                self._log_lines(layout.recent_loop_closures(self.name), [event], palette.ACCEPTED.rgb,
-                                RECENT_LOOP_WIDTH)
+                self._log_lines(
+                    layout.recent_loop_closures(self.name), [event], palette.ACCEPTED.rgb, RECENT_LOOP_WIDTH
+                )
         elif event.accepted:
             self._edges[event.kind].append(event)
             self._edges_budget.dirty = True
 
     def _log_loop_closure_lines(self) -> None:
         """At most one line per verdict for the loop closures of the current frame."""
-        for accepted, verdict, level in ((True, "accepted", rr.TextLogLevel.INFO),
-                                         (False, "rejected", rr.TextLogLevel.DEBUG)):
+        for accepted, verdict, level in (
+            (True, "accepted", rr.TextLogLevel.INFO),
+            (False, "rejected", rr.TextLogLevel.DEBUG),
+        ):
             edges = [edge for edge in self._unlogged_loops if edge.accepted == accepted]
             if edges:
                 self._text(loop_closure_line(edges, verdict), level)
@@ -366,9 +426,11 @@ class PipelineRecorder:
 
     def _log_due_snapshots(self, frame_index: int, final: bool = False) -> None:
         """Re-log keyframes, edges and map when their budget allows (always at the end)."""
-        snapshots = ((self._keyframes_budget, len(self._keyframes) * KEYFRAME_BYTES, self._log_keyframes),
-                     (self._loops_budget, len(self._loops) * EDGE_BYTES, self._log_loop_closures),
-                     (self._edges_budget, sum(map(len, self._edges.values())) * EDGE_BYTES, self._log_edges))
+        snapshots = (
+            (self._keyframes_budget, len(self._keyframes) * KEYFRAME_BYTES, self._log_keyframes),
+            (self._loops_budget, len(self._loops) * EDGE_BYTES, self._log_loop_closures),
+            (self._edges_budget, sum(map(len, self._edges.values())) * EDGE_BYTES, self._log_edges),
+        )
         for budget, size, log in snapshots:
             if budget.dirty and (final or budget.due(frame_index, size)):
                 log()
@@ -381,25 +443,47 @@ class PipelineRecorder:
     def _log_keyframes(self) -> None:
         ids = sorted(self._keyframes)
         radius = self.sizes.keyframe_radius
-        self._log_instances(layout.keyframes(self.name), ids, lambda ids: rr.Points3D(
-            [self._keyframes[i] for i in ids], colors=[self.colour.rgb], radii=radius,
-            labels=[f"KF{i}" for i in ids], show_labels=False))
+        self._log_instances(
+            layout.keyframes(self.name),
+            ids,
+            lambda ids: rr.Points3D(
+                [self._keyframes[i] for i in ids],
+                colors=[self.colour.rgb],
+                radii=radius,
+                labels=[f"KF{i}" for i in ids],
+                show_labels=False,
+            ),
+        )
 
     def _segments(self, edges: list[GraphEdge]) -> list[list[np.ndarray]]:
-        return [[self._keyframes[edge.from_keyframe], self._keyframes[edge.to_keyframe]] for edge in edges
-                if edge.from_keyframe in self._keyframes and edge.to_keyframe in self._keyframes]
+        return [
+            [self._keyframes[edge.from_keyframe], self._keyframes[edge.to_keyframe]]
+            for edge in edges
+            if edge.from_keyframe in self._keyframes and edge.to_keyframe in self._keyframes
+        ]
 
     def _log_lines(self, path: str, edges: list[GraphEdge], colour, radius: float) -> None:
-        self._log_instances(path, self._segments(edges), lambda segments: rr.LineStrips3D(
-            segments, colors=[colour], radii=rr.Radius.ui_points(radius)))
+        self._log_instances(
+            path,
+            self._segments(edges),
+            lambda segments: rr.LineStrips3D(segments, colors=[colour], radii=rr.Radius.ui_points(radius)),
+        )
 
     def _log_loop_closures(self) -> None:
         """All accepted closures as thin dim green segments (the recent ones are drawn bright apart);
         rejected ones, often many, apart in thin red."""
-        self._log_lines(layout.loop_closures(self.name), [loop for loop in self._loops if loop.accepted],
-                        palette.faded(palette.ACCEPTED, share=0.5, towards=50), OLD_LOOP_WIDTH)
-        self._log_lines(layout.rejected_loop_closures(self.name), [loop for loop in self._loops if not loop.accepted],
-                        palette.REJECTED.rgb, 0.5)
+        self._log_lines(
+            layout.loop_closures(self.name),
+            [loop for loop in self._loops if loop.accepted],
+            palette.faded(palette.ACCEPTED, share=0.5, towards=50),
+            OLD_LOOP_WIDTH,
+        )
+        self._log_lines(
+            layout.rejected_loop_closures(self.name),
+            [loop for loop in self._loops if not loop.accepted],
+            palette.REJECTED.rgb,
+            0.5,
+        )
 
     def _log_edges(self) -> None:
         """Sequential and local edges: thin and faded, beneath the trajectories and loop closures."""
@@ -410,8 +494,13 @@ class PipelineRecorder:
         """The map, evenly thinned to ``share`` of its points (see MAP_MIN_SHARE)."""
         points, colors = self._map.points, self._map.colors
         kept = evenly_spaced(len(points), round(share * len(points)))
-        self._log_instances(layout.map_cloud(self.name), kept, lambda kept: rr.Points3D(
-            points[kept].astype(np.float32), colors=colors[kept], radii=rr.Radius.ui_points(MAP_POINT_RADIUS)))
+        self._log_instances(
+            layout.map_cloud(self.name),
+            kept,
+            lambda kept: rr.Points3D(
+                points[kept].astype(np.float32), colors=colors[kept], radii=rr.Radius.ui_points(MAP_POINT_RADIUS)
+            ),
+        )
 
     # --- end of run ---------------------------------------------------------------------
 
@@ -421,14 +510,28 @@ class PipelineRecorder:
         self._log_due_snapshots(self.frame_indices[-1] if self.frame_indices else 0, final=True)
         segments = [segment for segment in self._tracked_segments(event.frame_indices) if len(segment) > 1]
         poses = np.asarray(event.poses).reshape(-1, 4, 4)
-        self._log_instances(layout.trajectory(self.name), segments, lambda segments: rr.LineStrips3D(
-            [poses[segment, :3, 3] for segment in segments], colors=[self.colour.rgb],
-            radii=rr.Radius.ui_points(TRAJECTORY_WIDTH)), static=True)
+        self._log_instances(
+            layout.trajectory(self.name),
+            segments,
+            lambda segments: rr.LineStrips3D(
+                [poses[segment, :3, 3] for segment in segments],
+                colors=[self.colour.rgb],
+                radii=rr.Radius.ui_points(TRAJECTORY_WIDTH),
+            ),
+            static=True,
+        )
         if event.odometry_poses is not None and len(event.odometry_poses):
             odometry = np.asarray(event.odometry_poses).reshape(-1, 4, 4)
-            self._log_instances(layout.odometry(self.name), segments, lambda segments: rr.LineStrips3D(
-                [odometry[segment, :3, 3] for segment in segments], colors=[palette.faded(self.colour)],
-                radii=rr.Radius.ui_points(ODOMETRY_WIDTH)), static=True)
+            self._log_instances(
+                layout.odometry(self.name),
+                segments,
+                lambda segments: rr.LineStrips3D(
+                    [odometry[segment, :3, 3] for segment in segments],
+                    colors=[palette.faded(self.colour)],
+                    radii=rr.Radius.ui_points(ODOMETRY_WIDTH),
+                ),
+                static=True,
+            )
 
     def _tracked_segments(self, posed_frames: np.ndarray) -> list[np.ndarray]:
         """Index runs of consecutively processed frames with a pose: no line bridges a loss."""

@@ -56,8 +56,14 @@ class RecordingFile:
     is complete (it ends with the RRD footer that readers need).
     """
 
-    def __init__(self, path: Path, target: Path, blueprint: rrb.Blueprint, viewer: LiveViewer | None = None,
-                 application: str = "viewslam"):
+    def __init__(
+        self,
+        path: Path,
+        target: Path,
+        blueprint: rrb.Blueprint,
+        viewer: LiveViewer | None = None,
+        application: str = "viewslam",
+    ):
         self.path = path
         self.viewer = viewer
         self.error: str | None = None
@@ -65,8 +71,11 @@ class RecordingFile:
         rr.set_log_time_enabled(False, recording=self.stream)  # the dataset's time is the one that matters
         free = shutil.disk_usage(path.parent).free
         if free < START_BYTES:
-            raise InputError.at(target, f"cannot write the recording: no space left on device ({free:,} bytes "
-                                f"free, {START_BYTES:,} needed to start)")
+            raise InputError.at(
+                target,
+                f"cannot write the recording: no space left on device ({free:,} bytes "
+                f"free, {START_BYTES:,} needed to start)",
+            )
         try:
             if viewer is None:
                 self.stream.save(path, default_blueprint=blueprint)
@@ -102,13 +111,16 @@ class RecordingFile:
     def _stall_problem(self) -> str:
         """Why closing stalled: a viewer at --connect that stopped taking the stream, or the disk."""
         if isinstance(self.viewer, ConnectedViewer) and _room_problem(self.path) is None:
-            return (f"the viewer at {self.viewer.address} stopped taking the stream ({self.viewer.stall_s:g} s "
-                    f"without progress)")
+            return (
+                f"the viewer at {self.viewer.address} stopped taking the stream ({self.viewer.stall_s:g} s "
+                f"without progress)"
+            )
         return disk_problem(self.path, None)
 
 
-def _close_watched(stream: rr.RecordingStream, path: Path,
-                   stall_s: float | None = None) -> tuple[bool, RuntimeError | None]:
+def _close_watched(
+    stream: rr.RecordingStream, path: Path, stall_s: float | None = None
+) -> tuple[bool, RuntimeError | None]:
     """Flush and disconnect ``stream``: (False, None) when it stalled, else (True, the flush's error or None).
 
     It has stalled when the file has not grown for STALL_S with no room left for it, or, with
@@ -196,4 +208,5 @@ def has_footer(path: Path) -> bool:
 def disk_problem(path: Path, error: Exception | None) -> str:
     """What most likely stopped the file sink."""
     return _room_problem(path) or (
-        f"the file sink failed ({error})" if error is not None else "the recording is incomplete (no footer)")
+        f"the file sink failed ({error})" if error is not None else "the recording is incomplete (no footer)"
+    )

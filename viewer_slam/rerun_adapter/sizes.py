@@ -32,5 +32,7 @@ def extent(positions: np.ndarray) -> float:
 
 def scene_sizes(scene_extent: float) -> SceneSizes:
     scene_extent = max(scene_extent, MIN_EXTENT_M)
-    return SceneSizes(float(np.clip(FRUSTUM_SHARE * scene_extent, *FRUSTUM_RANGE_M)),
-                      float(np.clip(KEYFRAME_SHARE * scene_extent, *KEYFRAME_RANGE_M)))
+    return SceneSizes(
+        float(np.clip(FRUSTUM_SHARE * scene_extent, *FRUSTUM_RANGE_M)),
+        float(np.clip(KEYFRAME_SHARE * scene_extent, *KEYFRAME_RANGE_M)),
+    )

@@ -48,8 +48,9 @@ def lost_frames(frame_timestamps: np.ndarray, lost_intervals: list[tuple[float, 
     return lost
 
 
-def send_frame_columns(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray,
-                       frame_timestamps: np.ndarray, columns) -> None:
+def send_frame_columns(
+    stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray, columns
+) -> None:
     """Send rows stamped on both timelines; nothing at all when there are no rows.
 
     Every column send of the recording goes through here: the Rerun viewer (0.41) panics
@@ -57,18 +58,28 @@ def send_frame_columns(stream: rr.RecordingStream, path: str, frame_indices: np.
     """
     if len(frame_indices) == 0:
         return
-    stream.send_columns(path, indexes=[rr.TimeColumn("frame", sequence=frame_indices),
-                                       rr.TimeColumn("time", timestamp=frame_timestamps)], columns=columns)
+    stream.send_columns(
+        path,
+        indexes=[rr.TimeColumn("frame", sequence=frame_indices), rr.TimeColumn("time", timestamp=frame_timestamps)],
+        columns=columns,
+    )
 
 
-def _send_series(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
-                 values: np.ndarray) -> None:
-    send_frame_columns(stream, path, frame_indices, frame_timestamps,
-                       rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64)))
+def _send_series(
+    stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray, values: np.ndarray
+) -> None:
+    send_frame_columns(
+        stream, path, frame_indices, frame_timestamps, rr.Scalars.columns(scalars=np.asarray(values, dtype=np.float64))
+    )
 
 
-def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation, frame_indices: np.ndarray,
-                   frame_timestamps: np.ndarray) -> None:
+def log_evaluation(
+    stream: rr.RecordingStream,
+    name: str,
+    evaluation: Evaluation,
+    frame_indices: np.ndarray,
+    frame_timestamps: np.ndarray,
+) -> None:
     """Align the pipeline's map frame to groundtruth and log ATE (global and segment-aligned), RPE
     and coverage per frame.
 
@@ -78,42 +89,74 @@ def log_evaluation(stream: rr.RecordingStream, name: str, evaluation: Evaluation
     frame_timestamps = np.asarray(frame_timestamps, dtype=np.float64)
     if evaluation.alignment is not None:
         stream.log(layout.world(name), transform(evaluation.alignment), static=True)
-    for series, errors in (("ate", evaluation.ate), ("ate_segments", evaluation.segment_ate),
-                           ("rpe_trans", evaluation.rpe_trans), ("rpe_rot", evaluation.rpe_rot)):
+    for series, errors in (
+        ("ate", evaluation.ate),
+        ("ate_segments", evaluation.segment_ate),
+        ("rpe_trans", evaluation.rpe_trans),
+        ("rpe_rot", evaluation.rpe_rot),
+    ):
         if errors is None:
             continue
         position = frames_at(errors.timestamps, frame_timestamps)
         kept = position >= 0
         path = layout.metric(name, series)
-        _send_series(stream, path, frame_indices[position[kept]], frame_timestamps[position[kept]],
-                     errors.errors[kept])
+        _send_series(stream, path, frame_indices[position[kept]], frame_timestamps[position[kept]], errors.errors[kept])
         present = np.zeros(len(frame_indices), dtype=bool)
         present[position[kept]] = True
         breaks = gap_starts(present)
-        send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
-                           rr.Clear.columns(is_recursive=[False] * len(breaks)))
-    log_lost_band(stream, layout.metric(name, LOST_BAND), frame_indices, frame_timestamps,
-                  lost_frames(frame_timestamps, evaluation.coverage.lost_intervals))
+        send_frame_columns(
+            stream,
+            path,
+            frame_indices[breaks],
+            frame_timestamps[breaks],
+            rr.Clear.columns(is_recursive=[False] * len(breaks)),
+        )
+    log_lost_band(
+        stream,
+        layout.metric(name, LOST_BAND),
+        frame_indices,
+        frame_timestamps,
+        lost_frames(frame_timestamps, evaluation.coverage.lost_intervals),
+    )
     if len(frame_timestamps) > 1:
         coverage = coverage_so_far(frame_timestamps, evaluation.coverage.lost_intervals)
         _send_series(stream, layout.metric(name, "coverage"), frame_indices[1:], frame_timestamps[1:], coverage[1:])
 
 
-def log_lost_band(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
-                  lost: np.ndarray) -> None:
+def log_lost_band(
+    stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray, lost: np.ndarray
+) -> None:
     """A series at zero across the ``lost`` frames, broken between lost spans: on an error plot
     it is a bar under the stretch where the run had no pose, up to where the playhead runs."""
     _send_series(stream, path, frame_indices[lost], frame_timestamps[lost], np.zeros(int(lost.sum())))
     breaks = gap_starts(lost)
-    send_frame_columns(stream, path, frame_indices[breaks], frame_timestamps[breaks],
-                       rr.Clear.columns(is_recursive=[False] * len(breaks)))
+    send_frame_columns(
+        stream,
+        path,
+        frame_indices[breaks],
+        frame_timestamps[breaks],
+        rr.Clear.columns(is_recursive=[False] * len(breaks)),
+    )
 
 
-def send_log_messages(stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray,
-                      texts: list[str], level: rr.TextLogLevel) -> None:
+def send_log_messages(
+    stream: rr.RecordingStream,
+    path: str,
+    frame_indices: np.ndarray,
+    frame_timestamps: np.ndarray,
+    texts: list[str],
+    level: rr.TextLogLevel,
+) -> None:
     """Text log messages at their frames, each in the rows the log view shows whole (:func:`.fit.log_rows`)."""
-    rows = [(frame, stamp, row) for frame, stamp, text in zip(frame_indices, frame_timestamps, texts)
-            for row in log_rows(text)]
-    send_frame_columns(stream, path, np.array([row[0] for row in rows], dtype=np.int64),
-                       np.array([row[1] for row in rows], dtype=np.float64),
-                       rr.TextLog.columns(text=[row[2] for row in rows], level=[level] * len(rows)))
+    rows = [
+        (frame, stamp, row)
+        for frame, stamp, text in zip(frame_indices, frame_timestamps, texts)
+        for row in log_rows(text)
+    ]
+    send_frame_columns(
+        stream,
+        path,
+        np.array([row[0] for row in rows], dtype=np.int64),
+        np.array([row[1] for row in rows], dtype=np.float64),
+        rr.TextLog.columns(text=[row[2] for row in rows], level=[level] * len(rows)),
+    )

@@ -44,8 +44,10 @@ def has_display() -> bool:
 
 def no_display_problem(recording) -> str:
     """The one line for a viewer window that cannot open, naming the browser alternative."""
-    return (f"no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset); "
-            f"`viewslam view {recording} --web` serves the viewer to a browser instead")
+    return (
+        f"no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset); "
+        f"`viewslam view {recording} --web` serves the viewer to a browser instead"
+    )
 
 
 def open_window(recording: Path) -> int:
@@ -58,8 +60,9 @@ def open_window(recording: Path) -> int:
     """
     with tempfile.TemporaryFile() as log:
         started = time.monotonic()
-        process = subprocess.Popen([str(viewer_binary()), str(recording)], stdin=subprocess.DEVNULL,
-                                   stdout=log, stderr=log)
+        process = subprocess.Popen(
+            [str(viewer_binary()), str(recording)], stdin=subprocess.DEVNULL, stdout=log, stderr=log
+        )
         try:
             code = process.wait()
         finally:
@@ -71,8 +74,10 @@ def open_window(recording: Path) -> int:
         log.seek(0)
         reason = _last_line(log.read().decode(errors="replace")) or f"exit code {code}"
     if time.monotonic() - started < VIEWER_START_S:
-        raise InputError(f"{recording}: the viewer cannot open a window ({reason}); `viewslam view {recording} "
-                         f"--web` serves the viewer to a browser instead")
+        raise InputError(
+            f"{recording}: the viewer cannot open a window ({reason}); `viewslam view {recording} "
+            f"--web` serves the viewer to a browser instead"
+        )
     raise InputError(f"{recording}: the viewer ended with an error ({reason})")
 
 
@@ -119,17 +124,23 @@ class SpawnedViewer:
         """Start the viewer (once the server is up) and see that it stays up; one line if not."""
         binary = viewer_binary()
         try:
-            process = subprocess.Popen([str(binary), "--connect", proxy_url(LOCALHOST, self.port)],
-                                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                       stderr=subprocess.DEVNULL, start_new_session=True)
+            process = subprocess.Popen(
+                [str(binary), "--connect", proxy_url(LOCALHOST, self.port)],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+                start_new_session=True,
+            )
         except OSError as error:
             raise InputError(f"--spawn: cannot start the viewer {binary}: {error.strerror}") from None
         try:
             code = process.wait(VIEWER_START_S)
         except subprocess.TimeoutExpired:
             return
-        raise InputError(f"--spawn: the viewer exited at once (exit code {code}), as it does when no window can "
-                         f"open; `viewslam view {self.recording} --web` serves the viewer to a browser instead")
+        raise InputError(
+            f"--spawn: the viewer exited at once (exit code {code}), as it does when no window can "
+            f"open; `viewslam view {self.recording} --web` serves the viewer to a browser instead"
+        )
 
 
 @dataclass(frozen=True)
@@ -185,8 +196,10 @@ def connected_viewer(address: str) -> ConnectedViewer:
         raise InputError(f"--connect {address}: no answer from a viewer there in {CONNECT_TIMEOUT_S:g} s") from None
     except OSError as error:
         reason = error.strerror or str(error) or type(error).__name__
-        raise InputError(f"--connect {address}: no viewer accepts connections there ({reason}); start one "
-                         f"with `rerun`, or use --spawn") from None
+        raise InputError(
+            f"--connect {address}: no viewer accepts connections there ({reason}); start one "
+            f"with `rerun`, or use --spawn"
+        ) from None
     return ConnectedViewer(address, url)
 
 

@@ -29,8 +29,14 @@ class VoxelMap:
 
     def update(self, points: np.ndarray, colors: np.ndarray, replace: bool = False) -> None:
         """Add ``points`` with their ``colors`` (or replace the map with them)."""
-        self.add(MapUpdated(0, np.asarray(points, dtype=np.float64).reshape(-1, 3),
-                            np.asarray(colors, dtype=np.uint8).reshape(-1, 3), replace))
+        self.add(
+            MapUpdated(
+                0,
+                np.asarray(points, dtype=np.float64).reshape(-1, 3),
+                np.asarray(colors, dtype=np.uint8).reshape(-1, 3),
+                replace,
+            )
+        )
 
     def add(self, update: MapUpdated) -> None:
         """Add a pipeline's map update; a deferred one (:meth:`MapUpdated.deferred`) is only
@@ -65,10 +71,15 @@ class VoxelMap:
         """Downsample the cloud together with the additions that wait."""
         if not self._pending:
             return
-        points = np.concatenate([self._points, *(np.asarray(u.points, dtype=np.float64).reshape(-1, 3)
-                                                 for u in self._pending)])
-        colors = np.concatenate([self._colors, *(np.asarray(u.colors, dtype=np.uint8).reshape(-1, 3)
-                                                 for u in self._pending)]).astype(np.float64) / 255.0
+        points = np.concatenate(
+            [self._points, *(np.asarray(u.points, dtype=np.float64).reshape(-1, 3) for u in self._pending)]
+        )
+        colors = (
+            np.concatenate(
+                [self._colors, *(np.asarray(u.colors, dtype=np.uint8).reshape(-1, 3) for u in self._pending)]
+            ).astype(np.float64)
+            / 255.0
+        )
         self._pending, self._pending_points = [], 0
         o3d = import_open3d()
         cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))

@@ -43,9 +43,18 @@ class EvaluateResult:
         return {"groundtruth": str(self.groundtruth.path), "estimates": blocks}
 
 
-def evaluate(groundtruth: Path, estimates: Sequence[Path], *, options: ScoringOptions = ScoringOptions(),
-             sequence: Path | None = None, format: str | None = None, groundtruth_topic: str | None = None,
-             estimate_topic: str | None = None, json: Path | None = None, plot: Path | None = None) -> EvaluateResult:
+def evaluate(
+    groundtruth: Path,
+    estimates: Sequence[Path],
+    *,
+    options: ScoringOptions = ScoringOptions(),
+    sequence: Path | None = None,
+    format: str | None = None,
+    groundtruth_topic: str | None = None,
+    estimate_topic: str | None = None,
+    json: Path | None = None,
+    plot: Path | None = None,
+) -> EvaluateResult:
     """Score every estimate against ``groundtruth`` with ``options``; write the metric blocks to
     ``json`` and the aligned top view and errors over time to ``plot`` (any format matplotlib
     writes, by its extension).
@@ -65,9 +74,18 @@ def evaluate(groundtruth: Path, estimates: Sequence[Path], *, options: ScoringOp
 
         check_plot_path(plot)
     outputs = {path: option for path, option in ((json, "--json"), (plot, "--plot")) if path is not None}
-    refuse_inputs_as_outputs(outputs, {path: f"{what} {path}" for path, what in ((groundtruth, "GROUNDTRUTH"),
-                             *((estimate, "ESTIMATE") for estimate in estimates), (sequence, "--sequence"))
-                             if path is not None})
+    refuse_inputs_as_outputs(
+        outputs,
+        {
+            path: f"{what} {path}"
+            for path, what in (
+                (groundtruth, "GROUNDTRUTH"),
+                *((estimate, "ESTIMATE") for estimate in estimates),
+                (sequence, "--sequence"),
+            )
+            if path is not None
+        },
+    )
     for output in outputs:
         check_writable(output)
     reference = read_groundtruth(groundtruth, groundtruth_topic)
@@ -90,10 +108,12 @@ def evaluate(groundtruth: Path, estimates: Sequence[Path], *, options: ScoringOp
 
 
 def _check_options(options: ScoringOptions) -> None:
-    if options.rpe_mode is RpeMode.TUM and (options.all_deltas or options.delta != 1.0
-                                            or options.delta_unit is not DeltaUnit.SECONDS):
-        raise InputError("--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, "
-                         "--delta-unit or --all-deltas")
+    if options.rpe_mode is RpeMode.TUM and (
+        options.all_deltas or options.delta != 1.0 or options.delta_unit is not DeltaUnit.SECONDS
+    ):
+        raise InputError(
+            "--rpe-mode tum draws its own pose pairs and cannot be combined with --delta, --delta-unit or --all-deltas"
+        )
 
 
 def _plot(path: Path, result: EvaluateResult, format: str) -> None:

@@ -14,9 +14,13 @@ from ..terminal import print_table
 from .evaluate_command import EvaluateResult
 from .trajectory_files import BAG_FORMAT
 
-FORMAT_NAMES = {TrajectoryFormat.TUM: "TUM", TrajectoryFormat.KITTI: "KITTI", TrajectoryFormat.EUROC: "EuRoC",
-                TrajectoryFormat.RTABMAP: "an RTAB-Map database",
-                BAG_FORMAT: "a ROS bag's pose topic"}
+FORMAT_NAMES = {
+    TrajectoryFormat.TUM: "TUM",
+    TrajectoryFormat.KITTI: "KITTI",
+    TrajectoryFormat.EUROC: "EuRoC",
+    TrajectoryFormat.RTABMAP: "an RTAB-Map database",
+    BAG_FORMAT: "a ROS bag's pose topic",
+}
 
 GLOBAL_ALIGNMENT_TEXT = {
     Alignment.RIGID: "rigid alignment (Horn) over all pairs",
@@ -51,10 +55,12 @@ def print_results(result: EvaluateResult) -> None:
         rpe_pairs = f"Δ = {first.delta:g} s"
     else:
         rpe_pairs = f"Δ = {plural(first.delta, 'frame')}"
-    lines = [f"RMSE against {result.groundtruth.path}",
-             f"  ATE, penal. ATE [m]: {GLOBAL_ALIGNMENT_TEXT[first.alignment_name]}",
-             f"  ATE seg. [m]: {SEGMENT_ALIGNMENT_TEXT[first.alignment_name]}",
-             f"  RPE trans [m], rot [deg]: alignment-free, {rpe_pairs}"]
+    lines = [
+        f"RMSE against {result.groundtruth.path}",
+        f"  ATE, penal. ATE [m]: {GLOBAL_ALIGNMENT_TEXT[first.alignment_name]}",
+        f"  ATE seg. [m]: {SEGMENT_ALIGNMENT_TEXT[first.alignment_name]}",
+        f"  RPE trans [m], rot [deg]: alignment-free, {rpe_pairs}",
+    ]
     table = Table(box=box.SIMPLE_HEAD, pad_edge=False, show_edge=False)
     for column in ("estimate", "pairs", "coverage", "ATE", "ATE seg.", "RPE trans", "RPE rot", "penal. ATE"):
         table.add_column(column, justify="left" if column == "estimate" else "right", no_wrap=True)
@@ -62,8 +68,12 @@ def print_results(result: EvaluateResult) -> None:
         table.add_row(escape(run.name), *_row(run.evaluation))
     print("\n".join(lines))
     print_table(table)
-    print("\n".join(f"{run.name}: read as {FORMAT_NAMES[run.format]}; {_coverage_text(run.evaluation)}"
-                    for run in result.estimates))
+    print(
+        "\n".join(
+            f"{run.name}: read as {FORMAT_NAMES[run.format]}; {_coverage_text(run.evaluation)}"
+            for run in result.estimates
+        )
+    )
 
 
 def _row(evaluation: Evaluation) -> list[str]:
@@ -71,13 +81,21 @@ def _row(evaluation: Evaluation) -> list[str]:
         stats = stats_or_none(series)
         return "—" if stats is None else f"{stats['rmse']:.4f}"
 
-    return [str(len(evaluation.pairs[0])), f"{evaluation.coverage.ratio:.1%}", rmse(evaluation.ate),
-            rmse(evaluation.segment_ate), rmse(evaluation.rpe_trans), rmse(evaluation.rpe_rot),
-            rmse(evaluation.penalized_ate)]
+    return [
+        str(len(evaluation.pairs[0])),
+        f"{evaluation.coverage.ratio:.1%}",
+        rmse(evaluation.ate),
+        rmse(evaluation.segment_ate),
+        rmse(evaluation.rpe_trans),
+        rmse(evaluation.rpe_rot),
+        rmse(evaluation.penalized_ate),
+    ]
 
 
 def _coverage_text(evaluation: Evaluation) -> str:
     span = evaluation.coverage.span
     lost = len(evaluation.coverage.lost_intervals)
-    return (f"coverage over {span.start:.6f}..{span.end:.6f} ({span.end - span.start:.3f} s, {span.rule}), "
-            f"{plural(lost, 'lost interval')}")
+    return (
+        f"coverage over {span.start:.6f}..{span.end:.6f} ({span.end - span.start:.3f} s, {span.rule}), "
+        f"{plural(lost, 'lost interval')}"
+    )

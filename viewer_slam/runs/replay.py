@@ -32,14 +32,7 @@ from ..geometry.camera import Camera
 from ..geometry.trajectory_formats import read_estimate
 from ..pipelines.base import RUN_NAME, Pipeline
 from ..pipelines.edges import EdgeClassifier
-from ..pipelines.events import (
-    Event,
-    FrameTracked,
-    TrackingLost,
-    TrackingRecovered,
-    TrackingStatus,
-    TrajectoryFinal,
-)
+from ..pipelines.events import Event, FrameTracked, TrackingLost, TrackingRecovered, TrackingStatus, TrajectoryFinal
 from ..pipelines.params import PipelineParams
 from .rtabmap_graph import edges_by_node, graph_events, node_metrics
 
@@ -72,8 +65,10 @@ def named_estimates(texts: list[str], pipelines: list[str]) -> list[tuple[str, P
     taken = set(pipelines)
     for name, file in named:
         if not RUN_NAME.fullmatch(name):
-            raise InputError(f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
-                             f"(it names entities and files)")
+            raise InputError(
+                f"--estimate {name}={file}: a name holds letters, digits, '_', '-' and '.' only "
+                f"(it names entities and files)"
+            )
         if name in taken:
             kind = "a pipeline" if name in pipelines else "another estimate"
             raise InputError(f"--estimate {name}={file}: the name {name!r} is already {kind}'s; choose another")
@@ -97,15 +92,17 @@ class EstimateReplay(Pipeline):
         super().__init__(camera=camera, params=params)
         estimate, detected, self.database = read_estimate(Path(params.file), params.format or None, sequence_stamps)
         self.params = EstimateParams(file=params.file, format=detected)
-        inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & \
-                 (estimate.timestamps <= frame_stamps[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
+        inside = (estimate.timestamps >= frame_stamps[0] - ASSOCIATION_MAX_DIFFERENCE_S) & (
+            estimate.timestamps <= frame_stamps[-1] + ASSOCIATION_MAX_DIFFERENCE_S
+        )
         self.trajectory = estimate.subset(inside)
         self._nodes = [node for node, kept in zip(self.database.nodes, inside) if kept] if self.database else []
         frame_rows, pose_rows = associate(frame_stamps, self.trajectory.timestamps, 0.0, ASSOCIATION_MAX_DIFFERENCE_S)
         self._pose_at = dict(zip(np.asarray(frame_stamps)[frame_rows].tolist(), pose_rows.tolist()))
         span = (float(frame_stamps[0]), float(frame_stamps[-1]))
-        self._lost_intervals = coverage(span, self.trajectory.timestamps, median_period(frame_stamps),
-                                        resumptions=self.trajectory.resumptions).lost_intervals
+        self._lost_intervals = coverage(
+            span, self.trajectory.timestamps, median_period(frame_stamps), resumptions=self.trajectory.resumptions
+        ).lost_intervals
         self._edges = EdgeClassifier()
         self._node_edges = edges_by_node(self.database) if self.database else {}
         self._frame_stamps = np.asarray(frame_stamps)
@@ -121,11 +118,15 @@ class EstimateReplay(Pipeline):
         elif any(start <= frame.timestamp <= end for start, end in self._lost_intervals):
             state = TrackingStatus.LOST
         else:
-            state = TrackingStatus.INITIALISING if self._state in (None, TrackingStatus.INITIALISING) else \
-                TrackingStatus.OK
+            state = (
+                TrackingStatus.INITIALISING if self._state in (None, TrackingStatus.INITIALISING) else TrackingStatus.OK
+            )
         if state is TrackingStatus.LOST and self._state is not TrackingStatus.LOST:
-            events.append(TrackingLost(frame.index, frame.timestamp,
-                                       no_pose_reason(Path(self.params.file), self._gap_at(frame.timestamp))))
+            events.append(
+                TrackingLost(
+                    frame.index, frame.timestamp, no_pose_reason(Path(self.params.file), self._gap_at(frame.timestamp))
+                )
+            )
         elif state is TrackingStatus.OK and self._state is TrackingStatus.LOST:
             events.append(TrackingRecovered(frame.index, frame.timestamp, "the estimate has poses again"))
         self._state = state
@@ -140,34 +141,54 @@ class EstimateReplay(Pipeline):
         node, pose = self._nodes[row], self.trajectory.poses[row]
         if node.stamp in self.trajectory.resumptions:
             reason = f"new map {node.map_id} in {Path(self.params.file).name}"
-            events = [TrackingRecovered(event.frame_index, event.timestamp, reason)
-                      if isinstance(event, TrackingRecovered) else event for event in events]
+            events = [
+                TrackingRecovered(event.frame_index, event.timestamp, reason)
+                if isinstance(event, TrackingRecovered)
+                else event
+                for event in events
+            ]
         stats = node.statistics
-        tracked = FrameTracked(frame.index, frame.timestamp, pose, TrackingStatus.OK,
-                               features=int(stats.get("Odometry/Features/", 0)),
-                               inliers=int(stats.get("Odometry/Inliers/", 0)), keyframe_id=node.id,
-                               metrics=node_metrics(node))
-        return [tracked, *events,
-                *graph_events(node, self._node_edges[node.id], frame.index, frame.timestamp, pose, self._edges)]
+        tracked = FrameTracked(
+            frame.index,
+            frame.timestamp,
+            pose,
+            TrackingStatus.OK,
+            features=int(stats.get("Odometry/Features/", 0)),
+            inliers=int(stats.get("Odometry/Inliers/", 0)),
+            keyframe_id=node.id,
+            metrics=node_metrics(node),
+        )
+        return [
+            tracked,
+            *events,
+            *graph_events(node, self._node_edges[node.id], frame.index, frame.timestamp, pose, self._edges),
+        ]
 
     def finish(self) -> list[Event]:
         """The estimate's poses in the span of the frames seen, each placed at its nearest frame."""
-        seen = self._frame_stamps[:len(self._frame_indices)]
+        seen = self._frame_stamps[: len(self._frame_indices)]
         if len(seen) == 0:
             return [TrajectoryFinal(np.zeros(0, dtype=int), np.zeros(0), np.zeros((0, 4, 4)))]
         kept = self.trajectory.subset(self.trajectory.timestamps <= seen[-1] + ASSOCIATION_MAX_DIFFERENCE_S)
         after = np.clip(np.searchsorted(seen, kept.timestamps), 0, len(seen) - 1)
         before = np.maximum(after - 1, 0)
         nearest = np.where(kept.timestamps - seen[before] <= seen[after] - kept.timestamps, before, after)
-        return [TrajectoryFinal(np.asarray(self._frame_indices, dtype=int)[nearest], kept.timestamps, kept.poses,
-                                resumptions=kept.resumptions)]
+        return [
+            TrajectoryFinal(
+                np.asarray(self._frame_indices, dtype=int)[nearest],
+                kept.timestamps,
+                kept.poses,
+                resumptions=kept.resumptions,
+            )
+        ]
 
     def _gap_at(self, stamp: float) -> float:
         return next(end - start for start, end in self._lost_intervals if start <= stamp <= end)
 
 
-def estimate_replay(sequence: Sequence, path: Path, format: str | None = None, *,
-                    max_frames: int | None = None, stride: int = 1) -> EstimateReplay:
+def estimate_replay(
+    sequence: Sequence, path: Path, format: str | None = None, *, max_frames: int | None = None, stride: int = 1
+) -> EstimateReplay:
     """The replay of the estimate in ``path`` over the frames ``sequence`` yields with ``max_frames`` and
     ``stride``; reading it checks the file (an :class:`InputError` naming it) and settles its format."""
     stamps = np.asarray(sequence.timestamps, dtype=np.float64)

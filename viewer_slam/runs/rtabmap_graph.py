@@ -46,33 +46,70 @@ def edges_by_node(database: RtabmapDatabase) -> dict[int, list[NodeEdge]]:
         older, newer = sorted((link.from_id, link.to_id), key=order.__getitem__)
         stats = by_id[newer].statistics
         loop = LINK_DETECTION[link.kind] == "appearance"
-        edges[newer].append(NodeEdge(older, newer, LINK_DETECTION[link.kind], True, f"{link.kind} link",
-                                     stats.get("Loop/Highest_hypothesis_value/", 0.0) if loop else 0.0,
-                                     int(stats.get("Loop/Visual_inliers/", 0)) if loop else 0))
+        edges[newer].append(
+            NodeEdge(
+                older,
+                newer,
+                LINK_DETECTION[link.kind],
+                True,
+                f"{link.kind} link",
+                stats.get("Loop/Highest_hypothesis_value/", 0.0) if loop else 0.0,
+                int(stats.get("Loop/Visual_inliers/", 0)) if loop else 0,
+            )
+        )
     for node in database.nodes:
         stats = node.statistics
         hypothesis = int(stats.get("Loop/Highest_hypothesis_id/", 0))
         if stats.get("Loop/RejectedHypothesis/", 0) and order.get(hypothesis, len(order)) < order[node.id]:
-            edges[node.id].append(NodeEdge(hypothesis, node.id, "appearance", False, REJECTED,
-                                           stats.get("Loop/Highest_hypothesis_value/", 0.0),
-                                           int(stats.get("Loop/Visual_inliers/", 0))))
+            edges[node.id].append(
+                NodeEdge(
+                    hypothesis,
+                    node.id,
+                    "appearance",
+                    False,
+                    REJECTED,
+                    stats.get("Loop/Highest_hypothesis_value/", 0.0),
+                    int(stats.get("Loop/Visual_inliers/", 0)),
+                )
+            )
     return edges
 
 
-def graph_events(node: RtabmapNode, edges: list[NodeEdge], frame_index: int, timestamp: float, pose: np.ndarray,
-                 classifier: EdgeClassifier) -> list[Event]:
+def graph_events(
+    node: RtabmapNode,
+    edges: list[NodeEdge],
+    frame_index: int,
+    timestamp: float,
+    pose: np.ndarray,
+    classifier: EdgeClassifier,
+) -> list[Event]:
     """The node as a keyframe at ``frame_index`` and its ``edges`` (:func:`edges_by_node`) as
     graph edges, classified by ``classifier`` (which learns the node), as a pipeline emits them."""
     classifier.add_node(node.id, node.stamp)
-    return [KeyframeAdded(node.id, frame_index, timestamp, pose),
-            *[GraphEdge(frame_index, edge.from_id, edge.to_id, edge.accepted, edge.reason,
-                        classifier.kind(edge.from_id, edge.to_id), edge.score, edge.inliers, edge.detection)
-              for edge in edges]]
+    return [
+        KeyframeAdded(node.id, frame_index, timestamp, pose),
+        *[
+            GraphEdge(
+                frame_index,
+                edge.from_id,
+                edge.to_id,
+                edge.accepted,
+                edge.reason,
+                classifier.kind(edge.from_id, edge.to_id),
+                edge.score,
+                edge.inliers,
+                edge.detection,
+            )
+            for edge in edges
+        ],
+    ]
 
 
 def node_metrics(node: RtabmapNode) -> dict[str, float]:
     """The node's map and the statistics a pipeline's frames carry under the same names."""
     stats = node.statistics
-    return {"map": float(node.map_id), "local_map": stats.get("Odometry/LocalMapSize/", float("nan")),
-            "posterior_max": stats.get("Loop/Highest_hypothesis_value/", float("nan"))}
-
+    return {
+        "map": float(node.map_id),
+        "local_map": stats.get("Odometry/LocalMapSize/", float("nan")),
+        "posterior_max": stats.get("Loop/Highest_hypothesis_value/", float("nan")),
+    }

@@ -22,14 +22,25 @@ _DISTRIBUTIONS = {
 }
 
 
-def pipeline_report(run: PipelineRun, evaluation: Evaluation | None,
-                    odometry_evaluation: Evaluation | None) -> dict[str, Any]:
+def pipeline_report(
+    run: PipelineRun, evaluation: Evaluation | None, odometry_evaluation: Evaluation | None
+) -> dict[str, Any]:
     """One run's block; metric blocks are null without groundtruth (or without poses).
 
     The run's ``source`` says where its poses came from: ``"pipeline"``, or ``"estimate"`` (a
     trajectory file replayed; its parameters are the file and the format read)."""
-    metrics = evaluation.to_dict() if evaluation is not None else {
-        "alignment": None, "ate": None, "ate_segments": None, "rpe": None, "coverage": None, "penalized_ate": None}
+    metrics = (
+        evaluation.to_dict()
+        if evaluation is not None
+        else {
+            "alignment": None,
+            "ate": None,
+            "ate_segments": None,
+            "rpe": None,
+            "coverage": None,
+            "penalized_ate": None,
+        }
+    )
     return {
         "source": run.source,
         "frames_with_pose": len(run.trajectory),
@@ -58,8 +69,12 @@ def build_report(sequence, pipeline_blocks: dict[str, dict], interrupted: bool) 
 
 def sequence_block(sequence) -> dict[str, Any]:
     """What a report says of its sequence: name, folder, frames and duration."""
-    return {"name": sequence.name, "path": str(sequence.path), "frames": len(sequence),
-            "duration_s": sequence.duration_s}
+    return {
+        "name": sequence.name,
+        "path": str(sequence.path),
+        "frames": len(sequence),
+        "duration_s": sequence.duration_s,
+    }
 
 
 def versions() -> dict[str, str | None]:

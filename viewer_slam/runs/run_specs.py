@@ -19,8 +19,15 @@ def select_runs(choice: str | None, estimates: Sequence[str]) -> tuple[list[str]
     return pipelines, named_estimates(list(estimates), pipelines)
 
 
-def run_specs(pipelines: list[str], estimates: list[tuple[str, Path]], *, assignments: Sequence[str] = (),
-              config: Path | None = None, seed: int = 0, format: TrajectoryFormat | None = None) -> dict[str, RunSpec]:
+def run_specs(
+    pipelines: list[str],
+    estimates: list[tuple[str, Path]],
+    *,
+    assignments: Sequence[str] = (),
+    config: Path | None = None,
+    seed: int = 0,
+    format: TrajectoryFormat | None = None,
+) -> dict[str, RunSpec]:
     """The runs by name: the pipelines with their parameters validated (defaults, then ``config``,
     then ``assignments``, each ``KEY=VALUE``), then the estimates, read in ``format`` (None: detected)."""
     params = resolve_params({name: pipeline_class(name).Params for name in pipelines}, assignments, config)

@@ -11,11 +11,12 @@ from ..geometry.trajectory import Trajectory
 from ..pipelines.run import PipelineRun
 
 PROCESSED_FRAMES_RULE = "processed frames"
-MIN_NODE_PAIRS = 3        # a rigid alignment needs three poses
+MIN_NODE_PAIRS = 3  # a rigid alignment needs three poses
 
 
-def evaluate_run(groundtruth: Trajectory | None, run: PipelineRun,
-                 frame_timestamps: Stamps[float] | np.ndarray) -> tuple[Evaluation | None, Evaluation | None]:
+def evaluate_run(
+    groundtruth: Trajectory | None, run: PipelineRun, frame_timestamps: Stamps[float] | np.ndarray
+) -> tuple[Evaluation | None, Evaluation | None]:
     """The run's scores and its raw odometry's.
 
     Coverage spans the first to the last processed frame (a run given the first N frames

@@ -70,22 +70,44 @@ def build_run(spec: RunSpec, sequence: Sequence, *, max_frames: int | None = Non
     return make_pipeline(spec.pipeline, sequence.camera, spec.params, spec.seed)
 
 
-def score_run(sequence: Sequence, pipeline: Pipeline, name: str, *, max_frames: int | None = None, stride: int = 1,
-              sinks: Iterable[Sink] = (), frame_sinks: Iterable[Callable[[Frame], None]] = (),
-              should_stop: Callable[[], bool] = lambda: False) -> ScoredRun:
+def score_run(
+    sequence: Sequence,
+    pipeline: Pipeline,
+    name: str,
+    *,
+    max_frames: int | None = None,
+    stride: int = 1,
+    sinks: Iterable[Sink] = (),
+    frame_sinks: Iterable[Callable[[Frame], None]] = (),
+    should_stop: Callable[[], bool] = lambda: False,
+) -> ScoredRun:
     """Drive ``pipeline`` over ``sequence`` as the run called ``name`` (see
     :func:`~viewer_slam.pipelines.run.drive` for the frames, ``sinks`` and stopping), then
     diagnose its losses and score it over the frames it processed."""
     signals = SignalRecorder()
     processed = _ProcessedFrames()
-    run = drive(pipeline, name, sequence, max_frames=max_frames, stride=stride,
-                sinks=[processed, *sinks, signals], frame_sinks=[*frame_sinks, signals.frame],
-                should_stop=should_stop)
+    run = drive(
+        pipeline,
+        name,
+        sequence,
+        max_frames=max_frames,
+        stride=stride,
+        sinks=[processed, *sinks, signals],
+        frame_sinks=[*frame_sinks, signals.frame],
+        should_stop=should_stop,
+    )
     frame_signals = diagnose_run(run, signals, sequence.groundtruth)
     stamps = np.asarray(processed.timestamps, dtype=np.float64)
     evaluation, odometry_evaluation = evaluate_run(sequence.groundtruth, run, stamps)
-    return ScoredRun(run, evaluation, odometry_evaluation, frame_signals, np.asarray(processed.indices, dtype=int),
-                     stamps, pipeline_report(run, evaluation, odometry_evaluation))
+    return ScoredRun(
+        run,
+        evaluation,
+        odometry_evaluation,
+        frame_signals,
+        np.asarray(processed.indices, dtype=int),
+        stamps,
+        pipeline_report(run, evaluation, odometry_evaluation),
+    )
 
 
 class _ProcessedFrames:

@@ -144,25 +144,40 @@ class ScoredFile:
             frame = min(int(np.searchsorted(groundtruth.timestamps, lost_start, side="right")), len(groundtruth) - 1)
             gap = lost_end - lost_start
             if coverage.stopped_at == lost_start:
-                text = (f"{self.name} stopped at {lost_start - start:.1f} s of {coverage.span.end - start:.1f} s: "
-                        f"no pose after it")
+                text = (
+                    f"{self.name} stopped at {lost_start - start:.1f} s of {coverage.span.end - start:.1f} s: "
+                    f"no pose after it"
+                )
             else:
                 text = f"{self.name} lost at {lost_start - start:.1f} s for {gap:.1f} s"
-            entries.append({"frame": frame, "timestamp": float(groundtruth.timestamps[frame]),
-                            "reason": no_pose_reason(self.path, gap), "text": text})
+            entries.append(
+                {
+                    "frame": frame,
+                    "timestamp": float(groundtruth.timestamps[frame]),
+                    "reason": no_pose_reason(self.path, gap),
+                    "text": text,
+                }
+            )
         return entries
 
     def report_block(self, groundtruth: Trajectory) -> dict[str, Any]:
         """The run report block of an estimate (``"source": "estimate"``): the same keys as ``record``'s."""
-        run = PipelineRun(pipeline=self.name, parameters={"file": str(self.path), "format": self.format}, seed=0,
-                          source="estimate", frames=len(self.trajectory), trajectory=self.trajectory,
-                          tracking_lost=self.losses(groundtruth))
+        run = PipelineRun(
+            pipeline=self.name,
+            parameters={"file": str(self.path), "format": self.format},
+            seed=0,
+            source="estimate",
+            frames=len(self.trajectory),
+            trajectory=self.trajectory,
+            tracking_lost=self.losses(groundtruth),
+        )
         if self.database is None:
             return pipeline_report(run, self.evaluation, None)
         classifier = EdgeClassifier()
         for index, node in enumerate(self.database.nodes):  # the database's poses are its nodes, in order
-            for event in graph_events(node, self.edges[node.id], index, node.stamp, self.trajectory.poses[index],
-                                      classifier):
+            for event in graph_events(
+                node, self.edges[node.id], index, node.stamp, self.trajectory.poses[index], classifier
+            ):
                 run.observe(event)
         return pipeline_report(run, replace(self.evaluation, node_ate=self.evaluation.ate), None)
 
@@ -179,10 +194,17 @@ class ScoredFiles:
     def report(self) -> dict[str, Any]:
         """The run report (``report.schema.json``), its sequence the groundtruth file."""
         stamps = self.groundtruth.timestamps
-        return {"sequence": {"name": self.name, "path": str(self.groundtruth_path), "frames": len(stamps),
-                             "duration_s": float(stamps[-1] - stamps[0])},
-                "interrupted": False, "versions": versions(),
-                "pipelines": {run.name: run.report_block(self.groundtruth) for run in self.runs}}
+        return {
+            "sequence": {
+                "name": self.name,
+                "path": str(self.groundtruth_path),
+                "frames": len(stamps),
+                "duration_s": float(stamps[-1] - stamps[0]),
+            },
+            "interrupted": False,
+            "versions": versions(),
+            "pipelines": {run.name: run.report_block(self.groundtruth) for run in self.runs},
+        }
 
 
 def read_groundtruth(path: Path, topic: str | None = None) -> Groundtruth:
@@ -227,8 +249,9 @@ def sequence_clock(sequence: Any) -> Clock:
     return Clock(Span(float(stamps[0]), float(stamps[-1]), SEQUENCE_RULE), sequence.frame_period, stamps)
 
 
-def read_estimate_file(path: Path, format: str | None = None, clock: Clock = Clock(),
-                       topic: str | None = None) -> EstimateFile:
+def read_estimate_file(
+    path: Path, format: str | None = None, clock: Clock = Clock(), topic: str | None = None
+) -> EstimateFile:
     """An estimate: a ROS bag's pose topic (``topic``, else its only one), else a file in ``format``
     or a detected one (a KITTI file timed by the ``clock``'s frames)."""
     from ..dataset.rosbag import is_bag
@@ -242,24 +265,42 @@ def read_estimate_file(path: Path, format: str | None = None, clock: Clock = Clo
     return EstimateFile(path, trajectory, detected, database)
 
 
-def score_estimate(groundtruth: Groundtruth, estimate: EstimateFile,
-                   options: ScoringOptions = ScoringOptions()) -> Evaluation:
+def score_estimate(
+    groundtruth: Groundtruth, estimate: EstimateFile, options: ScoringOptions = ScoringOptions()
+) -> Evaluation:
     """The scores of ``estimate`` against ``groundtruth``; an estimate with no pose pair is an
     :class:`InputError` naming it and saying why."""
     clock = groundtruth.clock
-    evaluation = evaluate(groundtruth.trajectory, estimate.trajectory, max_difference=options.max_difference,
-                          offset=options.offset, align=options.align, delta=options.delta,
-                          delta_unit=options.delta_unit, all_deltas=options.all_deltas,
-                          span=options.span or clock.span, frame_period=clock.frame_period, rpe_mode=options.rpe_mode)
+    evaluation = evaluate(
+        groundtruth.trajectory,
+        estimate.trajectory,
+        max_difference=options.max_difference,
+        offset=options.offset,
+        align=options.align,
+        delta=options.delta,
+        delta_unit=options.delta_unit,
+        all_deltas=options.all_deltas,
+        span=options.span or clock.span,
+        frame_period=clock.frame_period,
+        rpe_mode=options.rpe_mode,
+    )
     if evaluation.ate is None:
-        raise InputError.at(estimate.path, why_no_pairs(groundtruth.trajectory, estimate.trajectory, options.offset,
-                                                        options.max_difference))
+        raise InputError.at(
+            estimate.path,
+            why_no_pairs(groundtruth.trajectory, estimate.trajectory, options.offset, options.max_difference),
+        )
     return evaluation
 
 
-def score_files(groundtruth: Groundtruth, estimates: Sequence[tuple[str, Path]], format: str | None = None, *,
-                options: ScoringOptions = ScoringOptions(), topic: str | None = None,
-                name: str | None = None) -> ScoredFiles:
+def score_files(
+    groundtruth: Groundtruth,
+    estimates: Sequence[tuple[str, Path]],
+    format: str | None = None,
+    *,
+    options: ScoringOptions = ScoringOptions(),
+    topic: str | None = None,
+    name: str | None = None,
+) -> ScoredFiles:
     """Read every ``(name, file)`` estimate (:func:`read_estimate_file`), then score each against
     ``groundtruth`` (:func:`score_estimate`).
 

@@ -39,5 +39,6 @@ def validator(name: str):
     from referencing import Registry, Resource
 
     registry = Registry().with_resources(
-        (schema_id(other), Resource.from_contents(load_schema(other))) for other in schema_names())
+        (schema_id(other), Resource.from_contents(load_schema(other))) for other in schema_names()
+    )
     return Draft202012Validator(load_schema(name), registry=registry)

@@ -31,8 +31,15 @@ class StudyResult:
     written: tuple[Path, ...]
 
 
-def study(sequences: Sequence[str] = (), *, out: Path = Path("study-results"), mirror: str | None = None,
-          record: bool = False, quiet: bool = True, command: str = "viewslam study") -> StudyResult:
+def study(
+    sequences: Sequence[str] = (),
+    *,
+    out: Path = Path("study-results"),
+    mirror: str | None = None,
+    record: bool = False,
+    quiet: bool = True,
+    command: str = "viewslam study",
+) -> StudyResult:
     """Fetch the study's runs of ``sequences`` (names as :func:`study_sequences` knows them; none:
     all seven) from ``mirror`` (default: ``$VIEWSLAM_STUDY_MIRROR``, else the author's repository at
     the pinned commit) into the cache, SHA-256 checked; score them as the study did and with
@@ -63,7 +70,10 @@ def study(sequences: Sequence[str] = (), *, out: Path = Path("study-results"), m
             recorded = record_trajectory_files(
                 files[groundtruth_path(sequence)][0],
                 [(system.name, files[poses_path(sequence, system)][0]) for system in SYSTEMS],
-                out / f"{sequence.name}.rrd", format=TrajectoryFormat.TUM, name=sequence.name)
+                out / f"{sequence.name}.rrd",
+                format=TrajectoryFormat.TUM,
+                name=sequence.name,
+            )
             written.extend(recorded.written)
     return StudyResult(tuple(runs), tuple(found), tuple(written))
 
@@ -75,8 +85,7 @@ def study_sequences(names: Sequence[str] = ()) -> list[StudySequence]:
     for name in names or [sequence.name for sequence in SEQUENCES]:
         sequence = known_sequence(name)
         if sequence is None:
-            raise InputError(f"{name}: not one of the study's sequences; "
-                             f"{', '.join(s.alias for s in SEQUENCES)}")
+            raise InputError(f"{name}: not one of the study's sequences; {', '.join(s.alias for s in SEQUENCES)}")
         selected.append(sequence)
     return selected
 

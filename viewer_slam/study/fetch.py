@@ -68,7 +68,9 @@ def fetch(relative: str, mirror: str, cache: Path, progress: bool = False) -> tu
         found = sha256(part)
         if found != expected:
             part.unlink(missing_ok=True)
-            raise InputError(f"{url}: SHA-256 {found} is not the study's {expected} (the file at commit "
-                             f"{COMMIT[:12]}); check the mirror ({MIRROR_HINT})")
+            raise InputError(
+                f"{url}: SHA-256 {found} is not the study's {expected} (the file at commit "
+                f"{COMMIT[:12]}); check the mirror ({MIRROR_HINT})"
+            )
     part.replace(target)
     return target, expected is not None

@@ -37,9 +37,9 @@ def _block(text: str, start: str, end: str | None) -> str:
     found = re.search(rf"^{start}\s*$", text, re.MULTILINE)
     if found is None:
         return ""
-    rest = text[found.end():]
+    rest = text[found.end() :]
     stop = re.search(rf"^{end}\s*$", rest, re.MULTILINE) if end else None
-    return rest[:stop.start()] if stop else rest
+    return rest[: stop.start()] if stop else rest
 
 
 def parse_log(path: Path) -> dict[str, Printed]:
@@ -56,9 +56,10 @@ def parse_log(path: Path) -> dict[str, Printed]:
     if time:
         figures["time_s"] = Printed.parse(time.group(1))
     ate, rpe = _block(text, "ATE", "RPE"), _block(text, "RPE", None)
-    for block, prefix, keys in ((ate, "ate", {"absolute_translational_error.rmse": "ate_rmse"}),
-                                (rpe, "rpe", {"translational_error.rmse": "rpe_trans_rmse",
-                                              "rotational_error.rmse": "rpe_rot_rmse_deg"})):
+    for block, prefix, keys in (
+        (ate, "ate", {"absolute_translational_error.rmse": "ate_rmse"}),
+        (rpe, "rpe", {"translational_error.rmse": "rpe_trans_rmse", "rotational_error.rmse": "rpe_rot_rmse_deg"}),
+    ):
         pairs = re.search(r"compared_pose_pairs (\d+) pairs", block)
         if pairs:
             figures[f"{prefix}_pairs"] = Printed(float(pairs.group(1)), 0)
@@ -88,10 +89,16 @@ def parse_chart(path: Path, variables: tuple[str, ...]) -> tuple[list[str], dict
     source = path.read_text()
     bars, labels = {}, None
     for node in ast.walk(tree):
-        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name) \
-                and node.targets[0].id in variables and isinstance(node.value, ast.List):
-            bars[node.targets[0].id] = [Printed.parse(_source_of(source, element).strip())
-                                        for element in node.value.elts]
+        if (
+            isinstance(node, ast.Assign)
+            and len(node.targets) == 1
+            and isinstance(node.targets[0], ast.Name)
+            and node.targets[0].id in variables
+            and isinstance(node.value, ast.List)
+        ):
+            bars[node.targets[0].id] = [
+                Printed.parse(_source_of(source, element).strip()) for element in node.value.elts
+            ]
         if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "xticks" and len(node.args) == 2:
             labels = [" ".join(str(value).replace("/\n", "/").split()) for value in ast.literal_eval(node.args[1])]
     missing = [name for name in variables if name not in bars]

@@ -10,8 +10,14 @@ import importlib
 
 from .catalog import SCENARIOS, STUDY_SCENARIOS
 
-_GENERATOR = ("GENERATOR_VERSION", "cached_scenario", "default_frames", "generate_scenario", "preview_frames",
-              "read_info")
+_GENERATOR = (
+    "GENERATOR_VERSION",
+    "cached_scenario",
+    "default_frames",
+    "generate_scenario",
+    "preview_frames",
+    "read_info",
+)
 
 __all__ = ["SCENARIOS", "STUDY_SCENARIOS", *_GENERATOR]
 

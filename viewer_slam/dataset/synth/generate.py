@@ -88,9 +88,19 @@ def _check(frames: int, resolution: tuple[int, int], seed: int) -> None:
         raise InputError(f"seed must be non-negative, got {seed}")
 
 
-def generate_scenario(name: str, out_dir, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                      seed: int = 0, camera: str = "fr3", force: bool = False, workers: int | None = None,
-                      first: int | None = None, progress: bool = False) -> Path:
+def generate_scenario(
+    name: str,
+    out_dir,
+    *,
+    frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    camera: str = "fr3",
+    force: bool = False,
+    workers: int | None = None,
+    first: int | None = None,
+    progress: bool = False,
+) -> Path:
     """Render scenario ``name`` into the TUM folder ``out_dir`` and return it.
 
     With ``first`` below ``frames``, only the run's first ``first`` frames are rendered and
@@ -125,8 +135,12 @@ def generate_scenario(name: str, out_dir, *, frames: int | None = None, resoluti
         staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
         run = _Run(scenario, frames, cam, seed)
-        with (writing(out), at_safe_points() as stop,
-              counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance):
+        with (
+            writing(out),
+            at_safe_points() as stop,
+            counted(f"rendering {name}", rendered, "frames", enabled=progress) as advance,
+        ):
+
             def done() -> None:
                 advance()
                 stop.check()  # a stop signal ends the render here, between two frames
@@ -157,8 +171,15 @@ def _publish(staging: Path, out: Path) -> None:
             os.replace(staging, out)
 
 
-def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                    seed: int = 0, first: int | None = None, progress: bool = False) -> Path:
+def cached_scenario(
+    name: str,
+    *,
+    frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    first: int | None = None,
+    progress: bool = False,
+) -> Path:
     """The folder of scenario ``name`` in the cache, generated on first use (fr3 camera).
 
     ``first`` asks for the run's first frames only: a complete run in the cache serves, else a
@@ -182,8 +203,15 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
         final = complete.with_name(f"{complete.name}-first{first}")
     staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", dir=root))
     try:
-        generate_scenario(name, staging / "run", frames=frames, resolution=resolution, seed=seed,
-                          first=first if final != complete else None, progress=progress)
+        generate_scenario(
+            name,
+            staging / "run",
+            frames=frames,
+            resolution=resolution,
+            seed=seed,
+            first=first if final != complete else None,
+            progress=progress,
+        )
         try:
             os.rename(staging / "run", final)
         except OSError:
@@ -197,8 +225,11 @@ def cached_scenario(name: str, *, frames: int | None = None, resolution: tuple[i
 def cached_cuts(complete: Path) -> list[tuple[int, Path]]:
     """``(frames rendered, folder)`` of every cut of the run whose complete folder is ``complete``."""
     prefix = f"{complete.name}-first"
-    return [(int(folder.name[len(prefix):]), folder) for folder in complete.parent.glob(f"{prefix}*")
-            if folder.name[len(prefix):].isdigit() and folder.is_dir()]
+    return [
+        (int(folder.name[len(prefix) :]), folder)
+        for folder in complete.parent.glob(f"{prefix}*")
+        if folder.name[len(prefix) :].isdigit() and folder.is_dir()
+    ]
 
 
 def _worker_count(workers: int | None, frames: int, resolution: tuple[int, int]) -> int:
@@ -221,7 +252,7 @@ class _Run:
         self.sensor = KinectModel()
         self.covered = np.zeros(frames, bool)
         for first, last in self.plan.covered:
-            self.covered[first:last + 1] = True
+            self.covered[first : last + 1] = True
 
     @functools.cached_property
     def renderer(self) -> Renderer:
@@ -232,8 +263,9 @@ class _Run:
         """Colour (uint8 RGB) and depth (float32 metres) of frame ``i``; black and empty while covered."""
         camera, plan, timing = self.camera, self.plan, self.timing
         if self.covered[i]:
-            return np.zeros((camera.height, camera.width, 3), np.uint8), np.zeros((camera.height, camera.width),
-                                                                                  np.float32)
+            return np.zeros((camera.height, camera.width, 3), np.uint8), np.zeros(
+                (camera.height, camera.width), np.float32
+            )
         rng = np.random.default_rng([self.seed, _SENSOR, i])
         t_colour, t_depth = timing.colour[i] - timing.start, timing.depth[i] - timing.start
         half = plan.exposure / 2
@@ -254,10 +286,15 @@ class _Run:
             yield from self._encoded_in_process(count)
             return
         # Spawned, not forked: a fork would inherit OpenCV's thread pool mid-state.
-        with (_one_opencv_thread(),
-              ProcessPoolExecutor(workers - 1, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=_start_worker,
-                                  initargs=(self.scenario.name, self.frames, self.camera, self.seed)) as pool):
+        with (
+            _one_opencv_thread(),
+            ProcessPoolExecutor(
+                workers - 1,
+                mp_context=multiprocessing.get_context("spawn"),
+                initializer=_start_worker,
+                initargs=(self.scenario.name, self.frames, self.camera, self.seed),
+            ) as pool,
+        ):
             yield from self._encoded_with(pool, workers - 1, count)
 
     def _encoded_with(self, pool: ProcessPoolExecutor, size: int, count: int):
@@ -296,8 +333,9 @@ class _Run:
         for i, (rgb_png, depth_png) in enumerate(self.encoded_frames(workers, count)):
             writer.write_frame(folder, timing.colour[i], rgb_png, timing.depth[i], depth_png)
             done()
-        gt_poses = noisy_groundtruth(np.random.default_rng([self.seed, _GROUNDTRUTH]),
-                                     plan.path.poses(timing.groundtruth - timing.start))
+        gt_poses = noisy_groundtruth(
+            np.random.default_rng([self.seed, _GROUNDTRUTH]), plan.path.poses(timing.groundtruth - timing.start)
+        )
         info = {
             "scenario": self.scenario.name,
             "seed": self.seed,
@@ -314,8 +352,15 @@ class _Run:
         if count < self.frames:
             info["rendered_frames"] = count
         source = f"viewslam synth {self.scenario.name} --frames {self.frames} --seed {self.seed}"
-        writer.write_index(folder, source, timing.colour[:count], timing.depth[:count],
-                           Trajectory(timing.groundtruth, gt_poses), self.camera, info)
+        writer.write_index(
+            folder,
+            source,
+            timing.colour[:count],
+            timing.depth[:count],
+            Trajectory(timing.groundtruth, gt_poses),
+            self.camera,
+            info,
+        )
 
 
 _worker_run: _Run | None = None  # the run a pool worker renders frames of
@@ -344,8 +389,15 @@ def _worker_frame(i: int) -> tuple[bytes, bytes]:
     return _worker_run.encoded_frame(i)
 
 
-def preview_frames(name: str, fractions, *, frames: int | None = None, resolution: tuple[int, int] = (640, 480),
-                   seed: int = 0, camera: str = "fr3") -> list[tuple[int, np.ndarray, np.ndarray]]:
+def preview_frames(
+    name: str,
+    fractions,
+    *,
+    frames: int | None = None,
+    resolution: tuple[int, int] = (640, 480),
+    seed: int = 0,
+    camera: str = "fr3",
+) -> list[tuple[int, np.ndarray, np.ndarray]]:
     """``(index, rgb, depth)`` of the frames at ``fractions`` (0 to 1) of a run, exactly as
     :func:`generate_scenario` would write them, without rendering the rest: a quick look.
 

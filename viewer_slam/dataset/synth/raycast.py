@@ -24,8 +24,8 @@ import numpy as np
 from ...compiled import jit
 from ...geometry.camera import Camera
 
-TILE = 16      # pixels on a side of a tile of the image
-NEAR = 1e-3    # metres: hits nearer the camera's centre than this are ignored
+TILE = 16  # pixels on a side of a tile of the image
+NEAR = 1e-3  # metres: hits nearer the camera's centre than this are ignored
 
 
 @dataclass(frozen=True)
@@ -42,8 +42,8 @@ class Tiles:
 class RayHits:
     """Intersections of a batch of rays, float64."""
 
-    t: np.ndarray           # ray parameter = depth along the optical axis (unit-z rays); inf on a miss
-    triangle: np.ndarray    # int32, -1 on a miss
+    t: np.ndarray  # ray parameter = depth along the optical axis (unit-z rays); inf on a miss
+    triangle: np.ndarray  # int32, -1 on a miss
     barycentric: np.ndarray  # (N, 2): the weights of each hit triangle's second and third vertices
     directions: np.ndarray  # (N, 3) world frame, unit optical depth
 
@@ -90,8 +90,12 @@ def _tile_ranges(vertices, triangles, rotation, centre, fx, fy, cx, cy, columns,
         if u0 > u1 or v0 > v1:
             ranges[i] = (1, 1, 0, 0)
             continue
-        ranges[i] = (min(int(u0) // tile, last_column), min(int(v0) // tile, last_row),
-                     min(int(u1) // tile, last_column), min(int(v1) // tile, last_row))
+        ranges[i] = (
+            min(int(u0) // tile, last_column),
+            min(int(v0) // tile, last_row),
+            min(int(u1) // tile, last_column),
+            min(int(v1) // tile, last_row),
+        )
     return ranges
 
 
@@ -176,13 +180,31 @@ class TriangleCaster:
         vertices = np.ascontiguousarray(vertices, np.float64)
         rotation, centre = np.ascontiguousarray(pose[:3, :3], np.float64), np.ascontiguousarray(pose[:3, 3], np.float64)
         cam = self.camera
-        ranges = _tile_ranges(vertices, self.triangles, rotation, centre, cam.fx, cam.fy, cam.cx, cam.cy,
-                              self._columns, self._rows, TILE, NEAR)
+        ranges = _tile_ranges(
+            vertices,
+            self.triangles,
+            rotation,
+            centre,
+            cam.fx,
+            cam.fy,
+            cam.cx,
+            cam.cy,
+            self._columns,
+            self._rows,
+            TILE,
+            NEAR,
+        )
         start, items = _tiles(ranges, self._columns, self._rows)
         corners = vertices[self.triangles]
-        return CasterFrame(self, rotation, centre, np.ascontiguousarray(corners[:, 0]),
-                           np.ascontiguousarray(corners[:, 1] - corners[:, 0]),
-                           np.ascontiguousarray(corners[:, 2] - corners[:, 0]), Tiles(start, items, self._columns))
+        return CasterFrame(
+            self,
+            rotation,
+            centre,
+            np.ascontiguousarray(corners[:, 0]),
+            np.ascontiguousarray(corners[:, 1] - corners[:, 0]),
+            np.ascontiguousarray(corners[:, 2] - corners[:, 0]),
+            Tiles(start, items, self._columns),
+        )
 
 
 @dataclass(frozen=True)
@@ -202,7 +224,21 @@ class CasterFrame:
         beyond the image)."""
         cam = self.caster.camera
         t, triangle, barycentric, directions = _cast(
-            np.ascontiguousarray(pixels[:, 0], np.float64), np.ascontiguousarray(pixels[:, 1], np.float64),
-            self.rotation, self.centre, cam.fx, cam.fy, cam.cx, cam.cy, self.origin, self.edge1, self.edge2,
-            self.tiles.start, self.tiles.items, self.tiles.columns, TILE, NEAR)
+            np.ascontiguousarray(pixels[:, 0], np.float64),
+            np.ascontiguousarray(pixels[:, 1], np.float64),
+            self.rotation,
+            self.centre,
+            cam.fx,
+            cam.fy,
+            cam.cx,
+            cam.cy,
+            self.origin,
+            self.edge1,
+            self.edge2,
+            self.tiles.start,
+            self.tiles.items,
+            self.tiles.columns,
+            TILE,
+            NEAR,
+        )
         return RayHits(t, triangle, barycentric, directions)

@@ -28,10 +28,10 @@ from .raycast import CasterFrame, TriangleCaster
 from .scenes import Scene, Surface
 
 ATLAS_WIDTH = 8192
-ATLAS_PADDING = 16   # texels of replicated border: keeps level-2 filtering inside each texture
-MIP_LEVELS = 3       # the atlas and two halvings
-GRID_STEP = 4        # pixels between the rays of the first, coarse pass
-LIGHT_STEP = 8       # atlas texels per light-map texel: lighting varies over centimetres, not texels
+ATLAS_PADDING = 16  # texels of replicated border: keeps level-2 filtering inside each texture
+MIP_LEVELS = 3  # the atlas and two halvings
+GRID_STEP = 4  # pixels between the rays of the first, coarse pass
+LIGHT_STEP = 8  # atlas texels per light-map texel: lighting varies over centimetres, not texels
 
 
 @dataclass
@@ -44,10 +44,10 @@ class Hits:
     """
 
     triangle: np.ndarray
-    depth: np.ndarray        # z along the optical axis, 0 on a miss
+    depth: np.ndarray  # z along the optical axis, 0 on a miss
     atlas_x: np.ndarray
     atlas_y: np.ndarray
-    level: np.ndarray        # mip level from the pixel's footprint on the texture
+    level: np.ndarray  # mip level from the pixel's footprint on the texture
     grid_points: np.ndarray
     grid_hit: np.ndarray
 
@@ -56,8 +56,8 @@ class Hits:
 class _Rays:
     """Intersections of a flat batch of rays."""
 
-    depth: np.ndarray       # z along the optical axis, 0 on a miss
-    triangle: np.ndarray    # -1 on a miss
+    depth: np.ndarray  # z along the optical axis, 0 on a miss
+    triangle: np.ndarray  # -1 on a miss
     barycentric: np.ndarray  # (N, 2)
     cos_incidence: np.ndarray
     directions: np.ndarray  # (N, 3) world frame, unit optical depth
@@ -78,7 +78,7 @@ def pack_atlas(images: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     atlas = np.zeros((y + shelf, ATLAS_WIDTH, 3), np.uint8)
     for image, (ox, oy) in zip(images, origins):
         padded = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_REPLICATE)
-        atlas[oy:oy + padded.shape[0], ox:ox + padded.shape[1]] = padded
+        atlas[oy : oy + padded.shape[0], ox : ox + padded.shape[1]] = padded
     return atlas, origins
 
 
@@ -95,10 +95,10 @@ def mip_atlas(atlas: np.ndarray) -> tuple[np.ndarray, int, int]:
     if height >= np.iinfo(np.int16).max:  # cv2.remap addresses rows with 16 bits
         raise ValueError("textures exceed the atlas; use coarser texels")
     image = np.zeros((height, width, 4), np.uint8)  # RGBA: OpenCV's remap is vectorised for four channels
-    image[:atlas.shape[0], :, :3] = atlas
+    image[: atlas.shape[0], :, :3] = atlas
     row, column = atlas.shape[0], level1.shape[1]
     image[row:, :column, :3] = level1
-    image[row:row + level2.shape[0], column:column + level2.shape[1], :3] = level2
+    image[row : row + level2.shape[0], column : column + level2.shape[1], :3] = level2
     return image, row, column
 
 
@@ -137,8 +137,9 @@ def pixel_rays(camera: Camera, cols: np.ndarray, rows: np.ndarray) -> np.ndarray
     With z = 1 the ray parameter of a hit is the depth itself.
     """
     u, v = np.meshgrid(np.asarray(cols, np.float64), np.asarray(rows, np.float64))
-    return np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)],
-                    axis=-1).astype(np.float32)
+    return np.stack([(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, np.ones_like(u)], axis=-1).astype(
+        np.float32
+    )
 
 
 @dataclass(frozen=True)
@@ -180,9 +181,13 @@ class _Level(_Samples):
         """Samples ``shape`` every ``step`` pixels from the top-left one, in a coarse grid ``coarse``."""
         rows, cols = np.indices(shape)
         cell_row, cell_col = np.minimum(rows // 2, coarse[0] - 2), np.minimum(cols // 2, coarse[1] - 2)
-        return cls(shape, *cls.grid(camera, shape, step), (cell_row * (coarse[1] - 1) + cell_col).ravel(),
-                   (cell_row * coarse[1] + cell_col).ravel(),
-                   ((cols / 2).astype(np.float32), (rows / 2).astype(np.float32)))
+        return cls(
+            shape,
+            *cls.grid(camera, shape, step),
+            (cell_row * (coarse[1] - 1) + cell_col).ravel(),
+            (cell_row * coarse[1] + cell_col).ravel(),
+            ((cols / 2).astype(np.float32), (rows / 2).astype(np.float32)),
+        )
 
 
 def _mixed_cells(face: np.ndarray) -> np.ndarray:
@@ -209,8 +214,9 @@ def face_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
 
 
-def bake_light_maps(surfaces: list[Surface], origins: np.ndarray, atlas_shape: tuple[int, int],
-                    lights: np.ndarray, ambient: float) -> np.ndarray:
+def bake_light_maps(
+    surfaces: list[Surface], origins: np.ndarray, atlas_shape: tuple[int, int], lights: np.ndarray, ambient: float
+) -> np.ndarray:
     """Light intensity over the atlas, ``(2 H / 8 + 2, W / 8)`` float32: each surface's
     front (its winding's normal) above its back side, two blank rows between them so that
     filtering never mixes the sides.
@@ -223,10 +229,14 @@ def bake_light_maps(surfaces: list[Surface], origins: np.ndarray, atlas_shape: t
     for surface, (ox, oy) in zip(surfaces, origins):
         h, w = surface.texture.shape[:2]
         # The light texels whose centres, at atlas coordinate (k + 0.5) * step - 0.5, fall in the padded texture.
-        cols = np.arange(int(np.ceil((ox + 0.5) / LIGHT_STEP - 0.5)),
-                         int(np.floor((ox + w + 2 * ATLAS_PADDING - 0.5) / LIGHT_STEP - 0.5)) + 1)
-        rows = np.arange(int(np.ceil((oy + 0.5) / LIGHT_STEP - 0.5)),
-                         int(np.floor((oy + h + 2 * ATLAS_PADDING - 0.5) / LIGHT_STEP - 0.5)) + 1)
+        cols = np.arange(
+            int(np.ceil((ox + 0.5) / LIGHT_STEP - 0.5)),
+            int(np.floor((ox + w + 2 * ATLAS_PADDING - 0.5) / LIGHT_STEP - 0.5)) + 1,
+        )
+        rows = np.arange(
+            int(np.ceil((oy + 0.5) / LIGHT_STEP - 0.5)),
+            int(np.floor((oy + h + 2 * ATLAS_PADDING - 0.5) / LIGHT_STEP - 0.5)) + 1,
+        )
         if not len(cols) or not len(rows):
             continue
         u = ((cols + 0.5) * LIGHT_STEP - ox - ATLAS_PADDING) / w
@@ -240,7 +250,7 @@ def bake_light_maps(surfaces: list[Surface], origins: np.ndarray, atlas_shape: t
         normals = face_normals(surface.vertices, surface.triangles)[best]
         for side, sign in enumerate((1.0, -1.0)):
             intensity = lambert(points.T.astype(np.float32), (sign * normals).T.astype(np.float32), lights, ambient)
-            maps[side, rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1] = intensity.reshape(u.shape)
+            maps[side, rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1] = intensity.reshape(u.shape)
     return maps.reshape(-1, width)[:-2]
 
 
@@ -287,8 +297,11 @@ class Renderer:
         for surface, (ox, oy) in zip(surfaces, origins):
             h, w = surface.texture.shape[:2]
             uv = surface.uvs[surface.triangles]  # (T, 3, 2)
-            corner_uv.append(np.stack([ox + ATLAS_PADDING + uv[..., 0] * w - 0.5,
-                                       oy + ATLAS_PADDING + uv[..., 1] * h - 0.5], axis=-1))
+            corner_uv.append(
+                np.stack(
+                    [ox + ATLAS_PADDING + uv[..., 0] * w - 0.5, oy + ATLAS_PADDING + uv[..., 1] * h - 0.5], axis=-1
+                )
+            )
             triangles.append(surface.triangles + offset)
             texel.append(np.full(len(surface.triangles), surface.texel))
             face.append(faces(surface) + first)  # faces are named by a triangle's global index
@@ -304,14 +317,17 @@ class Renderer:
         # Without movers the geometry is the same at every time: computed once.
         self._static_geometry = None if scene.movers else self._geometry(self.static_vertices)
         self._lights = np.asarray(scene.lights, np.float64)
-        self.light_maps = bake_light_maps(scene.static, origins[:len(scene.static)], atlas.shape[:2],
-                                          self._lights, scene.ambient)
+        self.light_maps = bake_light_maps(
+            scene.static, origins[: len(scene.static)], atlas.shape[:2], self._lights, scene.ambient
+        )
         # The grid reaches the last row and column, so that interpolation covers every pixel.
         self._grid_shape = (-(-(camera.height - 1) // GRID_STEP) + 1, -(-(camera.width - 1) // GRID_STEP) + 1)
         self._grid = _Samples.every(camera, self._grid_shape, GRID_STEP)
         half = (2 * self._grid_shape[0] - 1, 2 * self._grid_shape[1] - 1)
-        self._levels = (_Level.between(camera, self._grid_shape, half, GRID_STEP // 2),
-                        _Level.between(camera, half, (camera.height, camera.width), 1))
+        self._levels = (
+            _Level.between(camera, self._grid_shape, half, GRID_STEP // 2),
+            _Level.between(camera, half, (camera.height, camera.width), 1),
+        )
         self._pixel_rays = pixel_rays(camera, np.arange(camera.width), np.arange(camera.height)).reshape(-1, 3)
 
     def _geometry(self, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -337,13 +353,19 @@ class Renderer:
         """Intersect the rays of ``samples`` (those at indices ``which``, else all) with the
         frame's triangles."""
         frame, normals = scene
-        pixels, norms = (samples.pixels, samples.norms) if which is None else (samples.pixels[which],
-                                                                               samples.norms[which])
+        pixels, norms = (
+            (samples.pixels, samples.norms) if which is None else (samples.pixels[which], samples.norms[which])
+        )
         hits = frame.cast(pixels)
         hit = hits.triangle >= 0
         cos = np.abs(dot3(normals[np.maximum(hits.triangle, 0)].T, hits.directions.T)) / norms
-        return _Rays(np.where(hit, hits.t, 0.0).astype(np.float32), hits.triangle,
-                     hits.barycentric.astype(np.float32), cos.astype(np.float32), hits.directions.astype(np.float32))
+        return _Rays(
+            np.where(hit, hits.t, 0.0).astype(np.float32),
+            hits.triangle,
+            hits.barycentric.astype(np.float32),
+            cos.astype(np.float32),
+            hits.directions.astype(np.float32),
+        )
 
     def _adaptive(self, scene, values) -> tuple[np.ndarray, np.ndarray, _Rays]:
         """Per-pixel ``values`` (a function of a :class:`_Rays`, ``(N, 4)``, linear in the
@@ -358,8 +380,9 @@ class Renderer:
         for level in self._levels:
             mixed = _mixed_cells(self.face[triangle].reshape(shape))
             # Four channels: OpenCV's remap is vectorised for one or four, two or three take twice as long.
-            samples = cv2.remap(samples.reshape(shape + (4,)), *level.maps, cv2.INTER_LINEAR,
-                                borderMode=cv2.BORDER_REPLICATE).reshape(-1, 4)
+            samples = cv2.remap(
+                samples.reshape(shape + (4,)), *level.maps, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
+            ).reshape(-1, 4)
             triangle = triangle[level.corner]
             exact = np.flatnonzero(mixed.ravel()[level.cell])
             if len(exact):
@@ -382,8 +405,11 @@ class Renderer:
         out[:, 0] = (corners[:, 0] * b0 + corners[:, 2] * b1 + corners[:, 4] * b2) * inverse
         out[:, 1] = (corners[:, 1] * b0 + corners[:, 3] * b1 + corners[:, 5] * b2) * inverse
         out[:, 2] = inverse
-        footprint = rays.depth / (np.float32(self.camera.fx) * self.texel[triangle]
-                                  * np.sqrt(np.maximum(rays.cos_incidence, np.float32(0.05))))
+        footprint = rays.depth / (
+            np.float32(self.camera.fx)
+            * self.texel[triangle]
+            * np.sqrt(np.maximum(rays.cos_incidence, np.float32(0.05)))
+        )
         out[:, 3] = np.clip(np.log2(np.maximum(footprint, np.float32(1e-6))), 0, MIP_LEVELS - 1) * hit
         return out
 
@@ -394,9 +420,15 @@ class Renderer:
         depth = np.divide(1.0, dense[:, 2], out=np.zeros(len(dense), np.float32), where=dense[:, 2] > 0)
         grid_shape = self._grid_shape
         grid_points = pose[:3, 3].astype(np.float32) + grid.directions * grid.depth[:, None]
-        return Hits(triangle, depth.reshape(shape), (dense[:, 0] * depth).reshape(shape),
-                    (dense[:, 1] * depth).reshape(shape), dense[:, 3].reshape(shape),
-                    grid_points.reshape(grid_shape + (3,)), grid.triangle.reshape(grid_shape) >= 0)
+        return Hits(
+            triangle,
+            depth.reshape(shape),
+            (dense[:, 0] * depth).reshape(shape),
+            (dense[:, 1] * depth).reshape(shape),
+            dense[:, 3].reshape(shape),
+            grid_points.reshape(grid_shape + (3,)),
+            grid.triangle.reshape(grid_shape) >= 0,
+        )
 
     def albedo(self, hits: Hits) -> np.ndarray:
         """Trilinearly filtered texture colour per pixel, uint8 ``(H, W, 3)``: bilinear in
@@ -429,8 +461,9 @@ class Renderer:
             triangle = hits.triangle.ravel()[moving]
             facing = np.where(back[triangle, None], -normals[triangle], normals[triangle])
             points = pose[:3, 3] + rotate(self._pixel_rays[moving], pose[:3, :3]) * hits.depth.ravel()[moving, None]
-            intensity.ravel()[moving] = lambert(points.T.astype(np.float32), facing.T.astype(np.float32),
-                                                self._lights, self.scene.ambient)
+            intensity.ravel()[moving] = lambert(
+                points.T.astype(np.float32), facing.T.astype(np.float32), self._lights, self.scene.ambient
+            )
         return intensity
 
     def shade(self, hits: Hits, pose: np.ndarray, time: float) -> np.ndarray:
@@ -453,6 +486,7 @@ class Renderer:
         more than one are ray cast per pixel. The cosine, not linear, is interpolated
         bilinearly inside a face's cells (it varies slowly across a plane).
         """
+
         def inverse_and_cos(rays: _Rays) -> np.ndarray:  # two spare channels: see _adaptive
             out = np.zeros((len(rays.depth), 4), np.float32)
             np.divide(1.0, rays.depth, out=out[:, 0], where=rays.depth > 0)

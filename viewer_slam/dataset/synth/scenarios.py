@@ -40,7 +40,7 @@ class Plan:
     path: Path
     covered: list[tuple[int, int]]  # first and last covered frame index, inclusive
     loop: bool
-    exposure: float                 # seconds of motion blur; 0 for none
+    exposure: float  # seconds of motion blur; 0 for none
     notes: str
 
 
@@ -81,15 +81,26 @@ def walls(size) -> dict[str, tuple]:
     """The walls of a room with a corner at the origin: start ``(x, y)``, run ``(dx, dy)`` and
     the yaw of the normal pointing into the room."""
     w, d, _ = size
-    return {"south": ((0.0, 0.0), (w, 0.0), np.pi / 2), "north": ((w, d), (-w, 0.0), -np.pi / 2),
-            "west": ((0.0, d), (0.0, -d), 0.0), "east": ((w, 0.0), (0.0, d), np.pi)}
+    return {
+        "south": ((0.0, 0.0), (w, 0.0), np.pi / 2),
+        "north": ((w, d), (-w, 0.0), -np.pi / 2),
+        "west": ((0.0, d), (0.0, -d), 0.0),
+        "east": ((w, 0.0), (0.0, d), np.pi),
+    }
 
 
 def decorated_room(rng, size, poster_density=0.7, bookcases=2) -> list[Surface]:
     """A room with plaster walls, posters at eye height, bookcases and a checkered rug."""
     w, d, h = size
-    surfaces = room(rng, size, _wall, lambda r, hh, ww: textures.plaster(r, hh, ww, (140, 130, 120), 40),
-                    _flat((235, 235, 230), 2.0), texel=0.005, floor_texel=0.006)
+    surfaces = room(
+        rng,
+        size,
+        _wall,
+        lambda r, hh, ww: textures.plaster(r, hh, ww, (140, 130, 120), 40),
+        _flat((235, 235, 230), 2.0),
+        texel=0.005,
+        floor_texel=0.006,
+    )
     shelves_left = bookcases
     for (x0, y0), (dx, dy), normal_yaw in walls(size).values():
         length = np.hypot(dx, dy)
@@ -101,10 +112,10 @@ def decorated_room(rng, size, poster_density=0.7, bookcases=2) -> list[Surface]:
                 shelves_left -= 1
                 inward = np.array([np.cos(normal_yaw), np.sin(normal_yaw)])
                 centre = base + inward * 0.18
-                surfaces += box(rng, (*centre, 0.9), (0.9, 0.34, 1.8), textures.wood, 0.003,
-                                yaw=normal_yaw - np.pi / 2)
-                front = wall_poster(rng, (*(base + inward * 0.35), 0.9), normal_yaw, 0.86, 1.76,
-                                    texel=0.002, painter=textures.bookcase)
+                surfaces += box(rng, (*centre, 0.9), (0.9, 0.34, 1.8), textures.wood, 0.003, yaw=normal_yaw - np.pi / 2)
+                front = wall_poster(
+                    rng, (*(base + inward * 0.35), 0.9), normal_yaw, 0.86, 1.76, texel=0.002, painter=textures.bookcase
+                )
                 surfaces.append(front)
             elif roll < poster_density:
                 width, height = rng.uniform(0.5, 0.9), rng.uniform(0.6, 1.0)
@@ -139,15 +150,23 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     """A monitor, keyboard, papers, books and mugs on a desk whose user looks along ``facing_yaw``."""
     top = size[2]
     at, forward, _ = desk_frame(corner, size, facing_yaw)
-    surfaces = box(rng, (*at(0.6, -0.3), top + 0.25), (0.05, 0.55, 0.34), _flat((30, 30, 32)), 0.003,
-                   yaw=facing_yaw)
+    surfaces = box(rng, (*at(0.6, -0.3), top + 0.25), (0.05, 0.55, 0.34), _flat((30, 30, 32)), 0.003, yaw=facing_yaw)
     screen_centre = at(0.6, -0.3) - forward * 0.03
-    surfaces.append(wall_poster(rng, (*screen_centre, top + 0.26), facing_yaw + np.pi, 0.5, 0.3,
-                                texel=0.001, painter=textures.screen))
-    surfaces += box(rng, (*at(0.55, -0.3), top + 0.04), (0.2, 0.25, 0.08), _flat((40, 40, 45)), 0.004,
-                    yaw=facing_yaw)
-    surfaces += box(rng, (*at(-0.35, -0.3), top + 0.012), (0.16, 0.45, 0.024), _flat((40, 40, 40)), 0.002,
-                    yaw=facing_yaw, top=textures.keyboard)
+    surfaces.append(
+        wall_poster(
+            rng, (*screen_centre, top + 0.26), facing_yaw + np.pi, 0.5, 0.3, texel=0.001, painter=textures.screen
+        )
+    )
+    surfaces += box(rng, (*at(0.55, -0.3), top + 0.04), (0.2, 0.25, 0.08), _flat((40, 40, 45)), 0.004, yaw=facing_yaw)
+    surfaces += box(
+        rng,
+        (*at(-0.35, -0.3), top + 0.012),
+        (0.16, 0.45, 0.024),
+        _flat((40, 40, 40)),
+        0.002,
+        yaw=facing_yaw,
+        top=textures.keyboard,
+    )
     for _ in range(3):
         corner_xy = at(rng.uniform(-0.8, 0.2), rng.uniform(0.1, 0.7))
         angle = facing_yaw + rng.uniform(-0.4, 0.4)
@@ -157,12 +176,19 @@ def desk_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     books = at(0.5, 0.7)
     for k in range(int(rng.integers(2, 5))):
         thickness = rng.uniform(0.02, 0.05)
-        surfaces += box(rng, (*books, top + 0.015 + 0.05 * k), (0.24, 0.17, thickness),
-                        textures.bookshelf_row, 0.001, yaw=facing_yaw + rng.uniform(-0.3, 0.3),
-                        top=textures.poster)
+        surfaces += box(
+            rng,
+            (*books, top + 0.015 + 0.05 * k),
+            (0.24, 0.17, thickness),
+            textures.bookshelf_row,
+            0.001,
+            yaw=facing_yaw + rng.uniform(-0.3, 0.3),
+            top=textures.poster,
+        )
     for _ in range(2):
-        surfaces += cylinder(rng, (*at(rng.uniform(-0.6, 0.3), rng.uniform(-0.9, 0.9)), top), 0.04, 0.1,
-                             textures.poster, 0.001)
+        surfaces += cylinder(
+            rng, (*at(rng.uniform(-0.6, 0.3), rng.uniform(-0.9, 0.9)), top), 0.04, 0.1, textures.poster, 0.001
+        )
     return surfaces
 
 
@@ -179,8 +205,16 @@ def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     top = size[2]
     at, forward, side = desk_frame(corner, size, facing_yaw)
     cloth_corner = at(-0.9, -0.55)
-    surfaces = [quad(rng, (*cloth_corner, top + 0.001), (*(side * 0.9), 0.0), (*(forward * 0.65), 0.0),
-                     _cloth((170, 40, 45)), 0.002)]
+    surfaces = [
+        quad(
+            rng,
+            (*cloth_corner, top + 0.001),
+            (*(side * 0.9), 0.0),
+            (*(forward * 0.65), 0.0),
+            _cloth((170, 40, 45)),
+            0.002,
+        )
+    ]
     surfaces += cylinder(rng, (*at(0.45, 0.75), top), 0.09, 0.16, _cloth((170, 90, 50)), 0.002)
     surfaces += cylinder(rng, (*at(0.45, 0.75), top + 0.16), 0.16, 0.28, _cloth((40, 110, 40)), 0.003)
     surfaces += cylinder(rng, (*at(0.6, -0.85), top), 0.07, 0.3, _flat((200, 190, 160), 6.0), 0.002)
@@ -188,11 +222,18 @@ def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     surfaces += cylinder(rng, (*at(-0.3, -0.2), top), 0.14, 0.07, _flat((235, 235, 225), 4.0), 0.002)
     for _ in range(4):
         fruit = at(-0.3, -0.2) + rng.uniform(-0.06, 0.06, 2)
-        surfaces += cylinder(rng, (*fruit, top + 0.07), 0.035, 0.05, _flat(textures.random_colour(rng, 60, 230), 8.0),
-                             0.002)
+        surfaces += cylinder(
+            rng, (*fruit, top + 0.07), 0.035, 0.05, _flat(textures.random_colour(rng, 60, 230), 8.0), 0.002
+        )
     for k in range(2):
-        surfaces += box(rng, (*at(0.55, -0.35 + 0.22 * k), top + 0.15), (0.07, 0.19, 0.3), textures.poster, 0.001,
-                        yaw=facing_yaw + rng.uniform(-0.2, 0.2))
+        surfaces += box(
+            rng,
+            (*at(0.55, -0.35 + 0.22 * k), top + 0.15),
+            (0.07, 0.19, 0.3),
+            textures.poster,
+            0.001,
+            yaw=facing_yaw + rng.uniform(-0.2, 0.2),
+        )
     teddy = at(0.1, 0.3)
     surfaces += box(rng, (*teddy, top + 0.09), (0.12, 0.16, 0.18), _cloth((140, 95, 55)), 0.002, yaw=facing_yaw)
     surfaces += cylinder(rng, (*teddy, top + 0.18), 0.07, 0.12, _cloth((150, 105, 60)), 0.002)
@@ -205,8 +246,9 @@ def household_clutter(rng, corner, size, facing_yaw: float) -> list[Surface]:
     return surfaces
 
 
-def seated_person(rng, base: np.ndarray, sway: Callable, lift: Callable, shirt,
-                  trousers) -> tuple[list[Surface], list[Mover]]:
+def seated_person(
+    rng, base: np.ndarray, sway: Callable, lift: Callable, shirt, trousers
+) -> tuple[list[Surface], list[Mover]]:
     """A person on a stool at ``base`` (4x4) whose torso turns by ``sway(t)`` and whose arms lift by
     ``lift(t, side)``: the legs and stool are static surfaces, the torso and arms movers."""
     parts = person_parts(rng, shirt, trousers)
@@ -218,6 +260,7 @@ def seated_person(rng, base: np.ndarray, sway: Callable, lift: Callable, shirt,
 
     movers = [Mover(parts["torso"], torso_pose)]
     for side, (offset, arm) in enumerate(zip((-0.26, 0.26), parts["arms"])):
+
         def arm_pose(t: float, side: int = side, offset: float = offset) -> np.ndarray:
             return torso_pose(t) @ yaw_pose(0.0, offset, 1.08, 0.0, -lift(t, side))
 
@@ -245,6 +288,7 @@ def keyframes_along(times, positions, targets) -> np.ndarray:
 
 # --- scenarios ------------------------------------------------------------------------------
 
+
 def build_desk_with_person(rng, frames) -> Plan:
     size = (5.0, 4.5, 2.7)
     scene = Scene(lights=_ceiling_lights(size))
@@ -257,8 +301,14 @@ def build_desk_with_person(rng, frames) -> Plan:
         reach = np.sin(np.pi * np.clip((t - shift_start + 1.0) / (shift_end - shift_start + 2.0), 0, 1))
         return (1.1 * reach if side == 0 else 0.0) + 0.15 * np.sin(1.3 * t + side)
 
-    static, movers = seated_person(rng, yaw_pose(2.4, 3.75, 0.0, -np.pi / 2), lambda t: 0.25 * np.sin(0.7 * t),
-                                   lift, shirt=(70, 90, 160), trousers=(50, 50, 60))
+    static, movers = seated_person(
+        rng,
+        yaw_pose(2.4, 3.75, 0.0, -np.pi / 2),
+        lambda t: 0.25 * np.sin(0.7 * t),
+        lift,
+        shirt=(70, 90, 160),
+        trousers=(50, 50, 60),
+    )
     scene.add(static)
     scene.movers.extend(movers)
     shifted = box(rng, (0, 0, 0.06), (0.15, 0.1, 0.12), textures.poster, 0.001)
@@ -277,9 +327,15 @@ def build_desk_with_person(rng, frames) -> Plan:
     targets[-1] = targets[0]
     times = np.linspace(0, duration, len(arc))
     path = Path(keyframes_along(times, positions, targets), Tremor(rng, 0.004, np.radians(0.5)))
-    return Plan(scene, path, [], True, 0.012,
-                "person sways and moves an arm throughout; moves a box on the desk between "
-                f"{shift_start:.1f} s and {shift_end:.1f} s; camera returns to its start")
+    return Plan(
+        scene,
+        path,
+        [],
+        True,
+        0.012,
+        "person sways and moves an arm throughout; moves a box on the desk between "
+        f"{shift_start:.1f} s and {shift_end:.1f} s; camera returns to its start",
+    )
 
 
 def build_sitting_static(rng, frames) -> Plan:
@@ -293,31 +349,47 @@ def build_sitting_static(rng, frames) -> Plan:
         def lift(t, side, f=frequency, p=phase):
             return 0.5 + 0.45 * np.sin(TAU * f * t + p + 1.3 * side)
 
-        static, movers = seated_person(rng, yaw_pose(x, 3.6, 0.0, -np.pi / 2),
-                                       lambda t, p=phase: 0.2 * np.sin(0.9 * t + p), lift,
-                                       shirt=shirt, trousers=(45, 45, 55))
+        static, movers = seated_person(
+            rng,
+            yaw_pose(x, 3.6, 0.0, -np.pi / 2),
+            lambda t, p=phase: 0.2 * np.sin(0.9 * t + p),
+            lift,
+            shirt=shirt,
+            trousers=(45, 45, 55),
+        )
         scene.add(static)
         scene.movers.extend(movers)
     duration = frames / CAMERA_RATE
     position, target = (2.5, 1.0, 1.3), (2.5, 3.2, 0.85)
-    path = Path(keyframes_along([0.0, duration], [position, position], [target, target]),
-                Tremor(rng, 0.002, np.radians(0.25)))
+    path = Path(
+        keyframes_along([0.0, duration], [position, position], [target, target]), Tremor(rng, 0.002, np.radians(0.25))
+    )
     return Plan(scene, path, [], False, 0.008, "two seated people gesture; the camera only trembles")
 
 
 def hall(rng, size, poster_walls) -> list[Surface]:
     """A large hall: concrete walls, a grey floor, posters only on the walls listed."""
     concrete = lambda r, hh, ww: textures.plaster(r, hh, ww, (165, 165, 160), 22)  # noqa: E731
-    surfaces = room(rng, size, concrete, lambda r, hh, ww: textures.plaster(r, hh, ww, (120, 120, 118), 30),
-                    _flat((200, 200, 200), 2.0), texel=0.006, floor_texel=0.01)
+    surfaces = room(
+        rng,
+        size,
+        concrete,
+        lambda r, hh, ww: textures.plaster(r, hh, ww, (120, 120, 118), 30),
+        _flat((200, 200, 200), 2.0),
+        texel=0.006,
+        floor_texel=0.01,
+    )
     for name in poster_walls:
         (x0, y0), (dx, dy), normal_yaw = walls(size)[name]
         length = np.hypot(dx, dy)
         for along in np.arange(1.0, length - 0.8, 1.3):
             if rng.random() < 0.6:
                 base = np.array([x0, y0]) + np.array([dx, dy]) / length * along
-                surfaces.append(wall_poster(rng, (*base, rng.uniform(1.0, 1.6)), normal_yaw,
-                                            rng.uniform(0.6, 1.0), rng.uniform(0.7, 1.1)))
+                surfaces.append(
+                    wall_poster(
+                        rng, (*base, rng.uniform(1.0, 1.6)), normal_yaw, rng.uniform(0.6, 1.0), rng.uniform(0.7, 1.1)
+                    )
+                )
     return surfaces
 
 
@@ -342,12 +414,22 @@ def build_pioneer_360(rng, frames) -> Plan:
     duration = frames / CAMERA_RATE
     heading = np.linspace(0.0, TAU, 13) + rng.uniform(-0.2, 0.2)
     times = np.linspace(0, duration, len(heading))
-    keyframes = np.array([[t, *(centre + radius * np.array([np.sin(a), -np.cos(a)])), 0.45, a, -0.03, 0.0]
-                          for t, a in zip(times, heading)])
+    keyframes = np.array(
+        [
+            [t, *(centre + radius * np.array([np.sin(a), -np.cos(a)])), 0.45, a, -0.03, 0.0]
+            for t, a in zip(times, heading)
+        ]
+    )
     path = Path(keyframes, Tremor(rng, 0.002, np.radians(0.3)))
-    return Plan(scene, path, [], True, 0.008,
-                "planar robot drive on a 1.2 m circle, one full turn; the north and east walls lie "
-                "beyond the 4.5 m depth range, the boxes are plain cardboard")
+    return Plan(
+        scene,
+        path,
+        [],
+        True,
+        0.008,
+        "planar robot drive on a 1.2 m circle, one full turn; the north and east walls lie "
+        "beyond the 4.5 m depth range, the boxes are plain cardboard",
+    )
 
 
 def kidnap_segments(frames, revisit: bool) -> tuple[list[tuple], int]:
@@ -367,14 +449,25 @@ def kidnap_segments(frames, revisit: bool) -> tuple[list[tuple], int]:
     if revisit:
         first = (0, 50, (3.2, 2.8), (3.5, 3.0))
         if frames >= 300:
-            return [first, (160, 20, (4.1, 3.4), (3.8, 3.6)), (250, 390, (3.5, 2.3), (3.8, 2.5)),
-                    (260, 400, (3.3, 2.9), (3.7, 3.2))], covered
+            return [
+                first,
+                (160, 20, (4.1, 3.4), (3.8, 3.6)),
+                (250, 390, (3.5, 2.3), (3.8, 2.5)),
+                (260, 400, (3.3, 2.9), (3.7, 3.2)),
+            ], covered
         return [first, (160, 20, (4.1, 3.4), (3.8, 3.6)), (250, 400, (3.3, 2.9), (3.7, 3.2))], covered
     if frames >= 300:
-        return [(0, 20, (3.2, 2.8), (3.5, 3.0)), (90, 110, (4.1, 3.4), (3.8, 3.6)),
-                (180, 200, (3.5, 2.3), (3.8, 2.5)), (270, 290, (3.3, 2.9), (3.7, 3.2))], covered
-    return [(0, 45, (3.2, 2.8), (3.5, 3.0)), (125, 170, (4.1, 3.4), (3.8, 3.6)),
-            (225, 270, (3.3, 2.9), (3.7, 3.2))], covered
+        return [
+            (0, 20, (3.2, 2.8), (3.5, 3.0)),
+            (90, 110, (4.1, 3.4), (3.8, 3.6)),
+            (180, 200, (3.5, 2.3), (3.8, 2.5)),
+            (270, 290, (3.3, 2.9), (3.7, 3.2)),
+        ], covered
+    return [
+        (0, 45, (3.2, 2.8), (3.5, 3.0)),
+        (125, 170, (4.1, 3.4), (3.8, 3.6)),
+        (225, 270, (3.3, 2.9), (3.7, 3.2)),
+    ], covered
 
 
 def build_360_kidnap(rng, frames, revisit: bool = True) -> Plan:
@@ -390,7 +483,7 @@ def build_360_kidnap(rng, frames, revisit: bool = True) -> Plan:
     lengths[-1] += visible - lengths.sum()
     keyframes, covered, frame = [], [], 0
     for k, ((yaw0, yaw1, p0, p1), length) in enumerate(zip(segments, lengths)):
-        for s in ((0.0, 0.5, 1.0) if length > 1 else (0.0,)):
+        for s in (0.0, 0.5, 1.0) if length > 1 else (0.0,):
             t = (frame + s * (length - 1)) / CAMERA_RATE
             xy = np.asarray(p0) + s * (np.asarray(p1) - np.asarray(p0))
             pitch = np.radians(8 + 4 * np.sin(3 * k + 2 * s))
@@ -400,11 +493,20 @@ def build_360_kidnap(rng, frames, revisit: bool = True) -> Plan:
             covered.append((frame, frame + covered_length - 1))
             frame += covered_length
     path = Path(keyframes, Tremor(rng, 0.003, np.radians(0.4)))
-    seen_again = ("each sweep after a covering starts on unseen walls and turns back onto the first sweep's view"
-                  if revisit else "no view of before a covering is seen again")
-    return Plan(scene, path, covered, revisit, 0.012,
-                f"sensor covered {len(covered)} times for {covered_length} frames while the camera is carried "
-                f"elsewhere (view turned by 100 degrees or more); {seen_again}")
+    seen_again = (
+        "each sweep after a covering starts on unseen walls and turns back onto the first sweep's view"
+        if revisit
+        else "no view of before a covering is seen again"
+    )
+    return Plan(
+        scene,
+        path,
+        covered,
+        revisit,
+        0.012,
+        f"sensor covered {len(covered)} times for {covered_length} frames while the camera is carried "
+        f"elsewhere (view turned by 100 degrees or more); {seen_again}",
+    )
 
 
 def build_360_kidnap_norevisit(rng, frames) -> Plan:
@@ -425,19 +527,27 @@ def build_long_office_household(rng, frames) -> Plan:
     start = rng.uniform(0, TAU)
     angles = start + np.linspace(0.0, TAU + np.radians(40), 21)
     radii = 2.0 + 0.2 * np.sin(3 * angles)
-    positions = [(*(centre + r * np.array([np.cos(a), np.sin(a)])), 1.5 + 0.08 * np.sin(2 * a))
-                 for a, r in zip(angles, radii)]
+    positions = [
+        (*(centre + r * np.array([np.cos(a), np.sin(a)])), 1.5 + 0.08 * np.sin(2 * a)) for a, r in zip(angles, radii)
+    ]
     targets = [(*(centre + 0.25 * np.array([np.cos(2 * a), np.sin(3 * a)])), 0.8) for a in angles]
-    path = Path(keyframes_along(np.linspace(0, duration, len(angles)), positions, targets),
-                Tremor(rng, 0.004, np.radians(0.5)))
-    return Plan(scene, path, [], True, 0.012,
-                "one round about two desks of office and household clutter; the last 40 degrees repeat the start")
+    path = Path(
+        keyframes_along(np.linspace(0, duration, len(angles)), positions, targets), Tremor(rng, 0.004, np.radians(0.5))
+    )
+    return Plan(
+        scene,
+        path,
+        [],
+        True,
+        0.012,
+        "one round about two desks of office and household clutter; the last 40 degrees repeat the start",
+    )
 
 
 NEAR_HEIGHT, NEAR_PITCH = 0.8, np.radians(55)
 FEATURELESS_FROM_X = 1.9
 FAINT_GRAIN = 0.2  # wood-grain contrast of the texture-less plane (1 = ordinary wood)
-KNOTS = 0.5        # and of its sparse knots: the few corners a feature tracker finds there
+KNOTS = 0.5  # and of its sparse knots: the few corners a feature tracker finds there
 
 
 def near_plane_path(rng, frames) -> Path:
@@ -449,10 +559,18 @@ def near_plane_path(rng, frames) -> Path:
     duration = frames / CAMERA_RATE
     theta = np.pi + np.linspace(0.0, TAU + np.radians(40), 28)
     times = np.linspace(0, duration, len(theta))
-    keyframes = np.stack([times, 1.0 + 1.2 * np.cos(theta), 0.45 * np.sin(theta),
-                          NEAR_HEIGHT + 0.05 * np.sin(2 * theta), np.radians(12) * np.sin(theta + 0.5),
-                          np.full_like(theta, NEAR_PITCH) + np.radians(4) * np.cos(3 * theta),
-                          np.radians(3) * np.sin(2 * theta)], axis=1)
+    keyframes = np.stack(
+        [
+            times,
+            1.0 + 1.2 * np.cos(theta),
+            0.45 * np.sin(theta),
+            NEAR_HEIGHT + 0.05 * np.sin(2 * theta),
+            np.radians(12) * np.sin(theta + 0.5),
+            np.full_like(theta, NEAR_PITCH) + np.radians(4) * np.cos(3 * theta),
+            np.radians(3) * np.sin(2 * theta),
+        ],
+        axis=1,
+    )
     return Path(keyframes, Tremor(rng, 0.003, np.radians(0.4)))
 
 
@@ -462,9 +580,11 @@ def floor_tiles(rng, contrast: Callable[[np.ndarray], np.ndarray], knot_gain=1.0
     surfaces = []
     for x0 in np.arange(-2.5, 5.0, tile):
         for y0 in np.arange(-3.0, 3.0, tile):
+
             def painter(r, h, w, x0=x0):
                 grain = np.broadcast_to(contrast(x0 + (np.arange(w) + 0.5) / w * tile)[None, :], (h, w))
                 return textures.wood(r, h, w, contrast=grain, knots=np.minimum(grain * knot_gain, 1.0))
+
             surfaces.append(quad(rng, (x0, y0, 0.0), (tile, 0, 0), (0, tile, 0), painter, 0.003))
     return surfaces
 
@@ -473,9 +593,15 @@ def build_nostructure_notexture(rng, frames) -> Plan:
     scene = Scene(lights=((0.0, 0.0, 2.5), (2.5, 0.0, 2.5)), ambient=0.55)
     faint = lambda x: FAINT_GRAIN * (1.0 - _smoothstep((x - FEATURELESS_FROM_X + 0.3) / 0.3))  # noqa: E731
     scene.add(floor_tiles(rng, faint, knot_gain=KNOTS / FAINT_GRAIN))
-    return Plan(scene, near_plane_path(rng, frames), [], True, 0.012,
-                f"faint wood grain; beyond x = {FEATURELESS_FROM_X} m the plane is uniform, seen alone "
-                "for about a quarter of the run, in its middle")
+    return Plan(
+        scene,
+        near_plane_path(rng, frames),
+        [],
+        True,
+        0.012,
+        f"faint wood grain; beyond x = {FEATURELESS_FROM_X} m the plane is uniform, seen alone "
+        "for about a quarter of the run, in its middle",
+    )
 
 
 def build_nostructure_texture(rng, frames) -> Plan:

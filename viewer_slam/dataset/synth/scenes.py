@@ -22,11 +22,11 @@ MAX_TEXTURE_SIDE = 2048
 
 @dataclass(frozen=True)
 class Surface:
-    vertices: np.ndarray   # (V, 3) float64
+    vertices: np.ndarray  # (V, 3) float64
     triangles: np.ndarray  # (T, 3) int
-    uvs: np.ndarray        # (V, 2) texture coordinates in [0, 1]: u along columns, v along rows
-    texture: np.ndarray    # (h, w, 3) uint8 RGB
-    texel: float           # metres per texel
+    uvs: np.ndarray  # (V, 2) texture coordinates in [0, 1]: u along columns, v along rows
+    texture: np.ndarray  # (h, w, 3) uint8 RGB
+    texel: float  # metres per texel
 
 
 @dataclass(frozen=True)
@@ -70,8 +70,9 @@ def quad(rng, corner, edge_u, edge_v, painter: Painter, texel: float) -> Surface
     return Surface(vertices, np.array([[0, 1, 2], [0, 2, 3]]), uvs, painter(rng, height, width), texel)
 
 
-def box(rng, centre, size, painter: Painter, texel: float, yaw: float = 0.0,
-        top: Painter | None = None) -> list[Surface]:
+def box(
+    rng, centre, size, painter: Painter, texel: float, yaw: float = 0.0, top: Painter | None = None
+) -> list[Surface]:
     """An axis-aligned (then yawed) box: six faces, each with its own texture drawn by ``painter``.
 
     ``top`` paints the upper face differently (a desk top, a keyboard on a case).
@@ -83,18 +84,19 @@ def box(rng, centre, size, painter: Painter, texel: float, yaw: float = 0.0,
     low = centre - (ex + ey + ez) / 2
     # Each face from its top-left corner as seen from outside, so that text reads the right way.
     faces = [
-        (low, ex, ey, painter),                          # bottom
-        (low + ez + ey, ex, -ey, top or painter),        # top
-        (low + ez, ex, -ez, painter),                    # front (-y)
-        (low + ey + ex + ez, -ex, -ez, painter),         # back (+y)
-        (low + ey + ez, -ey, -ez, painter),              # left (-x)
-        (low + ex + ez, ey, -ez, painter),               # right (+x)
+        (low, ex, ey, painter),  # bottom
+        (low + ez + ey, ex, -ey, top or painter),  # top
+        (low + ez, ex, -ez, painter),  # front (-y)
+        (low + ey + ex + ez, -ex, -ez, painter),  # back (+y)
+        (low + ey + ez, -ey, -ez, painter),  # left (-x)
+        (low + ex + ez, ey, -ez, painter),  # right (+x)
     ]
     return [quad(rng, c, u, v, p, texel) for c, u, v, p in faces]
 
 
-def cylinder(rng, base_centre, radius: float, height: float, painter: Painter, texel: float,
-             segments: int = 24) -> list[Surface]:
+def cylinder(
+    rng, base_centre, radius: float, height: float, painter: Painter, texel: float, segments: int = 24
+) -> list[Surface]:
     """A vertical cylinder: the side as one wrapped texture, and a cap on top."""
     base_centre = np.asarray(base_centre, np.float64)
     angles = np.linspace(0.0, 2 * np.pi, segments + 1)
@@ -115,8 +117,9 @@ def cylinder(rng, base_centre, radius: float, height: float, painter: Painter, t
     return [side, cap]
 
 
-def room(rng, size, wall: Painter, floor: Painter, ceiling: Painter, texel: float,
-         floor_texel: float | None = None) -> list[Surface]:
+def room(
+    rng, size, wall: Painter, floor: Painter, ceiling: Painter, texel: float, floor_texel: float | None = None
+) -> list[Surface]:
     """Floor, ceiling and four walls of a box room with one corner at the origin."""
     w, d, h = size
     floor_texel = floor_texel or texel * 2
@@ -130,8 +133,15 @@ def room(rng, size, wall: Painter, floor: Painter, ceiling: Painter, texel: floa
     ]
 
 
-def wall_poster(rng, centre, normal_yaw: float, width: float, height: float, texel: float = 0.0015,
-                painter: Painter = textures.poster) -> Surface:
+def wall_poster(
+    rng,
+    centre,
+    normal_yaw: float,
+    width: float,
+    height: float,
+    texel: float = 0.0015,
+    painter: Painter = textures.poster,
+) -> Surface:
     """A poster hanging 5 mm in front of a wall whose normal points along ``normal_yaw``."""
     normal = np.array([np.cos(normal_yaw), np.sin(normal_yaw), 0.0])
     across = np.array([-np.sin(normal_yaw), np.cos(normal_yaw), 0.0])  # left to right facing the wall
@@ -164,7 +174,7 @@ def person_parts(rng, shirt, trousers, skin=(205, 160, 130)) -> PersonParts:
     Returned as named parts so that scenarios can move the torso and arms separately; each
     arm hangs from its shoulder at the part's origin.
     """
-    cloth = lambda colour: (lambda r, h, w: textures.fabric(r, h, w, colour))  # noqa: E731
+    cloth = lambda colour: lambda r, h, w: textures.fabric(r, h, w, colour)  # noqa: E731
     face = lambda r, h, w: textures.fabric(r, h, w, skin)  # noqa: E731
     return {
         "legs": box(rng, (0.15, 0.0, 0.45), (0.45, 0.36, 0.14), cloth(trousers), 0.004)
@@ -177,10 +187,12 @@ def person_parts(rng, shirt, trousers, skin=(205, 160, 130)) -> PersonParts:
 
 def transformed(surfaces: Sequence[Surface], T: np.ndarray) -> list[Surface]:
     """Surfaces moved rigidly by the 4x4 transform ``T`` (textures shared)."""
-    return [Surface(s.vertices @ T[:3, :3].T + T[:3, 3], s.triangles, s.uvs, s.texture, s.texel)
-            for s in surfaces]
+    return [Surface(s.vertices @ T[:3, :3].T + T[:3, 3], s.triangles, s.uvs, s.texture, s.texel) for s in surfaces]
 
 
 def yaw_pose(x: float, y: float, z: float, yaw: float, pitch: float = 0.0) -> np.ndarray:
     """Object pose from a position, a turn about the vertical and a tilt about the object's y axis."""
-    return make_pose(Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix() @ Rotation.from_rotvec([0.0, pitch, 0.0]).as_matrix(), np.asarray([x, y, z], np.float64))
+    return make_pose(
+        Rotation.from_rotvec([0.0, 0.0, yaw]).as_matrix() @ Rotation.from_rotvec([0.0, pitch, 0.0]).as_matrix(),
+        np.asarray([x, y, z], np.float64),
+    )

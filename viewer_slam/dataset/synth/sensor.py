@@ -27,15 +27,15 @@ BASELINE_FOCAL = 0.075 * 580.0
 class KinectModel:
     min_range: float = 0.5
     max_range: float = 4.5
-    disparity_noise: float = 0.05      # px, per pixel
-    disparity_drift: float = 0.03      # px, spatially smooth component
+    disparity_noise: float = 0.05  # px, per pixel
+    disparity_drift: float = 0.03  # px, spatially smooth component
     disparity_step: float = 1.0 / 8.0  # px
-    grazing_cos: float = 0.08          # below: never measured; up to twice this: sometimes
-    edge_jump: float = 0.04            # relative depth jump that marks a depth edge
-    dropout: float = 0.003             # isolated missing pixels
-    colour_noise: float = 1.6          # grey levels, plus shot noise below
-    shot_noise: float = 0.05           # variance per grey level
-    vignetting: float = 0.25           # brightness lost in the corners
+    grazing_cos: float = 0.08  # below: never measured; up to twice this: sometimes
+    edge_jump: float = 0.04  # relative depth jump that marks a depth edge
+    dropout: float = 0.003  # isolated missing pixels
+    colour_noise: float = 1.6  # grey levels, plus shot noise below
+    shot_noise: float = 0.05  # variance per grey level
+    vignetting: float = 0.25  # brightness lost in the corners
 
     def depth(self, rng: np.random.Generator, ideal: np.ndarray, cos_incidence: np.ndarray) -> np.ndarray:
         """Measured depth (float32 metres, 0 = no measurement) from the ideal depth."""
@@ -54,8 +54,7 @@ class KinectModel:
         lost[maybe[cos_incidence.ravel()[maybe] < chance]] = False
         lost[rng.integers(0, h * w, rng.binomial(h * w, self.dropout))] = False
         valid &= ~self._edge_shadow(rng, ideal)
-        return np.where(valid, np.float32(BASELINE_FOCAL / self.disparity_step) / np.maximum(steps, 1),
-                        np.float32(0.0))
+        return np.where(valid, np.float32(BASELINE_FOCAL / self.disparity_step) / np.maximum(steps, 1), np.float32(0.0))
 
     def _edge_shadow(self, rng, ideal: np.ndarray) -> np.ndarray:
         """Pixels lost behind depth edges: the far side of each jump, in a ragged 1-2 pixel band.
@@ -92,7 +91,7 @@ class KinectModel:
         # In place: each full-size temporary costs as much as the arithmetic.
         noise = gaussian_noise(rng, image.shape)
         sigma = signal * np.float32(self.shot_noise)
-        sigma += np.float32(self.colour_noise ** 2)
+        sigma += np.float32(self.colour_noise**2)
         noise *= np.sqrt(sigma, out=sigma)
         noise += signal
         return np.clip(np.rint(noise, out=noise), 0, 255, out=noise).astype(np.uint8)
@@ -133,8 +132,15 @@ def _pixel_grid(h: int, w: int) -> np.ndarray:
     return grid
 
 
-def motion_blur(image: np.ndarray, grid_points: np.ndarray, grid_hit: np.ndarray, camera: Camera,
-                pose_start: np.ndarray, pose_end: np.ndarray, samples: int = 4) -> np.ndarray:
+def motion_blur(
+    image: np.ndarray,
+    grid_points: np.ndarray,
+    grid_hit: np.ndarray,
+    camera: Camera,
+    pose_start: np.ndarray,
+    pose_end: np.ndarray,
+    samples: int = 4,
+) -> np.ndarray:
     """Average the image along each pixel's motion during the exposure.
 
     ``grid_points`` are the world points seen at mid-exposure on the renderer's coarse
@@ -159,6 +165,10 @@ def motion_blur(image: np.ndarray, grid_points: np.ndarray, grid_hit: np.ndarray
     for s in np.linspace(-0.5, 0.5, samples, dtype=np.float32):
         np.add(cols, np.multiply(flow_x, s, out=map_x), out=map_x)
         np.add(rows, np.multiply(flow_y, s, out=map_y), out=map_y)
-        cv2.add(total, cv2.remap(rgba, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE),
-                dst=total, dtype=cv2.CV_16U)
+        cv2.add(
+            total,
+            cv2.remap(rgba, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE),
+            dst=total,
+            dtype=cv2.CV_16U,
+        )
     return cv2.cvtColor(cv2.convertScaleAbs(total, alpha=1.0 / samples), cv2.COLOR_RGBA2RGB)

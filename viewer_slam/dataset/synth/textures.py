@@ -8,13 +8,24 @@ scene builders choose how many metres a texel spans.
 import cv2
 import numpy as np
 
-_FONTS = (cv2.FONT_HERSHEY_SIMPLEX, cv2.FONT_HERSHEY_DUPLEX, cv2.FONT_HERSHEY_COMPLEX,
-          cv2.FONT_HERSHEY_TRIPLEX, cv2.FONT_HERSHEY_PLAIN)
+_FONTS = (
+    cv2.FONT_HERSHEY_SIMPLEX,
+    cv2.FONT_HERSHEY_DUPLEX,
+    cv2.FONT_HERSHEY_COMPLEX,
+    cv2.FONT_HERSHEY_TRIPLEX,
+    cv2.FONT_HERSHEY_PLAIN,
+)
 _LETTERS = np.array(list("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789abcdefghijklmnopqrstuvwxyz"))
 
 
-def fractal_noise(rng: np.random.Generator, height: int, width: int, coarsest: float = 64.0,
-                  finest: float = 2.0, persistence: float = 0.6) -> np.ndarray:
+def fractal_noise(
+    rng: np.random.Generator,
+    height: int,
+    width: int,
+    coarsest: float = 64.0,
+    finest: float = 2.0,
+    persistence: float = 0.6,
+) -> np.ndarray:
     """Multi-octave value noise in about [-1, 1]: cells halve from ``coarsest`` to ``finest`` texels.
 
     Each octave is a random grid enlarged with bicubic interpolation; coarse octaves give
@@ -24,10 +35,9 @@ def fractal_noise(rng: np.random.Generator, height: int, width: int, coarsest: f
     amplitude, norm, cell = 1.0, 0.0, max(coarsest, finest)
     while cell >= finest:
         grid = rng.standard_normal((int(height / cell) + 2, int(width / cell) + 2)).astype(np.float32)
-        layer = cv2.resize(grid, (int(grid.shape[1] * cell), int(grid.shape[0] * cell)),
-                           interpolation=cv2.INTER_CUBIC)
+        layer = cv2.resize(grid, (int(grid.shape[1] * cell), int(grid.shape[0] * cell)), interpolation=cv2.INTER_CUBIC)
         total += amplitude * layer[:height, :width]
-        norm += amplitude ** 2
+        norm += amplitude**2
         amplitude *= persistence
         cell /= 2.0
     return total / np.float32(np.sqrt(norm) * 2.5)
@@ -129,8 +139,16 @@ def poster(rng, height, width) -> np.ndarray:
             cv2.polylines(image, [points.astype(np.int32)], False, colour, int(rng.integers(2, 6)), cv2.LINE_AA)
     ink = (20, 20, 20) if sum(background) > 380 else (245, 245, 245)
     font = _FONTS[int(rng.integers(len(_FONTS)))]
-    cv2.putText(image, random_word(rng, (4, 8)).upper(), (int(0.06 * width), int(0.14 * height)), font,
-                scale / 180.0, ink, max(2, scale // 90), cv2.LINE_AA)
+    cv2.putText(
+        image,
+        random_word(rng, (4, 8)).upper(),
+        (int(0.06 * width), int(0.14 * height)),
+        font,
+        scale / 180.0,
+        ink,
+        max(2, scale // 90),
+        cv2.LINE_AA,
+    )
     draw_text_lines(rng, image, int(0.7 * height), int(0.95 * height), int(0.06 * width), ink, scale / 500.0)
     cv2.rectangle(image, (0, 0), (width - 1, height - 1), random_colour(rng, 0, 90), max(2, scale // 100))
     return image
@@ -139,8 +157,9 @@ def poster(rng, height, width) -> np.ndarray:
 def page(rng, height, width) -> np.ndarray:
     """A printed sheet of paper: white with dense text lines."""
     image = np.full((height, width, 3), 242, np.uint8)
-    draw_text_lines(rng, image, int(0.06 * height), int(0.94 * height), int(0.06 * width),
-                    (30, 30, 30), min(height, width) / 420.0)
+    draw_text_lines(
+        rng, image, int(0.06 * height), int(0.94 * height), int(0.06 * width), (30, 30, 30), min(height, width) / 420.0
+    )
     return image
 
 
@@ -158,8 +177,16 @@ def bookshelf_row(rng, height, width) -> np.ndarray:
         for y in rng.integers(top, height, 2):
             cv2.rectangle(image, (x, int(y)), (x + spine - 2, int(y) + max(2, spine // 6)), band, -1)
         label = random_word(rng, (2, 5))
-        cv2.putText(image, label, (x + 1, top + height // 3), cv2.FONT_HERSHEY_PLAIN, spine / 40.0,
-                    (250, 250, 250) if sum(colour) < 380 else (10, 10, 10), 1, cv2.LINE_AA)
+        cv2.putText(
+            image,
+            label,
+            (x + 1, top + height // 3),
+            cv2.FONT_HERSHEY_PLAIN,
+            spine / 40.0,
+            (250, 250, 250) if sum(colour) < 380 else (10, 10, 10),
+            1,
+            cv2.LINE_AA,
+        )
         x += spine
     return image
 
@@ -172,7 +199,7 @@ def bookcase(rng, height, width, shelves=5) -> np.ndarray:
     row_height = height // shelves
     for k in range(shelves):
         top = k * row_height + board
-        image[top:(k + 1) * row_height] = bookshelf_row(rng, (k + 1) * row_height - top, width)
+        image[top : (k + 1) * row_height] = bookshelf_row(rng, (k + 1) * row_height - top, width)
     return image
 
 
@@ -188,8 +215,16 @@ def keyboard(rng, height, width) -> np.ndarray:
             x0, y0 = int(c * key_w + 2), int(r * key_h + 2)
             x1, y1 = int((c + 1) * key_w - 2), int((r + 1) * key_h - 2)
             cv2.rectangle(image, (x0, y0), (x1, y1), (200, 200, 196), -1)
-            cv2.putText(image, str(rng.choice(_LETTERS)).upper(), (x0 + 2, y1 - 3), cv2.FONT_HERSHEY_PLAIN,
-                        key_h / 28.0, (20, 20, 20), 1, cv2.LINE_AA)
+            cv2.putText(
+                image,
+                str(rng.choice(_LETTERS)).upper(),
+                (x0 + 2, y1 - 3),
+                cv2.FONT_HERSHEY_PLAIN,
+                key_h / 28.0,
+                (20, 20, 20),
+                1,
+                cv2.LINE_AA,
+            )
     return image
 
 
@@ -202,7 +237,7 @@ def screen(rng, height, width) -> np.ndarray:
         window = np.full((h, w, 3), 235, np.uint8)
         window[:12] = random_colour(rng, 0, 200)
         draw_text_lines(rng, window, 14, h - 2, 4, (25, 25, 25), 0.3)
-        image[y0:y0 + h, x0:x0 + w] = window
+        image[y0 : y0 + h, x0 : x0 + w] = window
     return image
 
 

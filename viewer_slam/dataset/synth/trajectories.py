@@ -103,8 +103,9 @@ def sensor_timing(rng: np.random.Generator, frames: int) -> Timing:
     return Timing(start, np.round(colour, 6), np.round(depth, 6), groundtruth)
 
 
-def noisy_groundtruth(rng: np.random.Generator, poses: np.ndarray, position_noise: float = 0.001,
-                      angle_noise: float = np.radians(0.01)) -> np.ndarray:
+def noisy_groundtruth(
+    rng: np.random.Generator, poses: np.ndarray, position_noise: float = 0.001, angle_noise: float = np.radians(0.01)
+) -> np.ndarray:
     """Motion-capture-like ground truth: ~1 mm and ~0.01 degree of white noise on each pose."""
     t, q = pose_to_tq(poses)
     t = t + rng.normal(0.0, position_noise, t.shape)

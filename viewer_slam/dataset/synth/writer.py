@@ -15,8 +15,14 @@ from ...geometry.trajectory import Trajectory, format_tum
 # choice tries all five on every row) and Huffman coding without string matching.
 # At 640x480: colour 900 KB, depth about 200 KB.
 COLOUR_PNG = [cv2.IMWRITE_PNG_COMPRESSION, 0, cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_NONE]
-DEPTH_PNG = [cv2.IMWRITE_PNG_COMPRESSION, 1, cv2.IMWRITE_PNG_STRATEGY, cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY,
-             cv2.IMWRITE_PNG_FILTER, cv2.IMWRITE_PNG_FILTER_SUB]
+DEPTH_PNG = [
+    cv2.IMWRITE_PNG_COMPRESSION,
+    1,
+    cv2.IMWRITE_PNG_STRATEGY,
+    cv2.IMWRITE_PNG_STRATEGY_HUFFMAN_ONLY,
+    cv2.IMWRITE_PNG_FILTER,
+    cv2.IMWRITE_PNG_FILTER_SUB,
+]
 
 
 def image_name(kind: str, stamp: float) -> str:
@@ -52,12 +58,20 @@ def _listing(title: str, source: str, kind: str, stamps: np.ndarray) -> str:
     return header + "".join(f"{stamp:.6f} {image_name(kind, stamp)}\n" for stamp in stamps)
 
 
-def write_index(folder: Path, source: str, colour_stamps: np.ndarray, depth_stamps: np.ndarray,
-                groundtruth: Trajectory, camera: Camera, info: dict) -> None:
+def write_index(
+    folder: Path,
+    source: str,
+    colour_stamps: np.ndarray,
+    depth_stamps: np.ndarray,
+    groundtruth: Trajectory,
+    camera: Camera,
+    info: dict,
+) -> None:
     """rgb.txt, depth.txt and groundtruth.txt with TUM's three header lines; camera.json; scenario.json."""
     (folder / "rgb.txt").write_text(_listing("color images", source, "rgb", colour_stamps))
     (folder / "depth.txt").write_text(_listing("depth maps", source, "depth", depth_stamps))
     (folder / "groundtruth.txt").write_text(
-        f"# ground truth trajectory\n# file: '{source}'\n# timestamp tx ty tz qx qy qz qw\n" + format_tum(groundtruth))
+        f"# ground truth trajectory\n# file: '{source}'\n# timestamp tx ty tz qx qy qz qw\n" + format_tum(groundtruth)
+    )
     camera.save(folder / "camera.json")
     (folder / "scenario.json").write_text(json.dumps(info, indent=2) + "\n")

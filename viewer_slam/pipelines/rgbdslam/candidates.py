@@ -47,9 +47,18 @@ def weighted_sample(weights: Mapping[int, int], count: int, rng: np.random.Gener
     return drawn
 
 
-def edge_targets(node_ids: Sequence[int], adjacency: Mapping[int, set[int]], keyframes: Sequence[int],
-                 predecessor: int, include_predecessor: bool, sequential: int, neighbours: int, sampled: int,
-                 geodesic_depth: int, rng: np.random.Generator) -> list[tuple[int, str]]:
+def edge_targets(
+    node_ids: Sequence[int],
+    adjacency: Mapping[int, set[int]],
+    keyframes: Sequence[int],
+    predecessor: int,
+    include_predecessor: bool,
+    sequential: int,
+    neighbours: int,
+    sampled: int,
+    geodesic_depth: int,
+    rng: np.random.Generator,
+) -> list[tuple[int, str]]:
     """The nodes to compare a new frame with, each tagged with how it was chosen.
 
     ``node_ids`` are consecutive from 0; ``predecessor`` is the node the sequential ones
@@ -62,7 +71,9 @@ def edge_targets(node_ids: Sequence[int], adjacency: Mapping[int, set[int]], key
     chosen = [predecessor - i for i in range(1, sequential + 1) if predecessor - i >= 0]
     targets = [(n, PREDECESSOR) for n in chosen]
     if neighbours > 0:
-        weights = neighbour_weights(graph_neighbourhood(adjacency, predecessor, geodesic_depth), predecessor, sequential)
+        weights = neighbour_weights(
+            graph_neighbourhood(adjacency, predecessor, geodesic_depth), predecessor, sequential
+        )
         drawn = weighted_sample(weights, sequential + neighbours - len(chosen), rng)
         chosen += drawn
         targets += [(n, NEIGHBOUR) for n in drawn]

@@ -29,8 +29,7 @@ def _consistency(observer: Node, points: np.ndarray, camera: Camera, tolerance: 
     return consistent, contradicting
 
 
-def observability(node: Node, other: Node, node_from_other: np.ndarray, camera: Camera,
-                  tolerance: float) -> float:
+def observability(node: Node, other: Node, node_from_other: np.ndarray, camera: Camera, tolerance: float) -> float:
     """Share of comparable points, projected both ways, whose depth agrees; 0 without overlap."""
     points_other, _ = other.cloud(camera)
     points_node, _ = node.cloud(camera)

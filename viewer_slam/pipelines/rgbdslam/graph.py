@@ -82,8 +82,11 @@ class NodeGraph:
         shown = [node for node in self.nodes.values() if node.measured_pose]
         samples = sum(node.depth_samples for node in shown)
         step = max(1, int(np.ceil(np.sqrt(samples / MAX_MAP_POINTS))))
-        return rebuilt_map(frame_index, ((self.poses.poses[node.node_id], *self._cloud(node, camera, step))
-                                         for node in shown), MAX_MAP_POINTS)
+        return rebuilt_map(
+            frame_index,
+            ((self.poses.poses[node.node_id], *self._cloud(node, camera, step)) for node in shown),
+            MAX_MAP_POINTS,
+        )
 
     def _cloud(self, node: Node, camera: Camera, step: int) -> tuple[np.ndarray, np.ndarray]:
         """The node's camera-frame cloud at ``step``, kept until the step changes: only the

@@ -74,8 +74,9 @@ def edge_information(inliers: int, rms_mahalanobis: float) -> np.ndarray:
     return g2o_information(inliers / max(rms_mahalanobis, MIN_RMS_MAHALANOBIS) ** 2)
 
 
-def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams,
-          rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def match(
+    frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParams, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray]:
     """v2's ``featureMatching``: the matches best first, at most ``max_matches`` of them
     (``keepStrongestMatches``), equal scores in random order.
 
@@ -92,15 +93,21 @@ def match(frame: MeasuredFeatures, node: MeasuredFeatures, params: RgbdSlamParam
     elif frame.features.binary:
         frame_index, node_index, score = hamming_ratio_matches(query, train, params.nn_distance_ratio)
     else:
-        frame_index, node_index, score = match_with_ratios(frame.features.descriptors, node.features.descriptors,
-                                                           False, params.nn_distance_ratio)
-    order = np.argsort(score + SORT_JITTER * rng.random(len(score)), kind="stable")[:params.max_matches]
+        frame_index, node_index, score = match_with_ratios(
+            frame.features.descriptors, node.features.descriptors, False, params.nn_distance_ratio
+        )
+    order = np.argsort(score + SORT_JITTER * rng.random(len(score)), kind="stable")[: params.max_matches]
     return frame_index[order], node_index[order]
 
 
-def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tuple[np.ndarray, np.ndarray],
-                    params: RgbdSlamParams, rng: np.random.Generator,
-                    min_inlier_ratio: float = 0.0) -> tuple[Motion | None, str]:
+def estimate_motion(
+    frame: MeasuredFeatures,
+    node: MeasuredFeatures,
+    matches: tuple[np.ndarray, np.ndarray],
+    params: RgbdSlamParams,
+    rng: np.random.Generator,
+    min_inlier_ratio: float = 0.0,
+) -> tuple[Motion | None, str]:
     """The node-from-frame transform, or None with the reason ('' on success).
 
     As v2: more than ``min_matches`` matches, then at least ``min_matches`` inliers (three
@@ -110,22 +117,33 @@ def estimate_motion(frame: MeasuredFeatures, node: MeasuredFeatures, matches: tu
     frame_index, node_index = matches
     if len(frame_index) <= params.min_matches:
         return None, f"too few matches ({len(frame_index)} <= {params.min_matches})"
-    result = ransac_rigid(frame.features.points[frame_index], node.features.points[node_index],
-                          iterations=params.ransac_iterations, max_mahalanobis=params.max_dist_for_inliers,
-                          min_inliers=params.min_matches, sigma_depth=params.sigma_depth, rng=rng)
+    result = ransac_rigid(
+        frame.features.points[frame_index],
+        node.features.points[node_index],
+        iterations=params.ransac_iterations,
+        max_mahalanobis=params.max_dist_for_inliers,
+        min_inliers=params.min_matches,
+        sigma_depth=params.sigma_depth,
+        rng=rng,
+    )
     if result is None:
         return None, "RANSAC found no transformation with enough inliers"
     inliers = result.inlier_count
     if inliers < min_inlier_ratio * len(frame_index):
         return None, f"too few of the matches are inliers ({inliers} of {len(frame_index)}, < {min_inlier_ratio:g})"
-    return Motion(result.transform, frame_index, node_index, result.inliers, result.rms_mahalanobis,
-                  edge_information(inliers, result.rms_mahalanobis)), ""
+    return Motion(
+        result.transform,
+        frame_index,
+        node_index,
+        result.inliers,
+        result.rms_mahalanobis,
+        edge_information(inliers, result.rms_mahalanobis),
+    ), ""
 
 
 def motion_size(node_from_frame: np.ndarray) -> tuple[float, float]:
     """A motion's translation in metres and rotation in degrees (v2's ``trafoSize``)."""
-    return (float(np.linalg.norm(node_from_frame[:3, 3])),
-            float(np.degrees(rotation_angle(node_from_frame[:3, :3]))))
+    return (float(np.linalg.norm(node_from_frame[:3, 3])), float(np.degrees(rotation_angle(node_from_frame[:3, :3]))))
 
 
 def moved_enough(node_from_frame: np.ndarray, params: RgbdSlamParams) -> bool:
@@ -147,5 +165,7 @@ def smooth_enough(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamPar
 
 def too_fast_reason(node_from_frame: np.ndarray, gap_s: float, params: RgbdSlamParams) -> str:
     metres, degrees = motion_size(node_from_frame)
-    return (f"motion too fast ({metres / gap_s:.3g} m/s, {degrees / gap_s:.3g} deg/s; max_translation_meter "
-            f"{params.max_translation_meter:g}, max_rotation_degree {params.max_rotation_degree:g})")
+    return (
+        f"motion too fast ({metres / gap_s:.3g} m/s, {degrees / gap_s:.3g} deg/s; max_translation_meter "
+        f"{params.max_translation_meter:g}, max_rotation_degree {params.max_rotation_degree:g})"
+    )

@@ -30,10 +30,27 @@ class Node:
     measured_pose: bool = True
 
     @classmethod
-    def from_frame(cls, node_id: int, frame_index: int, timestamp: float, measured: MeasuredFeatures,
-                   rgb: np.ndarray, depth: np.ndarray, segment: int, measured_pose: bool = True) -> "Node":
-        return cls(node_id, frame_index, timestamp, measured, np.ascontiguousarray(depth[::MAP_STEP, ::MAP_STEP]),
-                   np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]), segment, measured_pose)
+    def from_frame(
+        cls,
+        node_id: int,
+        frame_index: int,
+        timestamp: float,
+        measured: MeasuredFeatures,
+        rgb: np.ndarray,
+        depth: np.ndarray,
+        segment: int,
+        measured_pose: bool = True,
+    ) -> "Node":
+        return cls(
+            node_id,
+            frame_index,
+            timestamp,
+            measured,
+            np.ascontiguousarray(depth[::MAP_STEP, ::MAP_STEP]),
+            np.ascontiguousarray(rgb[::MAP_STEP, ::MAP_STEP]),
+            segment,
+            measured_pose,
+        )
 
     @cached_property
     def depth_samples(self) -> int:

@@ -133,9 +133,15 @@ class RgbdSlam(Pipeline):
     def __init__(self, camera: Camera, params: RgbdSlamParams | None = None, seed: int = 0):
         super().__init__(camera, params, seed)
         p = self.params
-        self.extractor = FeatureExtractor(p.feature_detector_type, p.max_keypoints, camera, p.detector_grid_resolution,
-                                          min_depth=p.minimum_depth, max_depth=p.maximum_depth or np.inf,
-                                          adjuster_iterations=p.adjuster_max_iterations)
+        self.extractor = FeatureExtractor(
+            p.feature_detector_type,
+            p.max_keypoints,
+            camera,
+            p.detector_grid_resolution,
+            min_depth=p.minimum_depth,
+            max_depth=p.maximum_depth or np.inf,
+            adjuster_iterations=p.adjuster_max_iterations,
+        )
         self.rng = np.random.default_rng(seed)
         self.graph = NodeGraph(p.backend_solver)
         self.tracked: list[TrackedFrame] = []
@@ -186,15 +192,25 @@ class RgbdSlam(Pipeline):
             # faster than v2's bounds allow, is no node.
             attempts = self._compare(frame, measured, [(newest, PREDECESSOR)], watch, bounded=False)
             first = attempts[0].motion
-            if first is not None and not (moved_enough(first.transform, p) and smooth_enough(first.transform, gap_s, p)):
+            if first is not None and not (
+                moved_enough(first.transform, p) and smooth_enough(first.transform, gap_s, p)
+            ):
                 status = self._recover(frame, attempts[0], events)
                 self._attach(frame, newest, first.transform, self.graph.odometry[newest])
                 return self._report(frame, features, attempts[0], attempts, events, watch, status)
             attempts = [a for a in attempts if a.motion is not None]
-        targets = edge_targets(self.graph.order, self.graph.adjacency, self.graph.keyframes, newest,
-                               include_predecessor=not attempts, sequential=p.predecessor_candidates - 1,
-                               neighbours=p.neighbor_candidates, sampled=p.min_sampled_candidates,
-                               geodesic_depth=p.geodesic_depth, rng=self.rng)
+        targets = edge_targets(
+            self.graph.order,
+            self.graph.adjacency,
+            self.graph.keyframes,
+            newest,
+            include_predecessor=not attempts,
+            sequential=p.predecessor_candidates - 1,
+            neighbours=p.neighbor_candidates,
+            sampled=p.min_sampled_candidates,
+            geodesic_depth=p.geodesic_depth,
+            rng=self.rng,
+        )
         attempts += self._compare(frame, measured, targets, watch)
         if p.observability_threshold > 0:
             with watch("emm"):
@@ -208,14 +224,25 @@ class RgbdSlam(Pipeline):
         if best is None:
             if not self.lost:
                 self.lost = True
-                events.append(TrackingLost(frame.index, frame.timestamp, self._no_match_reason(attempts)
-                                           + "; kept under the no-motion assumption"))
+                events.append(
+                    TrackingLost(
+                        frame.index,
+                        frame.timestamp,
+                        self._no_match_reason(attempts) + "; kept under the no-motion assumption",
+                    )
+                )
             return self._report(frame, features, None, attempts, events, watch, TrackingStatus.LOST)
         status = self._recover(frame, best, events)
         return self._report(frame, features, best, attempts, events, watch, status)
 
-    def _compare(self, frame: Frame, measured: MeasuredFeatures, candidates: list[tuple[int, str]],
-                 watch: Stopwatch, bounded: bool = True) -> list[Attempt]:
+    def _compare(
+        self,
+        frame: Frame,
+        measured: MeasuredFeatures,
+        candidates: list[tuple[int, str]],
+        watch: Stopwatch,
+        bounded: bool = True,
+    ) -> list[Attempt]:
         """Register the frame with each candidate node, in parallel; stage times are summed.
 
         ``bounded``: as v2's edge construction, a motion faster than max_translation_meter or
@@ -223,6 +250,7 @@ class RgbdSlam(Pipeline):
         With viewslam_min_inlier_ratio (ours, off by default) a loop closure, and a lost
         camera's match against the map, must also have that share of its matches as inliers.
         """
+
         def register(candidate: tuple[int, str]) -> tuple[int, Motion | None, str, Stopwatch]:
             node_id, kind = candidate
             ratio = self.params.viewslam_min_inlier_ratio if kind != PREDECESSOR or self.lost else 0.0
@@ -240,8 +268,15 @@ class RgbdSlam(Pipeline):
             attempts.append(Attempt(node_id, kind, matches, motion, reason))
         return attempts
 
-    def _register(self, frame: Frame, measured: MeasuredFeatures, reference_id: int, reference: MeasuredFeatures,
-                  watch: Stopwatch, min_inlier_ratio: float = 0.0) -> tuple[int, Motion | None, str]:
+    def _register(
+        self,
+        frame: Frame,
+        measured: MeasuredFeatures,
+        reference_id: int,
+        reference: MeasuredFeatures,
+        watch: Stopwatch,
+        min_inlier_ratio: float = 0.0,
+    ) -> tuple[int, Motion | None, str]:
         """Match two keypoint sets and estimate their motion: (matches, motion or None, reason)."""
         rng = np.random.default_rng([self.seed, frame.index, reference_id + 1])  # seed words are >= 0
         with watch("matching"):
@@ -259,12 +294,25 @@ class RgbdSlam(Pipeline):
             return TrackingStatus.OK
         self.lost = False
         assert best.motion is not None  # recovered by a successful attempt
-        events.append(TrackingRecovered(frame.index, frame.timestamp,
-                                        f"relocalised against node {best.node_id} ({best.motion.inlier_count} inliers)"))
+        events.append(
+            TrackingRecovered(
+                frame.index,
+                frame.timestamp,
+                f"relocalised against node {best.node_id} ({best.motion.inlier_count} inliers)",
+            )
+        )
         return TrackingStatus.RELOCALISED
 
-    def _report(self, frame: Frame, features: Features, best: Attempt | None, attempts: list[Attempt],
-                events: list[Event], watch: Stopwatch, status: TrackingStatus) -> list[Event]:
+    def _report(
+        self,
+        frame: Frame,
+        features: Features,
+        best: Attempt | None,
+        attempts: list[Attempt],
+        events: list[Event],
+        watch: Stopwatch,
+        status: TrackingStatus,
+    ) -> list[Event]:
         """Close a tracked frame's events: the matches behind its pose and its FrameTracked."""
         tracked = self.tracked[-1]
         inliers = 0
@@ -273,14 +321,30 @@ class RgbdSlam(Pipeline):
             assert motion is not None  # a frame's pose comes from a successful attempt
             reference = self.graph.nodes[best.node_id]
             current_keypoints = features.keypoints[features.has_depth][motion.frame_index]
-            events.append(FeatureMatches(frame.index, f"node {best.node_id}", current_keypoints,
-                                         reference.measured.features.keypoints[motion.node_index],
-                                         motion.inliers.copy()))
+            events.append(
+                FeatureMatches(
+                    frame.index,
+                    f"node {best.node_id}",
+                    current_keypoints,
+                    reference.measured.features.keypoints[motion.node_index],
+                    motion.inliers.copy(),
+                )
+            )
             inliers = motion.inlier_count
         pose = self.graph.poses.poses[tracked.node_id] @ tracked.relative
-        events.append(FrameTracked(frame.index, frame.timestamp, pose, status, features=len(features),
-                                   matches=max((a.matches for a in attempts), default=0), inliers=inliers,
-                                   keyframe_id=tracked.node_id, timings_ms=watch.ms))
+        events.append(
+            FrameTracked(
+                frame.index,
+                frame.timestamp,
+                pose,
+                status,
+                features=len(features),
+                matches=max((a.matches for a in attempts), default=0),
+                inliers=inliers,
+                keyframe_id=tracked.node_id,
+                timings_ms=watch.ms,
+            )
+        )
         return events
 
     # ------------------------------------------------------------------ no match
@@ -289,57 +353,104 @@ class RgbdSlam(Pipeline):
         closest = max(attempts, key=lambda a: a.matches, default=None)
         return "no candidate node matched" + (f" (node {closest.node_id}: {closest.reason})" if closest else "")
 
-    def _lose(self, frame: Frame, features: Features, attempts: list[Attempt], events: list[Event],
-              watch: Stopwatch, reason: str) -> list[Event]:
+    def _lose(
+        self,
+        frame: Frame,
+        features: Features,
+        attempts: list[Attempt],
+        events: list[Event],
+        watch: Stopwatch,
+        reason: str,
+    ) -> list[Event]:
         if len(self.graph) and not self.lost:
             self.lost = True
             events.append(TrackingLost(frame.index, frame.timestamp, reason))
         status = TrackingStatus.LOST if len(self.graph) else TrackingStatus.INITIALISING
-        events.append(FrameTracked(frame.index, frame.timestamp, None, status, features=len(features),
-                                   matches=max((a.matches for a in attempts), default=0), timings_ms=watch.ms))
+        events.append(
+            FrameTracked(
+                frame.index,
+                frame.timestamp,
+                None,
+                status,
+                features=len(features),
+                matches=max((a.matches for a in attempts), default=0),
+                timings_ms=watch.ms,
+            )
+        )
         return events
 
-    def _unmatched(self, frame: Frame, features: Features, measured: MeasuredFeatures, attempts: list[Attempt],
-                   events: list[Event], watch: Stopwatch) -> list[Event]:
+    def _unmatched(
+        self,
+        frame: Frame,
+        features: Features,
+        measured: MeasuredFeatures,
+        attempts: list[Attempt],
+        events: list[Event],
+        watch: Stopwatch,
+    ) -> list[Event]:
         """No node matched: v2 drops the frame. With viewslam_new_segment_after_lost_frames
         (ours), lost frames that match each other start a new segment at the last pose."""
         after = self.params.viewslam_new_segment_after_lost_frames
-        chained = (after > 0 and self.lost_chain is not None
-                   and self._register(frame, measured, LOST_CHAIN, self.lost_chain, watch)[1] is not None)
+        chained = (
+            after > 0
+            and self.lost_chain is not None
+            and self._register(frame, measured, LOST_CHAIN, self.lost_chain, watch)[1] is not None
+        )
         self.lost_chain = measured if after > 0 else None
         self.lost_chain_length = self.lost_chain_length + 1 if chained else 1
         if after == 0 or self.lost_chain_length < after or not self.tracked:
             return self._lose(frame, features, attempts, events, watch, self._no_match_reason(attempts))
         last = self.tracked[-1]
-        anchor = self._start_segment(frame, measured, self.graph.poses.poses[last.node_id] @ last.relative,
-                                     last.odometry, ANCHOR_INFORMATION, events)
+        anchor = self._start_segment(
+            frame,
+            measured,
+            self.graph.poses.poses[last.node_id] @ last.relative,
+            last.odometry,
+            ANCHOR_INFORMATION,
+            events,
+        )
         self.lost = False
         self.lost_chain, self.lost_chain_length = None, 0
-        events.append(TrackingRecovered(frame.index, frame.timestamp,
-                                        f"{after} frames track each other but not the map: "
-                                        f"new graph segment from node {anchor} at the last known pose"))
+        events.append(
+            TrackingRecovered(
+                frame.index,
+                frame.timestamp,
+                f"{after} frames track each other but not the map: "
+                f"new graph segment from node {anchor} at the last known pose",
+            )
+        )
         return self._report(frame, features, None, attempts, events, watch, TrackingStatus.INITIALISING)
 
     # ------------------------------------------------------------------ graph
     def _new_node(self, frame: Frame, measured: MeasuredFeatures, measured_pose: bool = True) -> Node:
         """A node for ``frame``, in a segment of its own until edges place it."""
         node_id = len(self.graph)
-        return Node.from_frame(node_id, frame.index, frame.timestamp, measured, frame.rgb, frame.depth, node_id,
-                               measured_pose)
+        return Node.from_frame(
+            node_id, frame.index, frame.timestamp, measured, frame.rgb, frame.depth, node_id, measured_pose
+        )
 
-    def _insert(self, node: Node, pose: np.ndarray, odometry: np.ndarray, frame: Frame,
-                events: list[Event]) -> None:
+    def _insert(self, node: Node, pose: np.ndarray, odometry: np.ndarray, frame: Frame, events: list[Event]) -> None:
         """Put ``node`` in the graph at ``pose``; the frame becomes its first tracked frame."""
         self.graph.add(node, pose, odometry)
         self._attach(frame, node.node_id, np.eye(4), odometry)
-        events.append(KeyframeAdded(node.node_id, frame.index, frame.timestamp, pose.copy(), thumbnail(frame.rgb),
-                                    frame.depth.copy()))
+        events.append(
+            KeyframeAdded(
+                node.node_id, frame.index, frame.timestamp, pose.copy(), thumbnail(frame.rgb), frame.depth.copy()
+            )
+        )
         if node.measured_pose:
             points, colors = node.cloud(self.camera)
             events.append(MapUpdated(frame.index, transform_points(pose, points), colors))
 
-    def _start_segment(self, frame: Frame, measured: MeasuredFeatures, pose: np.ndarray, odometry: np.ndarray,
-                       information: np.ndarray, events: list[Event]) -> int:
+    def _start_segment(
+        self,
+        frame: Frame,
+        measured: MeasuredFeatures,
+        pose: np.ndarray,
+        odometry: np.ndarray,
+        information: np.ndarray,
+        events: list[Event],
+    ) -> int:
         node = self._new_node(frame, measured)
         self.graph.segments.add(node.node_id)
         self._insert(node, pose, odometry, frame, events)
@@ -347,8 +458,16 @@ class RgbdSlam(Pipeline):
         self.graph.poses.add_prior(node.node_id, pose, information)
         return node.node_id
 
-    def _add_node(self, frame: Frame, measured: MeasuredFeatures, attempts: list[Attempt], no_motion: bool,
-                  gap_s: float, events: list[Event], watch: Stopwatch) -> None:
+    def _add_node(
+        self,
+        frame: Frame,
+        measured: MeasuredFeatures,
+        attempts: list[Attempt],
+        no_motion: bool,
+        gap_s: float,
+        events: list[Event],
+        watch: Stopwatch,
+    ) -> None:
         """Make the frame a node with an edge per successful attempt, and with v2's no-motion
         edge to the newest node when asked; then keyframes and optimisation as v2."""
         graph = self.graph
@@ -364,14 +483,19 @@ class RgbdSlam(Pipeline):
             assert sequential.motion is not None and best.motion is not None  # best_attempt's choices succeeded
             odometry = graph.odometry[sequential.node_id] @ sequential.motion.transform
             # v2's no-motion edge also sets the new vertex's estimate to the newest node's pose.
-            pose = graph.poses.poses[newest.node_id] if no_motion else graph.poses.poses[best.node_id] @ best.motion.transform
+            pose = (
+                graph.poses.poses[newest.node_id]
+                if no_motion
+                else graph.poses.poses[best.node_id] @ best.motion.transform
+            )
         self._insert(node, pose, odometry, frame, events)
 
         loop_closed = self.loop_closed_since_optimisation
         for attempt in attempts:
             if attempt.motion is not None:
-                loop_closed |= graph.connect(attempt.node_id, node.node_id, attempt.motion.transform,
-                                             attempt.motion.information)
+                loop_closed |= graph.connect(
+                    attempt.node_id, node.node_id, attempt.motion.transform, attempt.motion.information
+                )
                 loop_closed |= attempt.kind != PREDECESSOR
             event = self._edge_event(frame, node.node_id, attempt)
             if event.accepted or event.kind == EdgeKind.LOOP:
@@ -406,8 +530,13 @@ class RgbdSlam(Pipeline):
         for attempt in attempts:
             if attempt.motion is None:
                 continue
-            share = observability(self.graph.nodes[attempt.node_id], candidate, attempt.motion.transform, self.camera,
-                                  self.params.emm_depth_tolerance)
+            share = observability(
+                self.graph.nodes[attempt.node_id],
+                candidate,
+                attempt.motion.transform,
+                self.camera,
+                self.params.emm_depth_tolerance,
+            )
             if share < threshold:
                 attempt.motion = None
                 attempt.reason = f"environment measurement model: {share:.2f} of the depth agrees (< {threshold})"
@@ -416,10 +545,18 @@ class RgbdSlam(Pipeline):
         motion = attempt.motion
         kind = self.graph.kinds.kind(attempt.node_id, node_id)
         if motion is None:
-            return GraphEdge(frame.index, attempt.node_id, node_id, False, attempt.reason, kind,
-                             detection=attempt.kind)
-        return GraphEdge(frame.index, attempt.node_id, node_id, True,
-                         f"{motion.inlier_count} inliers of {attempt.matches} matches", kind, score=float(motion.inlier_count), inliers=motion.inlier_count, detection=attempt.kind)
+            return GraphEdge(frame.index, attempt.node_id, node_id, False, attempt.reason, kind, detection=attempt.kind)
+        return GraphEdge(
+            frame.index,
+            attempt.node_id,
+            node_id,
+            True,
+            f"{motion.inlier_count} inliers of {attempt.matches} matches",
+            kind,
+            score=float(motion.inlier_count),
+            inliers=motion.inlier_count,
+            detection=attempt.kind,
+        )
 
     def _optimise(self, frame_index: int, iterations: float) -> GraphOptimized:
         """v2's optimizer_iterations: that many iterations when >= 1, else until the error
@@ -449,7 +586,12 @@ class RgbdSlam(Pipeline):
             odometry = np.stack([t.odometry for t in self.tracked])
         else:
             poses = odometry = np.zeros((0, 4, 4))
-        events.append(TrajectoryFinal(np.array([t.frame_index for t in self.tracked], dtype=int),
-                                      np.array([t.timestamp for t in self.tracked], dtype=np.float64),
-                                      poses, odometry))
+        events.append(
+            TrajectoryFinal(
+                np.array([t.frame_index for t in self.tracked], dtype=int),
+                np.array([t.timestamp for t in self.tracked], dtype=np.float64),
+                poses,
+                odometry,
+            )
+        )
         return events

@@ -28,8 +28,9 @@ class Segments:
             segment = self.parent[segment]
         return segment
 
-    def join(self, graph: PoseGraph, node_segment: dict[int, int], from_id: int, to_id: int,
-             relative: np.ndarray) -> bool:
+    def join(
+        self, graph: PoseGraph, node_segment: dict[int, int], from_id: int, to_id: int, relative: np.ndarray
+    ) -> bool:
         """Merge the segments of ``from_id`` and ``to_id`` given the edge ``relative``
         (``T_from^-1 T_to``): the newer segment moves onto the older. False if already one."""
         from_root, to_root = self.root(node_segment[from_id]), self.root(node_segment[to_id])

@@ -18,12 +18,30 @@ import numpy as np
 VIRTUAL_PLACE = -1
 # Bayes/PredictionLC: the virtual place's share of a location's belief, then the location's
 # own share and its neighbours' at graph margins 1, 2, ...
-PREDICTION_LC = (0.1, 0.36, 0.30, 0.16, 0.062, 0.0151, 0.00255, 0.000324, 2.5e-05, 1.3e-06, 4.8e-08, 1.2e-09,
-                 1.9e-11, 2.2e-13, 1.7e-15, 8.5e-18, 2.9e-20, 6.9e-23)
-VIRTUAL_PLACE_PRIOR = 0.9        # Bayes/VirtualPlacePriorThr
+PREDICTION_LC = (
+    0.1,
+    0.36,
+    0.30,
+    0.16,
+    0.062,
+    0.0151,
+    0.00255,
+    0.000324,
+    2.5e-05,
+    1.3e-06,
+    4.8e-08,
+    1.2e-09,
+    1.9e-11,
+    2.2e-13,
+    1.7e-15,
+    8.5e-18,
+    2.9e-20,
+    6.9e-23,
+)
+VIRTUAL_PLACE_PRIOR = 0.9  # Bayes/VirtualPlacePriorThr
 PREDICTION_MARGINS = len(PREDICTION_LC) - 1
-LIKELIHOOD_EPSILON = 1e-4        # Rtabmap::adjustLikelihood's epsilon
-NORMALISATION_TOLERANCE = 1e-4   # BayesFilter::normalize leaves a column alone this close to its target
+LIKELIHOOD_EPSILON = 1e-4  # Rtabmap::adjustLikelihood's epsilon
+NORMALISATION_TOLERANCE = 1e-4  # BayesFilter::normalize leaves a column alone this close to its target
 
 # neighbours(location) -> {location: graph margin}, the location itself at margin 0
 Neighbourhood = Callable[[int], dict[int, int]]
@@ -114,8 +132,9 @@ class BayesFilter:
     def __init__(self):
         self.posterior: dict[int, float] = {}
 
-    def update(self, ids: Sequence[int], neighbours: Neighbourhood, location_likelihood: np.ndarray,
-               virtual_likelihood: float) -> dict[int, float]:
+    def update(
+        self, ids: Sequence[int], neighbours: Neighbourhood, location_likelihood: np.ndarray, virtual_likelihood: float
+    ) -> dict[int, float]:
         """One predict-update step over the candidate locations ``ids``."""
         states = [VIRTUAL_PLACE, *ids]
         previous = np.array([self.posterior.get(state, 0.0) if self.posterior else 1.0 for state in states])

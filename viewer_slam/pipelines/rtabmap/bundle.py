@@ -13,7 +13,7 @@ import numpy as np
 
 from ...backend.local_bundle import FREE_FRAME, Observations
 
-Reference = tuple[int, float, float, float]    # key frame, undistorted u, v, depth (NaN: none)
+Reference = tuple[int, float, float, float]  # key frame, undistorted u, v, depth (NaN: none)
 
 
 class KeyFrames:
@@ -44,14 +44,17 @@ def sampled(references: list[Reference], max_frames: int) -> list[Reference]:
     return chosen
 
 
-def bundle_observations(references: list[list[Reference]], pixels: np.ndarray, depth: np.ndarray,
-                        max_frames: int) -> Observations:
+def bundle_observations(
+    references: list[list[Reference]], pixels: np.ndarray, depth: np.ndarray, max_frames: int
+) -> Observations:
     """The observations of points ``0..n-1``: their sampled key-frame references, then the
     adjusted frame's own at ``pixels`` (n, 2) with ``depth`` (n,)."""
     rows = [(index, *reference) for index, point in enumerate(references) for reference in sampled(point, max_frames)]
     count = len(pixels)
     stored = np.array(rows, dtype=np.float64).reshape(-1, 5)
-    return Observations(point=np.concatenate([stored[:, 0].astype(int), np.arange(count)]),
-                        frame=np.concatenate([stored[:, 1].astype(int), np.full(count, FREE_FRAME)]),
-                        pixels=np.concatenate([stored[:, 2:4], pixels]),
-                        depth=np.concatenate([stored[:, 4], depth]))
+    return Observations(
+        point=np.concatenate([stored[:, 0].astype(int), np.arange(count)]),
+        frame=np.concatenate([stored[:, 1].astype(int), np.full(count, FREE_FRAME)]),
+        pixels=np.concatenate([stored[:, 2:4], pixels]),
+        depth=np.concatenate([stored[:, 4], depth]),
+    )

@@ -28,12 +28,12 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-KD_TREE_INDEX = 1                    # FLANN_INDEX_KDTREE
+KD_TREE_INDEX = 1  # FLANN_INDEX_KDTREE
 KD_TREES = 4
 KNN_CHECKS = 32
-FLANN_L1 = 2                         # cvflann::FLANN_DIST_L1
-FLANN_SEED = 1                       # cv::theRNG()'s state before each build
-KD_TREE, BRUTE_FORCE = 1, 3          # Vis/CorNNType
+FLANN_L1 = 2  # cvflann::FLANN_DIST_L1
+FLANN_SEED = 1  # cv::theRNG()'s state before each build
+KD_TREE, BRUTE_FORCE = 1, 3  # Vis/CorNNType
 
 
 @dataclass
@@ -53,10 +53,14 @@ def two_nearest(query: np.ndarray, words: np.ndarray, nn_type: int) -> tuple[np.
         distances, nearest = cv2.batchDistance(query, words, -1, normType=cv2.NORM_HAMMING, K=2)
         return nearest.astype(int), distances.astype(np.float64)
     cv2.setRNGSeed(FLANN_SEED)
-    index = cv2.flann.Index(np.unpackbits(words, axis=1).astype(np.float32),
-                            {"algorithm": KD_TREE_INDEX, "trees": KD_TREES}, distType=FLANN_L1)
-    nearest, distances = index.knnSearch(np.unpackbits(query, axis=1).astype(np.float32), 2,
-                                         params={"checks": KNN_CHECKS})
+    index = cv2.flann.Index(
+        np.unpackbits(words, axis=1).astype(np.float32),
+        {"algorithm": KD_TREE_INDEX, "trees": KD_TREES},
+        distType=FLANN_L1,
+    )
+    nearest, distances = index.knnSearch(
+        np.unpackbits(query, axis=1).astype(np.float32), 2, params={"checks": KNN_CHECKS}
+    )
     return nearest.astype(int), distances.astype(np.float64)
 
 
@@ -67,7 +71,7 @@ def word_matches(query: np.ndarray, words: np.ndarray, ratio: float, nn_type: in
         return WordMatches(np.zeros(0, int), np.zeros(0, int), np.arange(count))
     nearest, distances = two_nearest(query, words, nn_type)
     passing = ~(distances[:, 0] > ratio * distances[:, 1])
-    word = np.where(passing, nearest[:, 0], -1 - np.arange(count))   # a failing descriptor: a new word of its own
+    word = np.where(passing, nearest[:, 0], -1 - np.arange(count))  # a failing descriptor: a new word of its own
     taken = np.bincount(word[passing], minlength=len(words))
     alone = ~passing | (taken[np.where(passing, word, 0)] == 1)
     matched = np.flatnonzero(passing & alone)

@@ -19,7 +19,7 @@ MEDIAN_TO_VARIANCE = 2.1981
 # Vis/PnPVarianceMedianRatio: the element at n / 4 of the sorted errors stands for the median,
 # "to ignore very very far features" (util3d::estimateMotion3DTo2D).
 VARIANCE_MEDIAN_RATIO = 4
-MIN_LINK_SIGMA = 0.001          # floor of a link's standard deviation (m, and rad)
+MIN_LINK_SIGMA = 0.001  # floor of a link's standard deviation (m, and rad)
 ANCHOR_SIGMA = 1e-4
 ANCHOR_INFORMATION = information_from_sigmas(ANCHOR_SIGMA, ANCHOR_SIGMA)
 
@@ -49,7 +49,9 @@ def registration_variance(reference: np.ndarray, measured: np.ndarray) -> Varian
     if not len(reference):
         return Variance()
     squared = np.sort(np.sum((reference - measured) ** 2, axis=1))
-    cosine = np.sum(reference * measured, axis=1) / (np.linalg.norm(reference, axis=1) * np.linalg.norm(measured, axis=1))
+    cosine = np.sum(reference * measured, axis=1) / (
+        np.linalg.norm(reference, axis=1) * np.linalg.norm(measured, axis=1)
+    )
     angles = np.sort(np.arccos(np.clip(cosine, -1.0, 1.0)))
     at = len(reference) // VARIANCE_MEDIAN_RATIO
     return Variance(MEDIAN_TO_VARIANCE * float(squared[at]), MEDIAN_TO_VARIANCE * float(angles[at]))
@@ -58,8 +60,9 @@ def registration_variance(reference: np.ndarray, measured: np.ndarray) -> Varian
 def link_information(variance: Variance) -> np.ndarray:
     """Information of a link: the inverse of its variances, each standard deviation at least
     MIN_LINK_SIGMA."""
-    return information_from_sigmas(max(np.sqrt(variance.rotation), MIN_LINK_SIGMA),
-                                   max(np.sqrt(variance.translation), MIN_LINK_SIGMA))
+    return information_from_sigmas(
+        max(np.sqrt(variance.rotation), MIN_LINK_SIGMA), max(np.sqrt(variance.translation), MIN_LINK_SIGMA)
+    )
 
 
 @dataclass
@@ -81,7 +84,7 @@ class LocationGraph:
         self.max_error = max_error
         self.odometry: dict[int, np.ndarray] = {}
         self.session: dict[int, int] = {}
-        self.map_of_session: dict[int, int] = {}    # session -> the map (oldest session) it joined
+        self.map_of_session: dict[int, int] = {}  # session -> the map (oldest session) it joined
         self.last_of_session: dict[int, int] = {}
 
     @property
@@ -108,8 +111,9 @@ class LocationGraph:
             self.pose_graph.add_prior(location, odometry_pose, ANCHOR_INFORMATION)
             return
         self.pose_graph.add_node(location, self.correction(previous) @ odometry_pose)
-        self.pose_graph.add_edge(Edge(previous, location, invert(self.odometry[previous]) @ odometry_pose,
-                                      link_information(variance)))
+        self.pose_graph.add_edge(
+            Edge(previous, location, invert(self.odometry[previous]) @ odometry_pose, link_information(variance))
+        )
 
     def close_loop(self, old: int, new: int, relative: np.ndarray, variance: Variance) -> ClosureOutcome:
         """Add the link ``relative = T_old^-1 T_new``, optimise, and keep it if consistent."""

@@ -53,17 +53,28 @@ def too_large_rotation(relative: np.ndarray) -> bool:
 def register(old: Location, new: Location, camera: Camera, params: RtabmapParams) -> Registration:
     """The new location's pose in the old one's frame from its keypoints and the old 3D words."""
     with_depth = np.flatnonzero(~np.isnan(old.points[:, 0]))
-    matches = word_matches(new.descriptors, old.descriptors[with_depth], params.correspondence_nndr,
-                           params.correspondence_nn_type)
+    matches = word_matches(
+        new.descriptors, old.descriptors[with_depth], params.correspondence_nndr, params.correspondence_nn_type
+    )
     query, train = matches.query, matches.train
-    solution = solve_pnp_ransac(old.points[with_depth[train]], new.keypoints[query], camera.K,
-                                reprojection_error=params.pnp_inlier_distance, distortion=camera.distortion,
-                                iterations=params.ransac_iterations, min_inliers=params.min_inliers,
-                                    refine_iterations=params.pnp_refine_iterations,
-                                    refine_distance=params.pnp_reprojection_error)
+    solution = solve_pnp_ransac(
+        old.points[with_depth[train]],
+        new.keypoints[query],
+        camera.K,
+        reprojection_error=params.pnp_inlier_distance,
+        distortion=camera.distortion,
+        iterations=params.ransac_iterations,
+        min_inliers=params.min_inliers,
+        refine_iterations=params.pnp_refine_iterations,
+        refine_distance=params.pnp_reprojection_error,
+    )
     if solution is None:
-        return Registration(None, len(query), 0,
-                            rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches")
+        return Registration(
+            None,
+            len(query),
+            0,
+            rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches",
+        )
     if too_large_rotation(solution.pose):
         return Registration(None, len(query), solution.inlier_count, rejected="rotation over 90 degrees")
     old_points = transform_points(invert(solution.pose), old.points[with_depth[train[solution.inliers]]])
@@ -91,12 +102,19 @@ class AppearanceDetector:
             return {i: m for i, m in margins.items() if i not in stm}
 
         posterior = self.filter.update(candidates, neighbours, location_likelihood, virtual_likelihood)
-        return Detection(highest_hypothesis(posterior), len(posterior),
-                         dict(zip(candidates, location_likelihood.tolist())))
+        return Detection(
+            highest_hypothesis(posterior), len(posterior), dict(zip(candidates, location_likelihood.tolist()))
+        )
 
 
-def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location: int, same_map,
-                         likelihood: dict[int, float], params: RtabmapParams) -> list[int]:
+def proximity_candidates(
+    memory: Memory,
+    poses: dict[int, np.ndarray],
+    location: int,
+    same_map,
+    likelihood: dict[int, float],
+    params: RtabmapParams,
+) -> list[int]:
     """Rtabmap::process, proximity detection by space: one location per path to register with.
 
     Candidates are WM locations of the same map within RGBD/LocalRadius of ``location`` and
@@ -108,11 +126,16 @@ def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location:
     RGBD/ProximityPathFilteringRadius and not be linked to ``location`` already.
     """
     here = poses[location]
-    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True,
-                              follow_proximity=True)
+    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True, follow_proximity=True)
     stm = set(memory.stm)
-    nearby = sorted(i for i in depth if i not in stm and i != location and same_map(i)
-                    and np.linalg.norm(poses[i][:3, 3] - here[:3, 3]) < params.local_radius)
+    nearby = sorted(
+        i
+        for i in depth
+        if i not in stm
+        and i != location
+        and same_map(i)
+        and np.linalg.norm(poses[i][:3, 3] - here[:3, 3]) < params.local_radius
+    )
     paths: list[list[int]] = []
     for i in nearby:
         if paths and memory.locations[paths[-1][-1]].links.get(i) is Link.NEIGHBOUR:
@@ -127,7 +150,7 @@ def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location:
 
     ranked = sorted(paths, key=path_key, reverse=True)
     if params.proximity_max_paths > 0:
-        ranked = ranked[:params.proximity_max_paths]
+        ranked = ranked[: params.proximity_max_paths]
     chosen = []
     for path in ranked:
         facing = [i for i in path if view_angle(poses[i], here) <= params.proximity_angle]
@@ -136,8 +159,10 @@ def proximity_candidates(memory: Memory, poses: dict[int, np.ndarray], location:
         best = max(facing, key=lambda i: (likelihood.get(i, 0.0), -i))
         if likelihood.get(best, 0.0) <= 0:
             best = min(facing, key=lambda i: np.linalg.norm(poses[i][:3, 3] - here[:3, 3]))
-        close = np.linalg.norm(poses[best][:3, 3] - here[:3, 3]) < params.proximity_filtering_radius \
+        close = (
+            np.linalg.norm(poses[best][:3, 3] - here[:3, 3]) < params.proximity_filtering_radius
             or params.proximity_filtering_radius <= 0
+        )
         if close and best not in memory.locations[location].links:
             chosen.append(best)
     return chosen

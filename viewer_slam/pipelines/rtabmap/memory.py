@@ -24,9 +24,9 @@ from .vocabulary import Vocabulary
 class Link(Enum):
     """What joins two locations (RTAB-Map's Link::Type, the kinds this pipeline makes)."""
 
-    NEIGHBOUR = "neighbour"     # odometry between consecutive locations of a map
-    LOOP = "loop"               # a global (appearance) loop closure
-    PROXIMITY = "proximity"     # a local loop closure found by space
+    NEIGHBOUR = "neighbour"  # odometry between consecutive locations of a map
+    LOOP = "loop"  # a global (appearance) loop closure
+    PROXIMITY = "proximity"  # a local loop closure found by space
 
 
 @dataclass
@@ -108,8 +108,16 @@ class Memory:
         if kind is Link.LOOP:
             self.last_loop_closure = max(a, b)
 
-    def neighbours(self, start: int, max_margin: int, *, loops_add_margin: bool = False, follow_loops: bool = True,
-                   follow_proximity: bool = False, ltm_budget: int = 0) -> dict[int, int]:
+    def neighbours(
+        self,
+        start: int,
+        max_margin: int,
+        *,
+        loops_add_margin: bool = False,
+        follow_loops: bool = True,
+        follow_proximity: bool = False,
+        ltm_budget: int = 0,
+    ) -> dict[int, int]:
         """Memory::getNeighborsId: locations within ``max_margin`` (0: any) neighbour links of
         ``start``, with their margin. Loop links are followed when ``follow_loops`` (proximity
         links too with ``follow_proximity``) and keep the margin unless ``loops_add_margin``.
@@ -135,8 +143,9 @@ class Memory:
                 for other, kind in self.locations[location_id].links.items():
                     if other in found:
                         continue
-                    if kind is Link.NEIGHBOUR or (follow_loops and loops_add_margin
-                                                  and (follow_proximity or kind is Link.LOOP)):
+                    if kind is Link.NEIGHBOUR or (
+                        follow_loops and loops_add_margin and (follow_proximity or kind is Link.LOOP)
+                    ):
                         frontier.add(other)
                     elif follow_loops and (follow_proximity or kind is Link.LOOP) and other not in same_margin:
                         same_margin.add(other)
@@ -155,9 +164,14 @@ class Memory:
         recent_limit = int(self.recent_wm_ratio * len(self.wm))
         recent = sum(1 for i in self.wm if i >= last) if last is not None else 0
         recent_immune = 1 < recent < recent_limit
-        candidates = sorted((self.locations[i].weight, self.age[i], i) for i in self.wm
-                            if i != last and not (recent_immune and last is not None and i > last) and i not in protected
-                            and not stm.intersection(self.locations[i].links))
+        candidates = sorted(
+            (self.locations[i].weight, self.age[i], i)
+            for i in self.wm
+            if i != last
+            and not (recent_immune and last is not None and i > last)
+            and i not in protected
+            and not stm.intersection(self.locations[i].links)
+        )
         chosen: list[int] = []
         recent_moved = 0
         for _, _, location_id in candidates:
@@ -194,11 +208,18 @@ class Memory:
         order: list[int] = []
         immune: set[int] = set()
         for through_loops in (False, True):
-            margins = self.neighbours(around, PREDICTION_MARGINS, loops_add_margin=True, follow_loops=through_loops,
-                                      follow_proximity=through_loops, ltm_budget=ltm_budget)
+            margins = self.neighbours(
+                around,
+                PREDICTION_MARGINS,
+                loops_add_margin=True,
+                follow_loops=through_loops,
+                follow_proximity=through_loops,
+                ltm_budget=ltm_budget,
+            )
             for margin in range(PREDICTION_MARGINS):
-                ring = sorted((i for i, m in margins.items() if m == margin and i not in stm and i not in order),
-                              reverse=True)
+                ring = sorted(
+                    (i for i, m in margins.items() if m == margin and i not in stm and i not in order), reverse=True
+                )
                 order.extend(ring)
                 if not through_loops:
                     immune.update(ring)

@@ -94,10 +94,10 @@ class LocalMap:
         candidates = candidates[np.sort(first_place)]
         protected = np.zeros(len(self), bool)
         protected[kept] = True
-        removed = candidates[~protected[candidates]][:len(self) - target]
+        removed = candidates[~protected[candidates]][: len(self) - target]
         for index in removed:
             self.referenced.subtract(reference[0] for reference in self.references[index])
-        self.referenced = +self.referenced               # drop the key frames counted down to 0
+        self.referenced = +self.referenced  # drop the key frames counted down to 0
         keep = np.setdiff1d(np.arange(len(self)), removed)
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.added_on = self.added_on[keep]
@@ -160,8 +160,15 @@ def motion_over(velocity: np.ndarray, elapsed: float) -> np.ndarray:
     return motion
 
 
-def guided_matches(points: np.ndarray, descriptors: np.ndarray, corners: np.ndarray, corner_descriptors: np.ndarray,
-                   predicted: np.ndarray, camera: Camera, params: RtabmapParams) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def guided_matches(
+    points: np.ndarray,
+    descriptors: np.ndarray,
+    corners: np.ndarray,
+    corner_descriptors: np.ndarray,
+    predicted: np.ndarray,
+    camera: Camera,
+    params: RtabmapParams,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """RegistrationVis's matching with a motion guess: the 3D ``points`` (with their
     ``descriptors``) in front of the ``predicted`` camera whose projection lies in the
     (rectified) image are matched with the ``corners`` (pinhole pixels) within
@@ -174,22 +181,35 @@ def guided_matches(points: np.ndarray, descriptors: np.ndarray, corners: np.ndar
     in_camera = transform_points(invert(predicted), points)
     in_front = np.flatnonzero(in_camera[:, 2] > 0)
     projections = camera.project(in_camera[in_front])
-    inside = ((projections >= 0).all(axis=1) & (projections[:, 0] <= camera.width - 1)
-              & (projections[:, 1] <= camera.height - 1))
+    inside = (
+        (projections >= 0).all(axis=1)
+        & (projections[:, 0] <= camera.width - 1)
+        & (projections[:, 1] <= camera.height - 1)
+    )
     visible, projections = in_front[inside], projections[inside]
-    near_corner = (cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
-                   if len(corners) and len(projections) else np.zeros(len(projections), bool))
+    near_corner = (
+        cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
+        if len(corners) and len(projections)
+        else np.zeros(len(projections), bool)
+    )
     projected = visible[near_corner]
     visible_descriptors = descriptors[visible]
     if params.guess_match_to_projection:
-        picked = nearest_within_radius(corners, corner_descriptors, projections, visible_descriptors,
-                                       params.guess_window, params.correspondence_nndr)
+        picked = nearest_within_radius(
+            corners,
+            corner_descriptors,
+            projections,
+            visible_descriptors,
+            params.guess_window,
+            params.correspondence_nndr,
+        )
         claims = np.bincount(picked[picked >= 0], minlength=len(visible))
         corner_index = np.flatnonzero(picked >= 0)
         corner_index = corner_index[claims[picked[corner_index]] == 1]
         return corner_index, visible[picked[corner_index]], projected
-    picked = nearest_within_radius(projections, visible_descriptors, corners, corner_descriptors,
-                                   params.guess_window, params.correspondence_nndr)
+    picked = nearest_within_radius(
+        projections, visible_descriptors, corners, corner_descriptors, params.guess_window, params.correspondence_nndr
+    )
     matched = np.flatnonzero(picked >= 0)
     _, first_claim = np.unique(picked[matched], return_index=True)
     point_rows = np.sort(matched[first_claim])
@@ -200,8 +220,9 @@ def pinhole_pixels(camera: Camera, keypoints: np.ndarray) -> np.ndarray:
     """Pixel coordinates as a pinhole camera would see them (RTAB-Map expects rectified images)."""
     if not any(camera.distortion) or len(keypoints) == 0:  # OpenCV 4 returns None for no points
         return keypoints.astype(np.float64).reshape(-1, 2)
-    return cv2.undistortPoints(keypoints.reshape(-1, 1, 2).astype(np.float64), camera.K,
-                               np.asarray(camera.distortion), P=camera.K).reshape(-1, 2)
+    return cv2.undistortPoints(
+        keypoints.reshape(-1, 1, 2).astype(np.float64), camera.K, np.asarray(camera.distortion), P=camera.K
+    ).reshape(-1, 2)
 
 
 class FrameToMapOdometry:
@@ -212,15 +233,19 @@ class FrameToMapOdometry:
         self.params = params
         self.map = LocalMap()
         self.key_frames = KeyFrames()
-        self.bundle_settings = BundleSettings(params.bundle_pixel_variance, params.bundle_kernel_delta,
-                                              params.bundle_baseline, params.optimizer_iterations)
-        self.pose: np.ndarray | None = None      # last registered pose
-        self.stamp: float | None = None          # its time; None after a loss
+        self.bundle_settings = BundleSettings(
+            params.bundle_pixel_variance,
+            params.bundle_kernel_delta,
+            params.bundle_baseline,
+            params.optimizer_iterations,
+        )
+        self.pose: np.ndarray | None = None  # last registered pose
+        self.stamp: float | None = None  # its time; None after a loss
         self.velocity: np.ndarray | None = None  # see velocity_of; None: no guess
         self.lost_frames = 0
         self.frame_count = 0
         self.was_reset = False
-        self.last_key_frame = 0                  # the frame of the newest key frame
+        self.last_key_frame = 0  # the frame of the newest key frame
 
     @property
     def initialised(self) -> bool:
@@ -270,11 +295,16 @@ class FrameToMapOdometry:
         self.last_key_frame = self.frame_count
         self.key_frames.add(self.frame_count, self.pose.copy())
         new = np.flatnonzero(with_depth)
-        self.map.add(transform_points(self.pose, features.points[new]), features.descriptors[new], self.frame_count,
-                     self._references(features, new))
+        self.map.add(
+            transform_points(self.pose, features.points[new]),
+            features.descriptors[new],
+            self.frame_count,
+            self._references(features, new),
+        )
         reset, self.was_reset = self.was_reset, False
-        return OdometryResult(pose=self.pose.copy(), new_session=True, reset=reset, key_frame=True,
-                              local_map_size=len(self.map))
+        return OdometryResult(
+            pose=self.pose.copy(), new_session=True, reset=reset, key_frame=True, local_map_size=len(self.map)
+        )
 
     def _register(self, features: Features, guess: np.ndarray | None) -> OdometryResult:
         """Registration with the motion guess, then, if that fails or there is none, against
@@ -289,14 +319,18 @@ class FrameToMapOdometry:
             predicted = self.pose @ guess
             result = self._solve_guided(features, predicted)
         if result is None or result.pose is None:
-            matches = word_matches(features.descriptors, self.map.descriptors, self.params.correspondence_nndr,
-                                   self.params.correspondence_nn_type)
+            matches = word_matches(
+                features.descriptors,
+                self.map.descriptors,
+                self.params.correspondence_nndr,
+                self.params.correspondence_nn_type,
+            )
             result = self._solve(features, matches.query, matches.train, self.pose)
             if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
                 features = features.subset(matches.kept)
                 result = self._solve_guided(features, result.pose)
                 result.kept = matches.kept
-        result.local_map_size = len(self.map)       # registered against (Odometry/LocalMapSize)
+        result.local_map_size = len(self.map)  # registered against (Odometry/LocalMapSize)
         if result.pose is not None:
             result.key_frame = self._update_map(features, result)
         return result
@@ -313,61 +347,101 @@ class FrameToMapOdometry:
     def guided_matches(self, features: Features, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The local map's points matched to the frame's corners around their projections from
         ``predicted`` (:func:`guided_matches`)."""
-        return guided_matches(self.map.points, self.map.descriptors, pinhole_pixels(self.camera, features.keypoints),
-                              features.descriptors, predicted, self.camera, self.params)
+        return guided_matches(
+            self.map.points,
+            self.map.descriptors,
+            pinhole_pixels(self.camera, features.keypoints),
+            features.descriptors,
+            predicted,
+            self.camera,
+            self.params,
+        )
 
-    def _solve(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
-               shown_without_pose: np.ndarray) -> OdometryResult:
+    def _solve(
+        self, features: Features, feature_index: np.ndarray, map_index: np.ndarray, shown_without_pose: np.ndarray
+    ) -> OdometryResult:
         """PnP RANSAC on the matches, then (OdomF2M/BundleAdjustment) the local bundle
         adjustment; the matched map points are shown projected with the estimated pose, or
         ``shown_without_pose`` when registration failed."""
         params = self.params
-        solution = solve_pnp_ransac(self.map.points[map_index], features.keypoints[feature_index], self.camera.K,
-                                    reprojection_error=params.pnp_inlier_distance, distortion=self.camera.distortion,
-                                    iterations=params.ransac_iterations, min_inliers=params.min_inliers,
-                                    refine_iterations=params.pnp_refine_iterations,
-                                    refine_distance=params.pnp_reprojection_error)
+        solution = solve_pnp_ransac(
+            self.map.points[map_index],
+            features.keypoints[feature_index],
+            self.camera.K,
+            reprojection_error=params.pnp_inlier_distance,
+            distortion=self.camera.distortion,
+            iterations=params.ransac_iterations,
+            min_inliers=params.min_inliers,
+            refine_iterations=params.pnp_refine_iterations,
+            refine_distance=params.pnp_reprojection_error,
+        )
         pose = solution.pose if solution is not None else None
         inliers = solution.inliers if solution is not None else np.zeros(len(map_index), bool)
         variance, map_points = Variance(), None
         if pose is not None:
-            variance = registration_variance(transform_points(invert(pose), self.map.points[map_index[inliers]]),
-                                             features.points[feature_index[inliers]])
+            variance = registration_variance(
+                transform_points(invert(pose), self.map.points[map_index[inliers]]),
+                features.points[feature_index[inliers]],
+            )
             map_points = self.map.points[map_index[inliers]]
             if params.bundle_adjustment:
-                pose, inliers, map_points, variance = self._bundle_adjust(features, feature_index, map_index, inliers,
-                                                                          pose, variance)
-        in_camera = transform_points(invert(pose if pose is not None else shown_without_pose), self.map.points[map_index])
+                pose, inliers, map_points, variance = self._bundle_adjust(
+                    features, feature_index, map_index, inliers, pose, variance
+                )
+        in_camera = transform_points(
+            invert(pose if pose is not None else shown_without_pose), self.map.points[map_index]
+        )
         shown = in_camera[:, 2] > MIN_DEPTH_OF_PROJECTION
-        return OdometryResult(pose=pose, matches=len(map_index), inliers=int(inliers.sum()),
-                              matched_pixels=features.keypoints[feature_index[shown]],
-                              projected_pixels=self.camera.project(in_camera[shown]), inlier_mask=inliers[shown],
-                              variance=variance, feature_index=feature_index, map_index=map_index,
-                              match_inliers=inliers, map_points=map_points)
+        return OdometryResult(
+            pose=pose,
+            matches=len(map_index),
+            inliers=int(inliers.sum()),
+            matched_pixels=features.keypoints[feature_index[shown]],
+            projected_pixels=self.camera.project(in_camera[shown]),
+            inlier_mask=inliers[shown],
+            variance=variance,
+            feature_index=feature_index,
+            map_index=map_index,
+            match_inliers=inliers,
+            map_points=map_points,
+        )
 
-    def _bundle_adjust(self, features: Features, feature_index: np.ndarray, map_index: np.ndarray,
-                       inliers: np.ndarray, pose: np.ndarray, variance: Variance):
+    def _bundle_adjust(
+        self,
+        features: Features,
+        feature_index: np.ndarray,
+        map_index: np.ndarray,
+        inliers: np.ndarray,
+        pose: np.ndarray,
+        variance: Variance,
+    ):
         """The registration refined against the key frames that saw its inliers: the
         adjusted pose, the inliers without the bundle's outliers (no pose when fewer than
         Vis/MinInliers remain), their adjusted map points and the variance scaled down."""
         inlier_rows = np.flatnonzero(inliers)
         points, features_used = map_index[inlier_rows], feature_index[inlier_rows]
-        observations = bundle_observations([self.map.references[i] for i in points],
-                                           pinhole_pixels(self.camera, features.keypoints[features_used]),
-                                           features.points[features_used, 2], self.params.bundle_max_frames)
+        observations = bundle_observations(
+            [self.map.references[i] for i in points],
+            pinhole_pixels(self.camera, features.keypoints[features_used]),
+            features.points[features_used, 2],
+            self.params.bundle_max_frames,
+        )
         last = self.key_frames.last
         assert last is not None  # _start_map added the map's first key frame
         link = Link(last, invert(self.key_frames.poses[last]) @ pose, variance.translation, variance.rotation)
         seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
         held = {frame: self.key_frames.poses[frame] for frame in seen_by}
-        adjusted = adjust_frame(pose, self.map.points[points], observations, held, link, self.camera.K,
-                                self.bundle_settings)
+        adjusted = adjust_frame(
+            pose, self.map.points[points], observations, held, link, self.camera.K, self.bundle_settings
+        )
         inliers = inliers.copy()
         inliers[inlier_rows[adjusted.outliers]] = False
         if inliers.sum() < self.params.min_inliers:
             return None, np.zeros(len(map_index), bool), None, Variance()
-        scaled = Variance(scaled_down(variance.translation, BUNDLE_TRANSLATION_VARIANCE_FLOOR),
-                          scaled_down(variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR))
+        scaled = Variance(
+            scaled_down(variance.translation, BUNDLE_TRANSLATION_VARIANCE_FLOOR),
+            scaled_down(variance.rotation, BUNDLE_ROTATION_VARIANCE_FLOOR),
+        )
         return adjusted.pose, inliers, adjusted.points[~adjusted.outliers], scaled
 
     def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
@@ -385,8 +459,12 @@ class FrameToMapOdometry:
         # A registered result (_solve's, with a pose) carries its matches.
         assert result.pose is not None and result.map_index is not None and result.feature_index is not None
         inlier_points = result.map_index[result.match_inliers]
-        if (params.keyframe_threshold == 0 or params.keyframe_inliers == 0
-                or result.inliers <= params.keyframe_threshold * len(features) or result.inliers <= params.keyframe_inliers):
+        if (
+            params.keyframe_threshold == 0
+            or params.keyframe_inliers == 0
+            or result.inliers <= params.keyframe_threshold * len(features)
+            or result.inliers <= params.keyframe_inliers
+        ):
             if params.bundle_adjustment:
                 self.key_frames.add(self.frame_count, result.pose)
                 self.map.points[inlier_points] = result.map_points
@@ -403,9 +481,17 @@ class FrameToMapOdometry:
         new = candidates[features.has_depth[candidates]]
         outliers = np.sort(result.map_index[~result.match_inliers])
         previous_key_frames = np.sort(result.projected[self.map.added_on[result.projected] >= self.last_key_frame])
-        self.map.add(transform_points(result.pose, features.points[new]), features.descriptors[new], self.frame_count,
-                     self._references(features, new))
-        self.map.cap(self.params.local_map_size, np.concatenate([outliers, previous_key_frames]),
-                     result.map_index[result.match_inliers], len(new))
+        self.map.add(
+            transform_points(result.pose, features.points[new]),
+            features.descriptors[new],
+            self.frame_count,
+            self._references(features, new),
+        )
+        self.map.cap(
+            self.params.local_map_size,
+            np.concatenate([outliers, previous_key_frames]),
+            result.map_index[result.match_inliers],
+            len(new),
+        )
         self.last_key_frame = self.frame_count
         self.key_frames.keep_referenced(self.map.referenced)

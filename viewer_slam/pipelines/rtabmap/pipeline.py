@@ -38,8 +38,8 @@ from .vocabulary import Vocabulary
 
 DETECTION = {Link.LOOP: "appearance", Link.PROXIMITY: "proximity"}
 STAGES = ("features", "odometry", "vocabulary", "bayes", "verification", "optimisation", "memory")
-CLOUD_POINTS_ACROSS = 64         # coarse cloud per location: this many depth samples per image row
-MAP_POINTS_LIMIT = 200_000       # a rebuilt map is subsampled to at most this many points
+CLOUD_POINTS_ACROSS = 64  # coarse cloud per location: this many depth samples per image row
+MAP_POINTS_LIMIT = 200_000  # a rebuilt map is subsampled to at most this many points
 # Vis/MinDepth 0 means no limit, but a zero depth is a missing one (a TUM depth image's 0),
 # so the nearest usable depth is just above it.
 NEAREST_MEASURED_DEPTH = 1e-3
@@ -67,10 +67,15 @@ class Rtabmap(Pipeline):
     def __init__(self, camera: Camera, params: RtabmapParams | None = None, seed: int = 0):
         super().__init__(camera, params, seed)
         p = self.params
-        self.extractor = FeatureExtractor(p.feature_kind, p.odometry_max_features, camera,
-                                          min_depth=max(p.min_depth, NEAREST_MEASURED_DEPTH),
-                                          max_depth=p.max_depth or np.inf, depth_mask=p.depth_as_mask,
-                                          depth_smoothing=True)
+        self.extractor = FeatureExtractor(
+            p.feature_kind,
+            p.odometry_max_features,
+            camera,
+            min_depth=max(p.min_depth, NEAREST_MEASURED_DEPTH),
+            max_depth=p.max_depth or np.inf,
+            depth_mask=p.depth_as_mask,
+            depth_smoothing=True,
+        )
         self.odometry = FrameToMapOdometry(camera, p)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
@@ -80,11 +85,11 @@ class Rtabmap(Pipeline):
         self.session = -1
         self.current_location: int | None = None
         self.last_tick = -np.inf
-        self.last_hypothesis = 0.0       # the previous update's hypothesis value (Rtabmap/LoopRatio)
+        self.last_hypothesis = 0.0  # the previous update's hypothesis value (Rtabmap/LoopRatio)
         self.posterior_max = 0.0
         self.lost = False
-        self.new_map_due = False               # viewslam/NewMapOnLoss: odometry was lost since the last location
-        self.odometry_variance = Variance()    # of the link to the next location (viewslam/LinkCovariance)
+        self.new_map_due = False  # viewslam/NewMapOnLoss: odometry was lost since the last location
+        self.odometry_variance = Variance()  # of the link to the next location (viewslam/LinkCovariance)
         self.records: list[_FrameRecord] = []
         self.cloud_step = max(1, camera.width // CLOUD_POINTS_ACROSS)
 
@@ -98,21 +103,32 @@ class Rtabmap(Pipeline):
             features = features.subset(odometry.kept)
         events: list[Event] = []
         if odometry.matched_pixels is not None and len(odometry.matched_pixels):
-            events.append(FeatureMatches(frame.index, "local map", odometry.matched_pixels,
-                                         odometry.projected_pixels, odometry.inlier_mask))
+            events.append(
+                FeatureMatches(
+                    frame.index, "local map", odometry.matched_pixels, odometry.projected_pixels, odometry.inlier_mask
+                )
+            )
         pose = None
         if odometry.pose is None:
             status = TrackingStatus.LOST if self.odometry.initialised or self.lost else TrackingStatus.INITIALISING
             self.new_map_due |= self.params.new_map_on_loss and self.odometry.initialised
             if not self.lost and self.odometry.initialised:
                 self.lost = True
-                events.append(TrackingLost(frame.index, frame.timestamp,
-                                           f"odometry registration failed: {odometry.matches} matches to the "
-                                           f"local map, fewer than Vis/MinInliers {self.params.min_inliers} agree"))
+                events.append(
+                    TrackingLost(
+                        frame.index,
+                        frame.timestamp,
+                        f"odometry registration failed: {odometry.matches} matches to the "
+                        f"local map, fewer than Vis/MinInliers {self.params.min_inliers} agree",
+                    )
+                )
         else:
             status = self._track_status(frame, odometry, events)
-            self.odometry_variance = (self.odometry_variance.larger(odometry.variance)
-                                      if self.params.link_covariance == "largest" else odometry.variance)
+            self.odometry_variance = (
+                self.odometry_variance.larger(odometry.variance)
+                if self.params.link_covariance == "largest"
+                else odometry.variance
+            )
             if odometry.new_session or self._detection_due(frame.timestamp):
                 if self.new_map_due:
                     self._begin_map(frame.timestamp)
@@ -124,12 +140,30 @@ class Rtabmap(Pipeline):
             assert self.current_location is not None
             self.records.append(_FrameRecord(frame.index, frame.timestamp, odometry.pose, self.current_location))
             pose = self.graph.correction(self.current_location) @ odometry.pose
-        metrics = {"stm": len(self.memory.stm), "wm": len(self.memory.wm), "ltm": len(self.memory.ltm),
-                   "words": len(self.vocabulary), "posterior_max": self.posterior_max,
-                   "local_map": odometry.local_map_size, "key_frame": float(odometry.key_frame)}
-        events.insert(0, FrameTracked(frame.index, frame.timestamp, pose, status, len(features), odometry.matches,
-                                      odometry.inliers, self.current_location if pose is not None else None,
-                                      watch.ms, metrics))
+        metrics = {
+            "stm": len(self.memory.stm),
+            "wm": len(self.memory.wm),
+            "ltm": len(self.memory.ltm),
+            "words": len(self.vocabulary),
+            "posterior_max": self.posterior_max,
+            "local_map": odometry.local_map_size,
+            "key_frame": float(odometry.key_frame),
+        }
+        events.insert(
+            0,
+            FrameTracked(
+                frame.index,
+                frame.timestamp,
+                pose,
+                status,
+                len(features),
+                odometry.matches,
+                odometry.inliers,
+                self.current_location if pose is not None else None,
+                watch.ms,
+                metrics,
+            ),
+        )
         return events
 
     def _begin_map(self, timestamp: float) -> None:
@@ -149,15 +183,26 @@ class Rtabmap(Pipeline):
         if odometry.new_session:
             self._begin_map(frame.timestamp)
             if odometry.reset:
-                events.append(TrackingRecovered(frame.index, frame.timestamp,
-                                                f"odometry reset after Odom/ResetCountdown "
-                                                f"{self.params.reset_countdown} lost frames: new map {self.session}"))
+                events.append(
+                    TrackingRecovered(
+                        frame.index,
+                        frame.timestamp,
+                        f"odometry reset after Odom/ResetCountdown "
+                        f"{self.params.reset_countdown} lost frames: new map {self.session}",
+                    )
+                )
             self.lost = False
             return TrackingStatus.INITIALISING
         if self.lost:
             self.lost = False
-            events.append(TrackingRecovered(frame.index, frame.timestamp, "registered to the local map again" + (
-                "; the next location begins a new map (viewslam/NewMapOnLoss)" if self.new_map_due else "")))
+            events.append(
+                TrackingRecovered(
+                    frame.index,
+                    frame.timestamp,
+                    "registered to the local map again"
+                    + ("; the next location begins a new map (viewslam/NewMapOnLoss)" if self.new_map_due else ""),
+                )
+            )
             return TrackingStatus.RELOCALISED
         return TrackingStatus.OK
 
@@ -173,8 +218,10 @@ class Rtabmap(Pipeline):
         """RGBD/LinearUpdate, RGBD/AngularUpdate: motion since the last location."""
         assert self.current_location is not None  # asked after the session's first location
         motion = invert(self.memory.locations[self.current_location].odometry_pose) @ odometry_pose
-        return bool(np.linalg.norm(motion[:3, 3]) >= self.params.linear_update
-                    or rotation_angle(motion[:3, :3]) >= self.params.angular_update)
+        return bool(
+            np.linalg.norm(motion[:3, 3]) >= self.params.linear_update
+            or rotation_angle(motion[:3, :3]) >= self.params.angular_update
+        )
 
     def _rehearse(self, features: Features) -> None:
         """The camera stayed: a view similar to the last location strengthens it (weight)."""
@@ -186,7 +233,7 @@ class Rtabmap(Pipeline):
 
     def _strongest(self, features: Features) -> Features:
         """The Kp/MaxFeatures strongest features, which a location keeps as its words."""
-        order = np.argsort(-features.responses, kind="stable")[:self.params.words_per_location]
+        order = np.argsort(-features.responses, kind="stable")[: self.params.words_per_location]
         return features.subset(np.sort(order))
 
     def _signature(self, features: Features) -> Features:
@@ -200,16 +247,25 @@ class Rtabmap(Pipeline):
 
     # -- per location ------------------------------------------------------------------
 
-    def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray,
-                    watch: Stopwatch) -> list[Event]:
+    def _update_map(self, frame: Frame, features: Features, odometry_pose: np.ndarray, watch: Stopwatch) -> list[Event]:
         """Add a location, look for a loop closure, and keep memory within its budget."""
         p = self.params
         start = time.perf_counter()
         kept = self._signature(features)
         location_id = len(self.memory.locations)
         words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
-        location = Location(location_id, self.session, frame.index, frame.timestamp, odometry_pose,
-                            kept.keypoints, kept.descriptors, kept.points, words, *self._cloud(frame))
+        location = Location(
+            location_id,
+            self.session,
+            frame.index,
+            frame.timestamp,
+            odometry_pose,
+            kept.keypoints,
+            kept.descriptors,
+            kept.points,
+            words,
+            *self._cloud(frame),
+        )
         previous = self.current_location
         continues_chain = previous is not None and self.graph.session[previous] == self.session
         if continues_chain and previous is not None:
@@ -224,11 +280,24 @@ class Rtabmap(Pipeline):
         pose = self.graph.poses[location_id]
         events: list[Event] = [
             KeyframeAdded(location_id, frame.index, frame.timestamp, pose.copy(), *self._thumbnails(frame)),
-            *([GraphEdge(frame.index, previous, location_id, True, "odometry link", self.edges.kind(previous, location_id),
-                         detection="odometry")]
-              if continues_chain and previous is not None else []),
-            MapUpdated(frame.index, transform_points(pose, location.cloud_points).astype(np.float32),
-                       location.cloud_colors),
+            *(
+                [
+                    GraphEdge(
+                        frame.index,
+                        previous,
+                        location_id,
+                        True,
+                        "odometry link",
+                        self.edges.kind(previous, location_id),
+                        detection="odometry",
+                    )
+                ]
+                if continues_chain and previous is not None
+                else []
+            ),
+            MapUpdated(
+                frame.index, transform_points(pose, location.cloud_points).astype(np.float32), location.cloud_colors
+            ),
         ]
         detection = watch("bayes", self.detector.detect, self.memory, words) if len(words) else None
         hypothesis = detection.hypothesis if detection is not None else None
@@ -239,8 +308,11 @@ class Rtabmap(Pipeline):
                 order, immune = watch("memory", self.memory.retrieval_order, hypothesis.location, p.max_retrieved)
                 retrieved = watch("memory", self.memory.retrieve, order, p.max_retrieved)
                 protected |= immune | set(retrieved)
-        closed = hypothesis is not None and detection is not None and self._consider(
-            frame, location, hypothesis, detection.states, watch, events)
+        closed = (
+            hypothesis is not None
+            and detection is not None
+            and self._consider(frame, location, hypothesis, detection.states, watch, events)
+        )
         self.last_hypothesis = hypothesis.value if hypothesis is not None else 0.0
         if p.proximity_by_space and p.local_radius > 0 and not closed:
             self._proximity(frame, location, detection.likelihood if detection else {}, watch, events)
@@ -259,8 +331,9 @@ class Rtabmap(Pipeline):
             return set()
         here = self.graph.poses[location.id][:3, 3]
         distance = {i: float(np.linalg.norm(self.graph.poses[i][:3, 3] - here)) for i in self.memory.wm}
-        near = sorted((d, i) for i, d in distance.items() if self.params.local_radius == 0
-                      or d < self.params.local_radius)
+        near = sorted(
+            (d, i) for i, d in distance.items() if self.params.local_radius == 0 or d < self.params.local_radius
+        )
         for _, i in reversed(near):
             self.memory.touch(i)
         budget = int(self.params.local_immunization_ratio * len(self.memory.wm))
@@ -273,8 +346,15 @@ class Rtabmap(Pipeline):
             location.weight = previous.weight + 1
             previous.weight = 0
 
-    def _consider(self, frame: Frame, location: Location, hypothesis: Hypothesis, states: int, watch: Stopwatch,
-                  events: list[Event]) -> bool:
+    def _consider(
+        self,
+        frame: Frame,
+        location: Location,
+        hypothesis: Hypothesis,
+        states: int,
+        watch: Stopwatch,
+        events: list[Event],
+    ) -> bool:
         """Rtabmap::process: verify the hypothesis when the sum of the loop closure
         probabilities reaches Rtabmap/LoopThr, there is more than one location to choose
         from, and (with Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
@@ -289,41 +369,94 @@ class Rtabmap(Pipeline):
         elif p.loop_ratio > 0 and not previous:
             reason = "no previous hypothesis (Rtabmap/LoopRatio is on)"
         if reason is None:
-            return self._close(frame, self.memory.locations[hypothesis.location], location, Link.LOOP, value,
-                               watch, events)
+            return self._close(
+                frame, self.memory.locations[hypothesis.location], location, Link.LOOP, value, watch, events
+            )
         if value >= p.loop_threshold:
-            events.append(GraphEdge(frame.index, hypothesis.location, location.id, False, reason,
-                                    self.edges.kind(hypothesis.location, location.id), score=value))
+            events.append(
+                GraphEdge(
+                    frame.index,
+                    hypothesis.location,
+                    location.id,
+                    False,
+                    reason,
+                    self.edges.kind(hypothesis.location, location.id),
+                    score=value,
+                )
+            )
         return False
 
-    def _proximity(self, frame: Frame, location: Location, likelihood: dict[int, float], watch: Stopwatch,
-                   events: list[Event]) -> None:
+    def _proximity(
+        self, frame: Frame, location: Location, likelihood: dict[int, float], watch: Stopwatch, events: list[Event]
+    ) -> None:
         """RGBD/ProximityBySpace: register with nearby locations of the same map off STM."""
         map_id = self.graph.map_of(location.id)
-        for candidate in proximity_candidates(self.memory, self.graph.poses, location.id,
-                                              lambda i: self.graph.map_of(i) == map_id, likelihood, self.params):
+        for candidate in proximity_candidates(
+            self.memory,
+            self.graph.poses,
+            location.id,
+            lambda i: self.graph.map_of(i) == map_id,
+            likelihood,
+            self.params,
+        ):
             self._close(frame, self.memory.locations[candidate], location, Link.PROXIMITY, 0.0, watch, events)
 
-    def _close(self, frame: Frame, old: Location, new: Location, link: Link, score: float, watch: Stopwatch,
-               events: list[Event]) -> bool:
+    def _close(
+        self,
+        frame: Frame,
+        old: Location,
+        new: Location,
+        link: Link,
+        score: float,
+        watch: Stopwatch,
+        events: list[Event],
+    ) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
         registration = watch("verification", register, old, new, self.camera, self.params)
         if registration.relative is None:
-            events.append(GraphEdge(frame.index, old.id, new.id, False, registration.rejected,
-                                    self.edges.kind(old.id, new.id), score, registration.inliers,
-                                    DETECTION[link]))
+            events.append(
+                GraphEdge(
+                    frame.index,
+                    old.id,
+                    new.id,
+                    False,
+                    registration.rejected,
+                    self.edges.kind(old.id, new.id),
+                    score,
+                    registration.inliers,
+                    DETECTION[link],
+                )
+            )
             return False
-        outcome = watch("optimisation", self.graph.close_loop, old.id, new.id, registration.relative,
-                        registration.variance)
-        events.append(GraphEdge(frame.index, old.id, new.id, outcome.accepted, outcome.reason,
-                                self.edges.kind(old.id, new.id), score, registration.inliers,
-                                DETECTION[link]))
+        outcome = watch(
+            "optimisation", self.graph.close_loop, old.id, new.id, registration.relative, registration.variance
+        )
+        events.append(
+            GraphEdge(
+                frame.index,
+                old.id,
+                new.id,
+                outcome.accepted,
+                outcome.reason,
+                self.edges.kind(old.id, new.id),
+                score,
+                registration.inliers,
+                DETECTION[link],
+            )
+        )
         if not outcome.accepted:
             return False
         self.memory.link(old.id, new.id, link)
         ids = np.array(sorted(self.graph.poses))
-        events.append(GraphOptimized(frame.index, ids, np.stack([self.graph.poses[i] for i in ids]),
-                                     outcome.error_before, outcome.error_after))
+        events.append(
+            GraphOptimized(
+                frame.index,
+                ids,
+                np.stack([self.graph.poses[i] for i in ids]),
+                outcome.error_before,
+                outcome.error_after,
+            )
+        )
         events.append(watch("optimisation", self._rebuilt_map, frame.index))
         return True
 
@@ -331,8 +464,9 @@ class Rtabmap(Pipeline):
         """Rtabmap/TimeThr and Rtabmap/MemoryThr: when the update took too long or WM holds too
         many locations, (added + 1) locations go to LTM (Memory::forget)."""
         p = self.params
-        if (p.time_threshold > 0 and elapsed_ms > p.time_threshold) or \
-                (p.memory_threshold > 0 and len(self.memory.wm) > p.memory_threshold):
+        if (p.time_threshold > 0 and elapsed_ms > p.time_threshold) or (
+            p.memory_threshold > 0 and len(self.memory.wm) > p.memory_threshold
+        ):
             self.memory.forget(added + 1, protected)
 
     # -- map and images ----------------------------------------------------------------
@@ -348,8 +482,11 @@ class Rtabmap(Pipeline):
     def _rebuilt_map(self, frame_index: int) -> MapUpdated:
         """Every location's cloud at its optimised pose, subsampled to MAP_POINTS_LIMIT."""
         locations = [self.memory.locations[i] for i in sorted(self.memory.locations)]
-        return rebuilt_map(frame_index, ((self.graph.poses[loc.id], loc.cloud_points, loc.cloud_colors)
-                                         for loc in locations), MAP_POINTS_LIMIT)
+        return rebuilt_map(
+            frame_index,
+            ((self.graph.poses[loc.id], loc.cloud_points, loc.cloud_colors) for loc in locations),
+            MAP_POINTS_LIMIT,
+        )
 
     # -- end of run --------------------------------------------------------------------
 
@@ -360,5 +497,11 @@ class Rtabmap(Pipeline):
         corrections = {i: self.graph.correction(i) for i in {r.location for r in self.records}}
         odometry = np.stack([r.odometry_pose for r in self.records])
         poses = np.stack([corrections[r.location] for r in self.records]) @ odometry
-        return [TrajectoryFinal(np.array([r.index for r in self.records]), np.array([r.timestamp for r in self.records]),
-                                poses, odometry)]
+        return [
+            TrajectoryFinal(
+                np.array([r.index for r in self.records]),
+                np.array([r.timestamp for r in self.records]),
+                poses,
+                odometry,
+            )
+        ]

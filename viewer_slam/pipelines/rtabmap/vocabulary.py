@@ -17,7 +17,12 @@ import cv2
 import numpy as np
 
 FLANN_INDEX_LSH = 6
-LSH_PARAMS: dict[str, bool | int | float | str] = {"algorithm": FLANN_INDEX_LSH, "table_number": 4, "key_size": 16, "multi_probe_level": 1}
+LSH_PARAMS: dict[str, bool | int | float | str] = {
+    "algorithm": FLANN_INDEX_LSH,
+    "table_number": 4,
+    "key_size": 16,
+    "multi_probe_level": 1,
+}
 LSH_CHECKS: dict[str, bool | int | float | str] = {"checks": 32}
 # Words searched exhaustively before the LSH index is rebuilt over all active words.
 REBUILD_PENDING = 1000
@@ -44,13 +49,13 @@ class Vocabulary:
         self.nndr = nndr
         self.seed = seed
         self._descriptors = np.zeros((0, 32), np.uint8)
-        self._postings: dict[int, dict[int, int]] = defaultdict(dict)   # word -> {location: count}
-        self._sizes: dict[int, int] = {}                                  # location -> words held
-        self._active = np.zeros(0, bool)      # held by an indexed location
+        self._postings: dict[int, dict[int, int]] = defaultdict(dict)  # word -> {location: count}
+        self._sizes: dict[int, int] = {}  # location -> words held
+        self._active = np.zeros(0, bool)  # held by an indexed location
         self._in_lsh = np.zeros(0, bool)
         self._index: cv2.flann.Index | None = None
-        self._indexed = np.zeros(0, int)      # word id of each row of the LSH index
-        self._pending: set[int] = set()       # active words not in the LSH index
+        self._indexed = np.zeros(0, int)  # word id of each row of the LSH index
+        self._pending: set[int] = set()  # active words not in the LSH index
 
     def __len__(self) -> int:
         """Active words: those held by at least one indexed location."""
@@ -74,8 +79,10 @@ class Vocabulary:
             rows, indexed_distances = self._index.knnSearch(descriptors, 2, params=LSH_CHECKS)
             ids = self._indexed[np.clip(rows, 0, len(self._indexed) - 1)]
             valid = (rows >= 0) & self._active[ids]
-            candidates = [np.hstack([distances, np.where(valid, indexed_distances, FAR)]),
-                          np.hstack([candidates[1], ids])]
+            candidates = [
+                np.hstack([distances, np.where(valid, indexed_distances, FAR)]),
+                np.hstack([candidates[1], ids]),
+            ]
         distances, ids = candidates
         order = np.argsort(distances, axis=1, kind="stable")[:, :2]
         best = np.take_along_axis(distances, order, axis=1)

@@ -18,14 +18,21 @@ def build_wheel(wheel_directory, config_settings=None, metadata_directory=None):
     project, packages = settings["project"], settings["tool"]["build_backend"]["packages"]
     name, version = project["name"].replace("-", "_"), project["version"]
     dist_info = f"{name}-{version}.dist-info"
-    files = {str(path.relative_to(ROOT)): path.read_bytes()
-             for package in packages for path in sorted((ROOT / package).rglob("*.py"))}
-    files[f"{dist_info}/METADATA"] = (f"Metadata-Version: 2.1\nName: {project['name']}\nVersion: {version}\n"
-                                      f"Summary: {project['description']}\n").encode()
-    files[f"{dist_info}/WHEEL"] = b"Wheel-Version: 1.0\nGenerator: build_backend\nRoot-Is-Purelib: true\nTag: py3-none-any\n"
+    files = {
+        str(path.relative_to(ROOT)): path.read_bytes()
+        for package in packages
+        for path in sorted((ROOT / package).rglob("*.py"))
+    }
+    files[f"{dist_info}/METADATA"] = (
+        f"Metadata-Version: 2.1\nName: {project['name']}\nVersion: {version}\nSummary: {project['description']}\n"
+    ).encode()
+    files[f"{dist_info}/WHEEL"] = (
+        b"Wheel-Version: 1.0\nGenerator: build_backend\nRoot-Is-Purelib: true\nTag: py3-none-any\n"
+    )
     files[f"{dist_info}/entry_points.txt"] = "".join(
         f"[{group}]\n" + "".join(f"{key} = {value}\n" for key, value in points.items()) + "\n"
-        for group, points in project["entry-points"].items()).encode()
+        for group, points in project["entry-points"].items()
+    ).encode()
     record = [f"{path},sha256={_digest(data)},{len(data)}" for path, data in files.items()] + [f"{dist_info}/RECORD,,"]
     files[f"{dist_info}/RECORD"] = ("\n".join(record) + "\n").encode()
     wheel = f"{name}-{version}-py3-none-any.whl"

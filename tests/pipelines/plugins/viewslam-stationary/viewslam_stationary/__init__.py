@@ -1,6 +1,5 @@
 """The zero-motion baseline: a camera that never moves, as a viewslam pipeline plugin."""
 
-
 import numpy as np
 from pydantic import Field
 
