@@ -4,11 +4,10 @@ from pathlib import Path
 
 import typer
 
-from ..geometry.trajectory_formats import TrajectoryFormat
-from ..seeds import SEED_MAX
 from .app import app
 from .exits import EXIT_INTERRUPTED
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP, QUIET_HELP, parse_resolution
+from .options import MAX_FRAMES_HELP, QUIET_HELP, parse_resolution
+from .run_options import Config, Estimates, Format, Params, Pipelines, Seed
 
 MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadline (and inf none at all)
 
@@ -21,7 +20,7 @@ def benchmark(
         "default: the seven synthetic scenarios.",
         show_default=False,
     ),
-    pipeline: list[str] = typer.Option([], "--pipeline", help=PIPELINE_HELP + "  [default: both]"),
+    pipeline: Pipelines = None,
     pipelines: list[str] = typer.Option([], "--pipelines", hidden=True),  # the old spelling
     max_frames: int = typer.Option(None, "--max-frames", min=2, help=MAX_FRAMES_HELP),
     scenario_frames: int = typer.Option(
@@ -35,9 +34,9 @@ def benchmark(
     ray_address: str = typer.Option(None, help="Address of an existing Ray cluster (default: start one)."),
     out: Path = typer.Option(Path("benchmark-results"), help="Folder for results, report and charts."),
     record: bool = typer.Option(False, help="Also write a Rerun recording per task into OUT/recordings."),
-    param: list[str] = typer.Option([], help="Pipeline parameter KEY=VALUE (repeatable)."),
-    config: Path = typer.Option(None, help="TOML file of pipeline parameters."),
-    seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of the pipelines' random choices."),
+    param: Params = None,
+    config: Config = None,
+    seed: Seed = 0,
     trials: int = typer.Option(
         1,
         min=1,
@@ -48,17 +47,8 @@ def benchmark(
         None, min=1, max=MAX_TIMEOUT_S, help="Seconds after which a task is stopped and reported failed."
     ),
     cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
-    estimate: list[str] = typer.Option(
-        [],
-        "--estimate",
-        metavar="NAME=FILE",
-        help="Another system's trajectory of the one SEQUENCE, scored as a row "
-        "(repeatable); with estimates, no built-in pipeline runs unless "
-        "--pipeline asks.",
-    ),
-    format: TrajectoryFormat | None = typer.Option(
-        None, "--format", help="Format of the estimates (default: detected)."
-    ),
+    estimate: Estimates = None,
+    format: Format = None,
     compare: Path = typer.Option(
         None,
         "--compare",
@@ -81,7 +71,7 @@ def benchmark(
 
     result = run(
         sequences or (),
-        pipeline=pipelines + pipeline or None,
+        pipeline=pipelines + (pipeline or []) or None,
         max_frames=max_frames,
         scenario_frames=scenario_frames,
         resolution=parse_resolution(resolution),
@@ -90,13 +80,13 @@ def benchmark(
         ray_address=ray_address,
         out=out,
         record=record,
-        params=param,
+        params=param or (),
         config=config,
         seed=seed,
         trials=trials,
         timeout=timeout,
         cache=cache,
-        estimates=estimate,
+        estimates=estimate or (),
         format=format,
         compare=compare,
         quiet=quiet,

@@ -8,10 +8,6 @@ import typer
 from ..errors import InputError
 from ..evaluation.coverage import Span
 
-PIPELINE_HELP = (
-    "Pipeline to run: rgbdslam, rtabmap, both or a plugin pipeline (`viewslam pipelines` lists them); "
-    "repeatable or comma-separated."
-)
 MAX_FRAMES_HELP = "Process at most the first N frames of each sequence (after --stride where there is one)."
 QUIET_HELP = "No progress display (results are still printed)."
 SPAN_OPTION_RULE = "--span"

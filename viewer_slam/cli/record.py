@@ -4,18 +4,10 @@ from pathlib import Path
 
 import typer
 
-from ..geometry.trajectory_formats import TrajectoryFormat
-from ..seeds import SEED_MAX
 from .app import app
 from .exits import EXIT_INTERRUPTED
-from .options import MAX_FRAMES_HELP, PIPELINE_HELP
-
-ESTIMATE_HELP = (
-    "Another system's trajectory replayed as a run called NAME, e.g. orbslam3=CameraTrajectory.txt "
-    "(TUM, KITTI poses on the sequence's frame stamps, EuRoC CSV, or an RTAB-Map database, whose maps, "
-    "loop closures and statistics come along); repeatable. With estimates, "
-    "no built-in pipeline runs unless --pipeline names some."
-)
+from .options import MAX_FRAMES_HELP
+from .run_options import Config, Estimates, Format, Params, Pipelines, Seed
 
 
 @app.command("record")
@@ -25,21 +17,17 @@ def record_command(
         help="TUM folder, ROS bag (FILE.bag or a ROS 2 bag folder), synthetic scenario or TUM sequence "
         "name; none: the built-in demo.",
     ),
-    pipeline: list[str] = typer.Option(
-        [], help=PIPELINE_HELP + " Default: both, or none beside --estimate.", show_default=False
-    ),
-    estimate: list[str] = typer.Option([], metavar="NAME=FILE", help=ESTIMATE_HELP),
-    format: TrajectoryFormat | None = typer.Option(
-        None, help="Format of every --estimate file (default: detected; stderr says which was used)."
-    ),
+    pipeline: Pipelines = None,
+    estimate: Estimates = None,
+    format: Format = None,
     out: Path | None = typer.Option(
         None, help="Recording to write (default recordings/<sequence>.rrd); NAME.json and NAME.<run>.txt go beside it."
     ),
     max_frames: int | None = typer.Option(None, min=1, help=MAX_FRAMES_HELP),
     stride: int = typer.Option(1, min=1, help="Use every K-th frame."),
-    param: list[str] = typer.Option([], help="Pipeline parameter under its original name, KEY=VALUE."),
-    config: Path | None = typer.Option(None, help="TOML file of parameters (flat, or one table per pipeline)."),
-    seed: int = typer.Option(0, min=0, max=SEED_MAX, help="Seed of every random choice."),
+    param: Params = None,
+    config: Config = None,
+    seed: Seed = 0,
     quiet: bool = typer.Option(False, "--quiet", help="No progress bar and no summary."),
     spawn: bool = typer.Option(False, "--spawn", help="Also stream live into a Rerun viewer started for this run."),
     connect: str | None = typer.Option(
@@ -72,12 +60,12 @@ def record_command(
     result = record(
         sequence,
         pipeline=pipeline or None,
-        estimates=estimate,
+        estimates=estimate or (),
         format=format,
         out=out,
         max_frames=max_frames,
         stride=stride,
-        params=param,
+        params=param or (),
         config=config,
         seed=seed,
         quiet=quiet,
