@@ -4,58 +4,35 @@ from pathlib import Path
 
 import typer
 
+from . import benchmark_options as bench
 from .app import app
 from .exits import EXIT_INTERRUPTED
-from .options import MAX_FRAMES_HELP, QUIET_HELP, parse_resolution
+from .options import QUIET_HELP, parse_resolution
 from .run_options import Config, Estimates, Format, Params, Pipelines, Seed
-
-MAX_TIMEOUT_S = 7 * 24 * 3600  # a week: beyond it a task's deadline is no deadline (and inf none at all)
 
 
 @app.command()
 def benchmark(
-    sequences: list[str] = typer.Argument(
-        None,
-        help="TUM folders, TUM sequence names (fr2/360_kidnap) or synthetic scenarios; "
-        "default: the seven synthetic scenarios.",
-        show_default=False,
-    ),
+    sequences: bench.Sequences = None,
     pipeline: Pipelines = None,
-    pipelines: list[str] = typer.Option([], "--pipelines", hidden=True),  # the old spelling
-    max_frames: int = typer.Option(None, "--max-frames", min=2, help=MAX_FRAMES_HELP),
-    scenario_frames: int = typer.Option(
-        None,
-        min=2,
-        help="Length synthetic scenarios are rendered at, as `viewslam synth --frames` (default: their own).",
-    ),
-    resolution: str = typer.Option("640x480", help="Synthetic scenarios' image size, WIDTHxHEIGHT."),
-    jobs: int = typer.Option(None, min=1, help="Tasks run at once (default: the number of cores)."),
-    executor: str = typer.Option("local", help="local (process pool) or ray."),
-    ray_address: str = typer.Option(None, help="Address of an existing Ray cluster (default: start one)."),
-    out: Path = typer.Option(Path("benchmark-results"), help="Folder for results, report and charts."),
-    record: bool = typer.Option(False, help="Also write a Rerun recording per task into OUT/recordings."),
+    pipelines: bench.OldPipelines = None,
+    max_frames: bench.MaxFrames = None,
+    scenario_frames: bench.ScenarioFrames = None,
+    resolution: bench.Resolution = "640x480",
+    jobs: bench.Jobs = None,
+    executor: bench.Executor = "local",
+    ray_address: bench.RayAddress = None,
+    out: bench.Out = Path("benchmark-results"),
+    record: bench.RecordEach = False,
     param: Params = None,
     config: Config = None,
     seed: Seed = 0,
-    trials: int = typer.Option(
-        1,
-        min=1,
-        help="Runs of every pipeline per sequence, trial k with seed SEED + k; "
-        "tables and charts give the median and min–max.",
-    ),
-    timeout: float = typer.Option(
-        None, min=1, max=MAX_TIMEOUT_S, help="Seconds after which a task is stopped and reported failed."
-    ),
-    cache: bool = typer.Option(True, help="Reuse results of unchanged tasks from earlier runs."),
+    trials: bench.Trials = 1,
+    timeout: bench.Timeout = None,
+    cache: bench.Cache = True,
     estimate: Estimates = None,
     format: Format = None,
-    compare: Path = typer.Option(
-        None,
-        "--compare",
-        metavar="OTHER_RESULTS_DIR",
-        help="Also compare every row with the same row of an earlier benchmark's --out "
-        "(in report.md), as `viewslam diff` does.",
-    ),
+    compare: bench.Compare = None,
     quiet: bool = typer.Option(False, "--quiet", help=QUIET_HELP),
 ) -> int:
     """Run every sequence x pipeline pair, evaluate, print the results table and write it with charts and findings.
@@ -71,7 +48,7 @@ def benchmark(
 
     result = run(
         sequences or (),
-        pipeline=pipelines + (pipeline or []) or None,
+        pipeline=(pipelines or []) + (pipeline or []) or None,
         max_frames=max_frames,
         scenario_frames=scenario_frames,
         resolution=parse_resolution(resolution),

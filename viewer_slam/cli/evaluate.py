@@ -10,19 +10,8 @@ from ..evaluation.rpe import DeltaUnit
 from ..geometry.trajectory_formats import TrajectoryFormat
 from ..runs.evaluate_command import evaluate
 from ..runs.evaluate_console import print_results
+from . import scoring_options as scoring
 from .app import app
-from .scoring_options import (
-    Align,
-    AllDeltas,
-    CoverageSpan,
-    Delta,
-    DeltaUnits,
-    MaxDifference,
-    Offset,
-    RpePairs,
-    Scale,
-    scoring_options,
-)
 
 
 @app.command("evaluate")
@@ -40,15 +29,15 @@ def evaluate_command(
     plot: Path | None = typer.Option(
         None, "--plot", help="Write a picture (.png, .pdf, .svg, ...): aligned top view and errors over time."
     ),
-    max_difference: MaxDifference = 0.02,
-    offset: Offset = 0.0,
-    align: Align = Alignment.RIGID,
-    scale: Scale = False,
-    delta: Delta = 1.0,
-    delta_unit: DeltaUnits = DeltaUnit.SECONDS,
-    all_deltas: AllDeltas = False,
-    rpe_mode: RpePairs = RpeMode.DELTA,
-    span: CoverageSpan = None,
+    max_difference: scoring.MaxDifference = 0.02,
+    offset: scoring.Offset = 0.0,
+    align: scoring.Align = Alignment.RIGID,
+    scale: scoring.Scale = False,
+    delta: scoring.Delta = 1.0,
+    delta_unit: scoring.DeltaUnits = DeltaUnit.SECONDS,
+    all_deltas: scoring.AllDeltas = False,
+    rpe_mode: scoring.RpePairs = RpeMode.DELTA,
+    span: scoring.CoverageSpan = None,
     sequence: Path | None = typer.Option(
         None,
         "--sequence",
@@ -74,7 +63,9 @@ def evaluate_command(
     ),
 ) -> None:
     """ATE (global and per segment), RPE, coverage and penalised ATE of each ESTIMATE against GROUNDTRUTH."""
-    options = scoring_options(max_difference, offset, align, scale, delta, delta_unit, all_deltas, rpe_mode, span)
+    options = scoring.scoring_options(
+        max_difference, offset, align, scale, delta, delta_unit, all_deltas, rpe_mode, span
+    )
     result = evaluate(
         groundtruth,
         estimates,

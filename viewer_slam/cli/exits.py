@@ -7,12 +7,13 @@ that holds the full traceback, and 1.
 
 import errno
 import sys
-from typing import Protocol, cast
+from typing import cast
 
 from ..crash_log import crash_log_note
 from ..errors import InputError, Interrupted
 from ..stopping import raised_by_a_stop
 from ..terminal import drop_stdout
+from .typer_errors import UsageError, typer_exception
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -26,10 +27,10 @@ def exit_code(error: BaseException) -> int:
     if isinstance(error, InputError):
         _error_line(f"viewslam: error: {error}")
         return EXIT_BAD_INPUT
-    if isinstance(error, _typer_exception("Abort")):
+    if isinstance(error, typer_exception("Abort")):
         return _interrupted()
-    if isinstance(error, _typer_exception("TyperException")):  # usage errors: unknown option, missing argument
-        usage_error = cast(_UsageError, error)
+    if isinstance(error, typer_exception("TyperException")):  # usage errors: unknown option, missing argument
+        usage_error = cast(UsageError, error)
         if not usage_error.format_message():  # bare `viewslam`: help was printed
             return 0
         context = getattr(error, "ctx", None)
@@ -77,20 +78,3 @@ def _stdout_error(error: OSError) -> int:
 def _interrupted() -> int:
     print("viewslam: interrupted", file=sys.stderr)
     return EXIT_INTERRUPTED
-
-
-def _typer_exception(name: str) -> type[BaseException]:
-    """typer's exception class ``name`` once typer is loaded (an ``except`` clause evaluates it only
-    when an exception is being matched), else a class nothing raises."""
-    typer = sys.modules.get("typer")
-    return getattr(typer, name) if typer is not None else _Never
-
-
-class _Never(Exception):
-    pass
-
-
-class _UsageError(Protocol):
-    """What the command line reads of typer's usage errors (click's ``ClickException``)."""
-
-    def format_message(self) -> str: ...
