@@ -1,7 +1,6 @@
 """``viewslam benchmark`` as a library function: sequences × runs planned, run on an executor,
 and written as results, report and charts, in one call that goes down the layers once."""
 
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,7 +11,7 @@ from ..dataset.sources import open_source
 from ..errors import InputError
 from ..geometry.trajectory_formats import TrajectoryFormat
 from ..runs.run_report import sequence_block
-from ..runs.run_specs import select_runs
+from ..runs.run_specs import say_estimate_format, select_runs
 from ..seeds import SEED_MAX
 from .benchmark_outputs import OUTPUT_FILES, RECORDINGS_FOLDER, planned_outputs, write_outputs
 from .cache import ResultCache
@@ -121,11 +120,7 @@ def benchmark(
         if not quiet:
             for task in tasks:
                 if task.estimate is not None:
-                    print(
-                        f"estimate {task.pipeline}: {task.estimate} read as {task.estimate_format} "
-                        f"({'given' if format else 'detected'})",
-                        file=sys.stderr,
-                    )
+                    say_estimate_format(task.pipeline, task.estimate, task.estimate_format, given=bool(format))
         if other is not None:
             folders = {task.name: task.sequence for task in tasks}
             check_planned_sequences(

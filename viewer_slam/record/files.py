@@ -4,7 +4,6 @@
 the recording as ``record`` writes them.
 """
 
-import sys
 from functools import partial
 from pathlib import Path
 
@@ -17,6 +16,7 @@ from ..rerun_adapter.files_only import log_files
 from ..rerun_adapter.rrd_file import RecordingFile
 from ..rerun_adapter.viewer import LiveViewer
 from ..runs.run_report import write_report
+from ..runs.run_specs import say_estimate_format
 from ..runs.trajectory_files import read_groundtruth, score_files
 from .options import RecordResult
 from .outputs import check_outputs, earlier_trajectories, report_paths
@@ -55,9 +55,8 @@ def record_trajectory_files(
             )
         scored = score_files(read_groundtruth(groundtruth), estimates, format, name=name)
         if not quiet:
-            how = "given" if format else "detected"
             for run in scored.runs:
-                print(f"estimate {run.name}: {run.path} read as {run.format} ({how})", file=sys.stderr)
+                say_estimate_format(run.name, run.path, run.format, given=bool(format))
         report = scored.report()
         report_path, trajectory_paths = report_paths(out, names)
         earlier = earlier_trajectories(out)

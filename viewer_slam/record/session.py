@@ -17,7 +17,6 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import partial
@@ -41,6 +40,7 @@ from ..rerun_adapter.timelines import log_evaluation
 from ..rerun_adapter.viewer import LiveViewer
 from ..runs.replay import EstimateReplay
 from ..runs.run_report import build_report, write_report
+from ..runs.run_specs import say_estimate_format
 from ..runs.service import EstimateSpec, RunSpec, ScoredRun, build_run, score_run
 from ..stopping import SafePoints
 from .console import RecordProgress
@@ -127,8 +127,7 @@ def _say_estimate_formats(specs: dict[str, RunSpec], runs: dict[str, Pipeline]) 
     for name, run in runs.items():
         spec = specs[name]
         if isinstance(run, EstimateReplay) and isinstance(spec, EstimateSpec):
-            how = "given" if spec.format else "detected"
-            print(f"estimate {name}: {run.params.file} read as {run.params.format} ({how})", file=sys.stderr)
+            say_estimate_format(name, run.params.file, run.params.format, given=bool(spec.format))
 
 
 @dataclass

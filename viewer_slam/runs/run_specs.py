@@ -1,6 +1,7 @@
 """Which runs a command makes: ``--pipeline`` and ``--estimate NAME=FILE``, read the same way by
 ``record`` and ``benchmark``, and turned into validated run descriptions once, at the edge."""
 
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -34,3 +35,9 @@ def run_specs(
     specs: dict[str, RunSpec] = {name: PipelineSpec(name, params[name], seed) for name in pipelines}
     specs.update({name: EstimateSpec(file, format) for name, file in estimates})
     return specs
+
+
+def say_estimate_format(name: str, path: Path | str, format: str | None, given: bool) -> None:
+    """On stderr, the format an estimate file was read as, and whether --format gave it or it was
+    detected: the one line `record` and `benchmark` print for each estimate."""
+    print(f"estimate {name}: {path} read as {format} ({'given' if given else 'detected'})", file=sys.stderr)
