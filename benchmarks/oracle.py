@@ -8,11 +8,14 @@ For each scene and seed the scene is rendered (``viewslam synth SCENE --resoluti
 intrinsics from the name) and the SHA-256 of every frame is listed; the original runs ``--runs``
 times under each loss rule (``tool``: its dataset tool, a new map on every lost frame; ``ros``:
 ``RTABMAP_NO_NEW_MAP=1``, a loss its odometry recovers from continues the map, as rtabmap_ros
-does), ours once under the same rule (``ros``: the defaults; ``tool``: viewslam/NewMapOnLoss),
+does), ours ``--our-runs`` times under the same rule (``ros``: the defaults; ``tool``:
+viewslam/NewMapOnLoss) with the pipeline seeds 0, 1, ... (the seed draws our k-d trees, as
+the original's random device draws its own),
 both at the defaults (``--mode default``) or with a node on every frame (``--mode perframe``);
 ours then takes ``--config`` and ``--param`` as ``viewslam record`` does, on top of the rule's.
 Before every run the frames are checked against the list: the comparison is refused if any
-differ. The original is not deterministic; each table gives its min–max over the runs.
+differ. Each table gives the min–max over the runs of each, and our seed 0's value (`viewslam
+record`'s default) where it is not the only one.
 
 Per run: where odometry resumes after each loss (frame and inliers), the maps and how many
 loop closures or proximity links join them (and whether every map is joined to the first),
@@ -52,13 +55,16 @@ from viewer_slam.pipelines.params import parse_assignments
 
 from . import lab
 from .figures import REPO, invocation, stamp, write_block, written
-from .reference import PER_FRAME
+from .reference import PER_FRAME, THAT_BUILD
 
 ORACLE = REPO.parent / "shared" / "oracles" / "rtabmap-0.23.8"
 DOCS = REPO / "docs" / "pipelines" / "rtabmap.md"
 TOOL = "rtabmap-rgbd_dataset"
 ORIGINAL = "RTAB-Map 0.23.8"
 RULE_PARAMS = {"ros": {}, "tool": {"viewslam/NewMapOnLoss": "true"}}
+LIKE_FOR_LIKE = {**THAT_BUILD, "viewslam/LinkCovariance": "own"}
+"""The oracle's configuration: its build has no g2o, its dataset tool links a location with
+that frame's own registration covariance."""
 RULE_ENV = {"ros": {"RTABMAP_NO_NEW_MAP": "1"}, "tool": {}}
 RULE_TEXT = {
     "ros": "ROS rule (a loss odometry recovers from continues the map)",
@@ -181,11 +187,18 @@ def summarise_original(run: Path, sequence) -> dict:
 # -- ours ---------------------------------------------------------------------------------------
 
 
-def summarise_ours(folder: Path, rule: str, mode: str, options: argparse.Namespace) -> dict:
+def summarise_ours(
+    folder: Path, rule: str, mode: str, options: argparse.Namespace, seed: int, like_for_like: bool = False
+) -> dict:
     sequence = open_source(folder)
-    preset: dict[str, Any] = {**RULE_PARAMS[rule], **(PER_FRAME if mode == "perframe" else {})}
+    preset: dict[str, Any] = {
+        **(LIKE_FOR_LIKE if like_for_like else {}),
+        **RULE_PARAMS[rule],
+        **(PER_FRAME if mode == "perframe" else {}),
+    }
     events: list[Event] = []
-    scored = lab.run(sequence, lab.pipeline_spec("rtabmap", options, preset=preset), "rtabmap", sinks=[events.append])
+    spec = lab.pipeline_spec("rtabmap", options, preset=preset, seed=seed)
+    scored = lab.run(sequence, spec, "rtabmap", sinks=[events.append])
     run, evaluation = scored.run, scored.evaluation
     tracked = sorted((event for event in events if isinstance(event, FrameTracked)), key=lambda e: e.frame_index)
     session, session_of = 0, {}
@@ -268,12 +281,14 @@ def resumption_spread(originals: list[dict], k: int) -> str:
     return text if len(having) == len(originals) else f"{text} in {len(having)} of {len(originals)} runs"
 
 
-def table(title: str, ours: dict, originals: list[dict]) -> str:
-    count = max(len(run["resumptions"]) for run in [ours, *originals])
+def table(title: str, ours: list[dict], originals: list[dict]) -> str:
+    """Ours (run with the seeds 0, 1, ...: the first is `viewslam record`'s default) beside the
+    original's runs, each as its min–max."""
+    count = max(len(run["resumptions"]) for run in [*ours, *originals])
     rows = [
         (
             "resumes at frame (inliers)",
-            resumption_text(ours["resumptions"]),
+            " / ".join(resumption_spread(ours, k) for k in range(count)) or "never",
             " / ".join(resumption_spread(originals, k) for k in range(count)) or "never",
         )
     ]
@@ -287,12 +302,23 @@ def table(title: str, ours: dict, originals: list[dict]) -> str:
         ("node_ate", "ATE over the nodes (cm)"),
         ("odometry_ate", "the nodes' odometry, ATE (cm)"),
     ):
-        rows.append((label, spread([ours[key]]), spread([run[key] for run in originals])))
-    if ours.get("frame_ate") is not None:
-        rows.append(("ATE over every pose written (cm)", spread([ours["frame_ate"]]), "–"))
-    lines = [f"**{title}**", "", f"| | ours | {ORIGINAL}, {len(originals)} runs (min–max) |", "|---|---|---|"]
+        rows.append((label, with_default(ours, key), spread([run[key] for run in originals])))
+    if ours[0].get("frame_ate") is not None:
+        rows.append(("ATE over every pose written (cm)", with_default(ours, "frame_ate"), "–"))
+    lines = [
+        f"**{title}**",
+        "",
+        f"| | ours, {len(ours)} seeds (min–max; seed 0) | {ORIGINAL}, {len(originals)} runs (min–max) |",
+        "|---|---|---|",
+    ]
     lines += [f"| {label} | {mine} | {theirs} |" for label, mine, theirs in rows]
     return "\n".join(lines)
+
+
+def with_default(ours: list[dict], key: str) -> str:
+    """The spread of ``key`` over our runs and, when they differ, seed 0's value."""
+    text = spread([run[key] for run in ours])
+    return text if len(ours) == 1 or spread([ours[0][key]]) == text else f"{text}; {spread([ours[0][key]])}"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -302,8 +328,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--frames", type=int, help="frames to render (default: the scenario's own length)")
     parser.add_argument("--runs", type=int, default=3, help="runs of the original per seed, rule and mode")
+    parser.add_argument(
+        "--our-runs", type=int, default=3, help="runs of ours, with the pipeline seeds 0, 1, ... (its k-d trees' draws)"
+    )
     parser.add_argument("--rules", nargs="+", choices=sorted(RULE_PARAMS), default=["ros", "tool"])
     parser.add_argument("--mode", choices=["default", "perframe"], default="default")
+    parser.add_argument(
+        "--like-for-like",
+        action="store_true",
+        help="ours in the oracle's configuration: " + ", ".join(f"{k}={v}" for k, v in LIKE_FOR_LIKE.items()),
+    )
     lab.add_parameter_options(parser, "ours, on top of the rule's")
     parser.add_argument("--out", type=Path, default=Path("recordings/oracle"))
     parser.add_argument("--docs", action="store_true", help="write the tables into docs/pipelines/rtabmap.md")
@@ -346,7 +380,10 @@ def main(argv: list[str] | None = None) -> int:
                     )
                     originals.append(summarise_original(run, sequence))
                 check_frames(folder, listed)
-                ours = summarise_ours(folder, rule, args.mode, args)
+                ours = [
+                    summarise_ours(folder, rule, args.mode, args, seed=k, like_for_like=args.like_for_like)
+                    for k in range(args.our_runs)
+                ]
                 result = {
                     "scene": args.scene,
                     "seed": seed,
@@ -360,7 +397,10 @@ def main(argv: list[str] | None = None) -> int:
                 (
                     args.out / f"{args.scene}-s{seed}-{args.mode}-{rule}{'-' + args.block if args.block else ''}.json"
                 ).write_text(json.dumps(result, indent=1) + "\n")
-                settings = ", ".join(f"{key}={value}" for key, value in extra.items())
+                settings = ", ".join(
+                    f"{key}={value}"
+                    for key, value in {**(LIKE_FOR_LIKE if args.like_for_like else {}), **extra}.items()
+                )
                 sections.append(
                     table(
                         f"{args.scene}, seed {seed}, {args.mode}, {RULE_TEXT[rule]}"

@@ -24,8 +24,9 @@ REFERENCE = SHARED_DATA / "reference" / "rtabmap-0.23.8"
 REFERENCE_NAME = "rtabmap-0.23.8"
 PER_FRAME = {"Rtabmap/DetectionRate": 0, "RGBD/LinearUpdate": 0, "RGBD/AngularUpdate": 0}
 """A node on every frame: the ``perframe`` mode."""
-THAT_BUILD = {"OdomF2M/BundleAdjustment": 0}
-"""The reference's build has no g2o: its odometry runs without the bundle adjustment."""
+THAT_BUILD = {"OdomF2M/BundleAdjustment": 0, "Vis/BundleAdjustment": 0, "Vis/PnPRefineIterations": 1}
+"""The reference's build has no g2o: neither bundle adjustment, and its default of one PnP
+refinement (``Parameters.h`` without ``RTABMAP_G2O``)."""
 
 
 @dataclass

@@ -40,3 +40,27 @@ def test_a_missing_docs_block_is_refused_before_any_run(tmp_path):
     with pytest.raises(InputError, match="no oracle block 'no-such-block'"):
         oracle.main(["--oracle", str(tmp_path), "--docs", "--block", "no-such-block", "--out", str(tmp_path / "out")])
     assert not (tmp_path / "out").exists()
+
+
+def test_the_table_gives_our_spread_over_seeds_and_the_default_seeds_value():
+    run = {
+        "resumptions": [(166, 80)],
+        "maps": 2,
+        "joining_links": 1,
+        "all_joined": True,
+        "loop_closures": 1,
+        "proximity": 0,
+        "nodes": 7,
+        "node_ate": 2.0,
+        "odometry_ate": 3.0,
+        "frame_ate": 2.5,
+    }
+    ours = [run, {**run, "node_ate": 1.0, "resumptions": [(170, 60)]}]
+    text = oracle.table("title", ours, [{**run, "node_ate": 0.5}, run])
+    rows = {
+        line.split(" | ")[0].lstrip("| "): line.split(" | ")[1:] for line in text.splitlines() if line.startswith("| ")
+    }
+    assert rows["ATE over the nodes (cm)"] == ["1.00–2.00; 2.00", "0.50–2.00 |"]
+    assert rows["maps"] == ["2", "2 |"]  # the same in every run: no seed-0 value
+    assert rows["resumes at frame (inliers)"][0] == "166–170 (60–80)"
+    assert "ours, 2 seeds" in text and "2 runs" in text

@@ -183,6 +183,25 @@ def test_with_a_new_map_on_loss_each_resumption_begins_a_map_that_loop_closures_
     joined = [e for e in of_type(events, GraphEdge) if e.accepted and e.reason == "maps joined"]
     assert joined and all(e.score >= RtabmapParams().loop_threshold for e in joined if e.detection == "appearance")
     assert len(result.trajectory) == len(result.odometry)
+    # Locations come on the detection clock that every frame's stamp advances, lost or not:
+    # the first after a resumption is the first tick from it on, not the resumption itself.
+    ticks = detection_ticks([e.timestamp for e in of_type(events, FrameTracked)], FAST["Rtabmap/DetectionRate"])
+    assert {k.frame_index for k in of_type(events, KeyframeAdded)} <= set(ticks)
+    assert [k.frame_index for k in first_after] == [min(t for t in ticks if t >= e.frame_index) for e in recovered]
+    assert any(e.frame_index not in ticks for e in recovered)
+
+
+def detection_ticks(stamps: list[float], rate: float) -> list[int]:
+    """The frames RTAB-Map's front-ends hand to ``Rtabmap::process`` at Rtabmap/DetectionRate
+    ``rate``: each frame whose stamp is at least 1/rate after the last one handed over, lost or
+    not (rtabmap-rgbd_dataset's ``processData``, rtabmap_ros ``CoreWrapper::odomUpdate``)."""
+    ticks, previous = [], 0.0
+    for index, stamp in enumerate(stamps):
+        if previous > 0.0 and stamp > previous and stamp - previous < 1.0 / rate:
+            continue
+        previous = stamp
+        ticks.append(index)
+    return ticks
 
 
 def test_texture_less_plane_loses_tracking_without_wrong_poses_and_the_report_shows_the_lost_interval():

@@ -1,10 +1,16 @@
-"""What the odometry's local bundle adjustment (OdomF2M/BundleAdjustment) works on.
+"""What RTAB-Map's bundle adjustments work on.
 
-As in ``OdometryF2M::computeTransform``: every key frame records where it saw each local
-map point it registered on or added (the word references); a key frame stays in the
-bundle while some map point still refers to it. Each registration is then adjusted
-against the key frames that saw its inlier points, a point's references thinned to about
-OdomF2M/BundleAdjustmentMaxFrames of them (every k-th, and always the newest).
+The odometry's (OdomF2M/BundleAdjustment), as in ``OdometryF2M::computeTransform``: every
+key frame records where it saw each local map point it registered on or added (the word
+references); a key frame stays in the bundle while some map point still refers to it. Each
+registration is then adjusted against the key frames that saw its inlier points, a point's
+references thinned to about OdomF2M/BundleAdjustmentMaxFrames of them (every k-th, and
+always the newest).
+
+A registration's between two locations (Vis/BundleAdjustment), as in
+``RegistrationVis::computeTransformationImpl``: the older location fixed at the origin, the
+newer free, the inliers' 3D points (the older location's) free, each seen in both with its
+depth where it has one, and the registration itself as the link between the two.
 """
 
 from collections.abc import Container
@@ -57,4 +63,22 @@ def bundle_observations(
         frame=np.concatenate([stored[:, 1].astype(int), np.full(count, FREE_FRAME)]),
         pixels=np.concatenate([stored[:, 2:4], pixels]),
         depth=np.concatenate([stored[:, 4], depth]),
+    )
+
+
+OLDER = 0  # the older location's frame id in a two-view adjustment
+
+
+def two_view_observations(
+    older_pixels: np.ndarray, older_depth: np.ndarray, newer_pixels: np.ndarray, newer_depth: np.ndarray
+) -> Observations:
+    """Points ``0..n-1`` seen by the older location (frame OLDER) at ``older_pixels`` with
+    ``older_depth`` and by the adjusted newer one at ``newer_pixels`` with ``newer_depth``
+    (NaN: a plain projection)."""
+    count = len(older_pixels)
+    return Observations(
+        point=np.concatenate([np.arange(count), np.arange(count)]),
+        frame=np.concatenate([np.full(count, OLDER), np.full(count, FREE_FRAME)]),
+        pixels=np.concatenate([older_pixels, newer_pixels]).astype(np.float64),
+        depth=np.concatenate([older_depth, newer_depth]).astype(np.float64),
     )

@@ -6,13 +6,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ...backend.local_bundle import Link as BundleLink
+from ...backend.local_bundle import adjust_frame
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
 from .bayes import PREDICTION_MARGINS, BayesFilter, Hypothesis, adjusted_likelihood, highest_hypothesis
-from .correspondences import word_matches
+from .bundle import OLDER, two_view_observations
+from .correspondences import TreeSeeds, word_matches
 from .graph import Variance, registration_variance
 from .memory import Link, Location, Memory
+from .odometry import pinhole_pixels
 from .params import RtabmapParams
 
 
@@ -50,11 +54,17 @@ def too_large_rotation(relative: np.ndarray) -> bool:
     return abs(pitch) > MAX_LOOP_ROTATION or abs(yaw) > MAX_LOOP_ROTATION
 
 
-def register(old: Location, new: Location, camera: Camera, params: RtabmapParams) -> Registration:
+def register(
+    old: Location, new: Location, camera: Camera, params: RtabmapParams, tree_seeds: TreeSeeds
+) -> Registration:
     """The new location's pose in the old one's frame from its keypoints and the old 3D words."""
     with_depth = np.flatnonzero(~np.isnan(old.points[:, 0]))
     matches = word_matches(
-        new.descriptors, old.descriptors[with_depth], params.correspondence_nndr, params.correspondence_nn_type
+        new.descriptors,
+        old.descriptors[with_depth],
+        params.correspondence_nndr,
+        params.correspondence_nn_type,
+        tree_seeds,
     )
     query, train = matches.query, matches.train
     solution = solve_pnp_ransac(
@@ -75,11 +85,48 @@ def register(old: Location, new: Location, camera: Camera, params: RtabmapParams
             0,
             rejected=f"too few inliers (< Vis/MinInliers {params.min_inliers}) among {len(query)} matches",
         )
-    if too_large_rotation(solution.pose):
-        return Registration(None, len(query), solution.inlier_count, rejected="rotation over 90 degrees")
-    old_points = transform_points(invert(solution.pose), old.points[with_depth[train[solution.inliers]]])
-    variance = registration_variance(old_points, new.points[query[solution.inliers]])
-    return Registration(solution.pose, len(query), solution.inlier_count, variance)
+    pose, inliers = solution.pose, np.flatnonzero(solution.inliers)
+    older_rows, newer_rows = with_depth[train[inliers]], query[inliers]
+    variance = registration_variance(transform_points(invert(pose), old.points[older_rows]), new.points[newer_rows])
+    inlier_count = len(inliers)
+    if params.registration_bundle_adjustment:
+        pose, inlier_count = two_view_adjusted(old, new, older_rows, newer_rows, pose, variance, camera, params)
+        if inlier_count < params.min_inliers:
+            return Registration(
+                None,
+                len(query),
+                inlier_count,
+                rejected=f"too few inliers after the bundle adjustment (< Vis/MinInliers {params.min_inliers})",
+            )
+    if too_large_rotation(pose):
+        return Registration(None, len(query), inlier_count, rejected="rotation over 90 degrees")
+    return Registration(pose, len(query), inlier_count, variance)
+
+
+def two_view_adjusted(
+    old: Location,
+    new: Location,
+    older_rows: np.ndarray,
+    newer_rows: np.ndarray,
+    pose: np.ndarray,
+    variance: Variance,
+    camera: Camera,
+    params: RtabmapParams,
+) -> tuple[np.ndarray, int]:
+    """Vis/BundleAdjustment (``RegistrationVis::computeTransformationImpl``): the registration's
+    pose refined with its inliers' 3D points, the older location fixed at the origin and the
+    registration as the link between the two, its covariance unchanged; returned with the
+    inliers that keep both observations."""
+    points = old.points[older_rows]
+    observations = two_view_observations(
+        pinhole_pixels(camera, old.keypoints[older_rows]),
+        points[:, 2],
+        pinhole_pixels(camera, new.keypoints[newer_rows]),
+        new.points[newer_rows, 2],
+    )
+    link = BundleLink(OLDER, pose, variance.translation, variance.rotation)
+    adjusted = adjust_frame(pose, points, observations, {OLDER: np.eye(4)}, link, camera.K, params.bundle_settings)
+    return adjusted.pose, int((~adjusted.outliers).sum())
 
 
 class AppearanceDetector:

@@ -30,14 +30,14 @@ import numpy as np
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from ...backend.local_bundle import BundleSettings, Link, adjust_frame
+from ...backend.local_bundle import Link, adjust_frame
 from ...frontend.features import Features
 from ...frontend.hamming import nearest_within_radius
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
 from .bundle import KeyFrames, Reference, bundle_observations
-from .correspondences import word_matches
+from .correspondences import TreeSeeds, word_matches
 from .graph import Variance, registration_variance
 from .params import RtabmapParams
 
@@ -228,17 +228,12 @@ def pinhole_pixels(camera: Camera, keypoints: np.ndarray) -> np.ndarray:
 class FrameToMapOdometry:
     """Registers each frame to the local map; see the module docstring."""
 
-    def __init__(self, camera: Camera, params: RtabmapParams):
+    def __init__(self, camera: Camera, params: RtabmapParams, tree_seeds: TreeSeeds | None = None):
         self.camera = camera
         self.params = params
+        self.tree_seeds = tree_seeds or TreeSeeds(0)
         self.map = LocalMap()
         self.key_frames = KeyFrames()
-        self.bundle_settings = BundleSettings(
-            params.bundle_pixel_variance,
-            params.bundle_kernel_delta,
-            params.bundle_baseline,
-            params.optimizer_iterations,
-        )
         self.pose: np.ndarray | None = None  # last registered pose
         self.stamp: float | None = None  # its time; None after a loss
         self.velocity: np.ndarray | None = None  # see velocity_of; None: no guess
@@ -324,6 +319,7 @@ class FrameToMapOdometry:
                 self.map.descriptors,
                 self.params.correspondence_nndr,
                 self.params.correspondence_nn_type,
+                self.tree_seeds,
             )
             result = self._solve(features, matches.query, matches.train, self.pose)
             if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
@@ -432,7 +428,7 @@ class FrameToMapOdometry:
         seen_by = {*np.unique(observations.frame[observations.frame >= 0]).tolist(), last}
         held = {frame: self.key_frames.poses[frame] for frame in seen_by}
         adjusted = adjust_frame(
-            pose, self.map.points[points], observations, held, link, self.camera.K, self.bundle_settings
+            pose, self.map.points[points], observations, held, link, self.camera.K, self.params.bundle_settings
         )
         inliers = inliers.copy()
         inliers[inlier_rows[adjusted.outliers]] = False

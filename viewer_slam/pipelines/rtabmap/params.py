@@ -4,6 +4,7 @@ from typing import Annotated, ClassVar, Literal
 
 from pydantic import Field, ValidationInfo, model_validator
 
+from ...backend.local_bundle import BundleSettings
 from ..params import EXACT_INT, PipelineParams, check_ordered
 
 
@@ -47,11 +48,17 @@ class RtabmapParams(PipelineParams):
         "inlier, as RTAB-Map's RANSAC compares",
     )
     pnp_refine_iterations: int = Field(
-        1,
+        0,
         alias="Vis/PnPRefineIterations",
         ge=0,
         description="refinements of PnP RANSAC's pose on its inliers (RTAB-Map built "
-        "without g2o: 1; with g2o: 0 and Vis/BundleAdjustment instead)",
+        "with g2o, as the study ran it: 0, the bundle adjustments refine instead; without g2o: 1)",
+    )
+    registration_bundle_adjustment: Annotated[Literal[0, 1], EXACT_INT] = Field(
+        1,
+        alias="Vis/BundleAdjustment",
+        description="two-view bundle adjustment of each loop closure and proximity registration "
+        "(0: off, 1: g2o's algorithm)",
     )
     min_inliers: int = Field(20, alias="Vis/MinInliers", ge=4, description="inliers needed to accept a registration")
     ransac_iterations: int = Field(300, alias="Vis/Iterations", ge=1, description="PnP RANSAC iterations")
@@ -247,6 +254,13 @@ class RtabmapParams(PipelineParams):
         Its refinement (Vis/PnPRefineIterations) reports RANSAC's inliers, so this is also the
         count the key-frame and Vis/MinInliers tests see."""
         return self.pnp_reprojection_error**2
+
+    @property
+    def bundle_settings(self) -> BundleSettings:
+        """What both bundle adjustments solve with (g2o/*, Optimizer/Iterations)."""
+        return BundleSettings(
+            self.bundle_pixel_variance, self.bundle_kernel_delta, self.bundle_baseline, self.optimizer_iterations
+        )
 
     @property
     def feature_kind(self) -> str:

@@ -29,6 +29,7 @@ from ..maps import rebuilt_map
 from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from .bayes import Hypothesis
+from .correspondences import TreeSeeds
 from .graph import LocationGraph, Variance
 from .loop_closure import AppearanceDetector, proximity_candidates, register
 from .memory import Link, Location, Memory, similarity
@@ -76,7 +77,8 @@ class Rtabmap(Pipeline):
             depth_mask=p.depth_as_mask,
             depth_smoothing=True,
         )
-        self.odometry = FrameToMapOdometry(camera, p)
+        self.tree_seeds = TreeSeeds(seed)  # the odometry's and the loop closures' k-d trees
+        self.odometry = FrameToMapOdometry(camera, p, self.tree_seeds)
         self.vocabulary = Vocabulary(p.word_nndr, seed)
         self.memory = Memory(self.vocabulary, p.stm_size, p.recent_wm_ratio)
         self.edges = EdgeClassifier()
@@ -109,6 +111,7 @@ class Rtabmap(Pipeline):
                 )
             )
         pose = None
+        due = self._detection_due(frame.timestamp)
         if odometry.pose is None:
             status = TrackingStatus.LOST if self.odometry.initialised or self.lost else TrackingStatus.INITIALISING
             self.new_map_due |= self.params.new_map_on_loss and self.odometry.initialised
@@ -129,9 +132,9 @@ class Rtabmap(Pipeline):
                 if self.params.link_covariance == "largest"
                 else odometry.variance
             )
-            if odometry.new_session or self._detection_due(frame.timestamp):
+            if due:
                 if self.new_map_due:
-                    self._begin_map(frame.timestamp)
+                    self._begin_map()
                 if odometry.new_session or self._first_of_map or self._moved(odometry.pose):
                     events += self._update_map(frame, features, odometry.pose, watch)
                 else:
@@ -166,12 +169,11 @@ class Rtabmap(Pipeline):
         )
         return events
 
-    def _begin_map(self, timestamp: float) -> None:
+    def _begin_map(self) -> None:
         """A new map (Memory::incrementMapId): the next location starts a graph session of its
         own, unlinked to the previous one, and every STM location becomes a loop closure candidate."""
         self.session += 1
         self.memory.start_map()
-        self.last_tick = timestamp
         self.new_map_due = False
 
     @property
@@ -181,7 +183,7 @@ class Rtabmap(Pipeline):
 
     def _track_status(self, frame: Frame, odometry: OdometryResult, events: list[Event]) -> TrackingStatus:
         if odometry.new_session:
-            self._begin_map(frame.timestamp)
+            self._begin_map()
             if odometry.reset:
                 events.append(
                     TrackingRecovered(
@@ -207,7 +209,10 @@ class Rtabmap(Pipeline):
         return TrackingStatus.OK
 
     def _detection_due(self, timestamp: float) -> bool:
-        """Rtabmap/DetectionRate: at most one map update per period."""
+        """Rtabmap/DetectionRate: at most one map update per period, on a clock that every
+        frame's stamp advances, registered or lost, as the front-ends throttle every odometry
+        message (rtabmap_ros ``CoreWrapper::odomUpdate``, the dataset tool's ``processData``):
+        a frame that resumes tracking waits for the next tick like any other."""
         rate = self.params.detection_rate
         if rate > 0 and timestamp - self.last_tick < 1.0 / rate:
             return False
@@ -412,7 +417,7 @@ class Rtabmap(Pipeline):
         events: list[Event],
     ) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
-        registration = watch("verification", register, old, new, self.camera, self.params)
+        registration = watch("verification", register, old, new, self.camera, self.params, self.tree_seeds)
         if registration.relative is None:
             events.append(
                 GraphEdge(
