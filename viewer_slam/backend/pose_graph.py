@@ -117,10 +117,10 @@ class PoseGraph:
         if ids[:held] != self._value_ids:
             self._values, held = gtsam.Values(), 0
         bits = poses[:held].view(np.uint64).reshape(held, 16)
-        for index in np.flatnonzero((bits != self._value_poses.view(np.uint64).reshape(held, 16)).any(axis=1)):
-            self._values.update(ids[index], gtsam.Pose3(poses[index]))
-        for index in range(held, len(ids)):
-            self._values.insert(ids[index], gtsam.Pose3(poses[index]))
+        for changed in np.flatnonzero((bits != self._value_poses.view(np.uint64).reshape(held, 16)).any(axis=1)):
+            self._values.update(ids[changed], gtsam.Pose3(poses[changed]))
+        for added in range(held, len(ids)):
+            self._values.insert(ids[added], gtsam.Pose3(poses[added]))
         self._value_ids, self._value_poses = ids, poses
         return self._values
 

@@ -90,7 +90,9 @@ def _distances_to_all(query, i, columns, distances):
         q0, q1, q2, q3 = query[i, k], query[i, k + 1], query[i, k + 2], query[i, k + 3]
         c0, c1, c2, c3 = columns[k], columns[k + 1], columns[k + 2], columns[k + 3]
         for j in range(columns.shape[1]):
-            distances[j] += _popcount(q0 ^ c0[j]) + _popcount(q1 ^ c1[j]) + _popcount(q2 ^ c2[j]) + _popcount(q3 ^ c3[j])
+            distances[j] += (
+                _popcount(q0 ^ c0[j]) + _popcount(q1 ^ c1[j]) + _popcount(q2 ^ c2[j]) + _popcount(q3 ^ c3[j])
+            )
 
 
 @jit
