@@ -63,7 +63,7 @@ def test_frames_are_rgb_uint8_and_float32_metres(rpy):
     assert frame.rgb.dtype == np.uint8 and frame.rgb.shape == (480, 640, 3)
     np.testing.assert_array_equal(frame.rgb, on_disk_bgr[..., ::-1])
     assert frame.depth.dtype == np.float32 and frame.depth.shape == (480, 640)
-    np.testing.assert_allclose(frame.depth, on_disk_depth / 5000.0, rtol=1e-7)
+    np.testing.assert_array_equal(frame.depth, (on_disk_depth / 5000.0).astype(np.float32))  # to the bit
     valid = frame.depth[frame.depth > 0]
     assert valid.min() > 0.5 and valid.max() < 10.0
 

@@ -94,6 +94,9 @@ def test_packed_descriptors_match_as_the_raw_ones_and_as_counted_by_hand_ties_in
         (rng.integers(0, 256, (300, 32), dtype=np.uint8), rng.integers(0, 256, (250, 32), dtype=np.uint8)),
         (rng.integers(0, 2, (120, 32), dtype=np.uint8), rng.integers(0, 2, (90, 32), dtype=np.uint8)),
         (rng.integers(0, 256, (40, 61), dtype=np.uint8), rng.integers(0, 256, (2, 61), dtype=np.uint8)),
+        # BRISK's 64 bytes (two passes of four words) and a width below one pass
+        (rng.integers(0, 256, (70, 64), dtype=np.uint8), rng.integers(0, 256, (50, 64), dtype=np.uint8)),
+        (rng.integers(0, 256, (70, 16), dtype=np.uint8), rng.integers(0, 256, (50, 16), dtype=np.uint8)),
     ]:
         packed_query, packed_train = PackedDescriptors.of(query), PackedDescriptors.of(train)
         assert len(packed_query) == len(query) and len(packed_train) == len(train)

@@ -1,10 +1,18 @@
 """v2's RANSAC against numbers worked out by hand from its formulas (node.cpp, misc.cpp)."""
 
+import numba
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.frontend.ransac import mahalanobis_squared, preferred_samples, ransac_rigid
+from viewer_slam.frontend.ransac import (
+    LARGE_THETA,
+    LARGE_THETA_OVERFLOWS,
+    jacobi_rotation,
+    mahalanobis_squared,
+    preferred_samples,
+    ransac_rigid,
+)
 from viewer_slam.geometry.se3 import invert, make_pose
 
 # errorFunction2: lateral variance (3 tan(58 deg / 640))^2 z, (3 tan(45 deg / 480))^2 z; depth (0.01 z^2)^2.
@@ -139,3 +147,36 @@ def test_points_on_a_plane_give_the_proper_rotation_not_a_reflection():
     )
     assert result is not None and result.inliers.all()
     np.testing.assert_allclose(result.transform, truth, atol=1e-9)
+
+
+@numba.njit(error_model="numpy")
+def _jacobi_rotation_formula(theta):
+    t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
+    return t, 1.0 / np.sqrt(t * t + 1.0)
+
+
+def _bits(value: float) -> int:
+    return int(np.float64(value).view(np.uint64))
+
+
+def test_jacobi_rotation_is_the_formula_to_the_bit():
+    # every binade of both signs, and each side of the bounds where the square roots are skipped
+    rng = np.random.default_rng(0)
+    magnitudes = np.ldexp(rng.uniform(1, 2, 40_000), rng.integers(-1074, 1024, 40_000))
+    edges = [LARGE_THETA, LARGE_THETA_OVERFLOWS / 2, LARGE_THETA_OVERFLOWS, np.sqrt(np.finfo(float).max)]
+    near = [np.nextafter(edge, direction) for edge in edges for direction in (0.0, np.inf)]
+    special = [0.0, 5e-324, 1.0, 2.0**26, np.finfo(float).max, np.inf, np.nan]
+    thetas = np.concatenate([magnitudes, edges, near, special])
+    thetas = np.concatenate([thetas, -thetas])
+    for theta in thetas:
+        assert [_bits(v) for v in jacobi_rotation(theta)] == [_bits(v) for v in _jacobi_rotation_formula(theta)], theta
+
+
+def test_jacobi_rotation_skips_the_square_roots_only_where_they_do_not_count():
+    # just below 2^27, theta² + 1 still differs from theta²: the formula's own path, whose cosine is below 1
+    below = np.nextafter(LARGE_THETA, 0.0)
+    assert jacobi_rotation(1e4)[1] < 1.0
+    assert jacobi_rotation(below) == _jacobi_rotation_formula(below)
+    assert jacobi_rotation(LARGE_THETA) == (1 / 2**28, 1.0)
+    t, c = jacobi_rotation(-np.inf)
+    assert (t, c) == (0.0, 1.0) and np.signbit(t)

@@ -2,7 +2,10 @@
 
 Nodes and edges are kept in Python, each edge's GTSAM factor is made once, and the factor
 graph grows as edges come: a graph of thousands of nodes (RGB-D SLAM v2 makes one per frame
-and optimises after each) is not rebuilt from Python for every optimisation. Taking an edge
+and optimises after each) is not rebuilt from Python for every optimisation. Nor are the
+initial values: the last optimisation's result is kept, and only the poses that differ from
+it, to the bit, are set anew (a Pose3 holds a matrix's numbers exactly, so a pose read back
+from the result and set again would be the same). Taking an edge
 back (RTAB-Map rejects a loop closure whose optimised error is too large) or changing a
 prior rebuilds it from the cached factors, priors first and edges in the order they came,
 so the factors are always in the same order for the same graph.
@@ -62,6 +65,10 @@ class PoseGraph:
         self.huber_threshold = huber_threshold
         self._factors: dict[Edge, gtsam.NonlinearFactor] = {}
         self._graph: gtsam.NonlinearFactorGraph | None = None
+        # The GTSAM values of the last build or optimisation, their nodes and their poses.
+        self._values = gtsam.Values()
+        self._value_ids: list[int] = []
+        self._value_poses = np.zeros((0, 4, 4))
 
     def add_node(self, node_id: int, pose: np.ndarray) -> None:
         self.poses[node_id] = np.array(pose, dtype=np.float64)
@@ -100,10 +107,22 @@ class PoseGraph:
                 self._graph.add(gtsam.PriorFactorPose3(node_id, gtsam.Pose3(pose), self._noise(information, False)))
             for edge in self.edges:
                 self._graph.add(self._factors[edge])
-        values = gtsam.Values()
-        for node_id, pose in self.poses.items():
-            values.insert(node_id, gtsam.Pose3(pose))
-        return self._graph, values
+        return self._graph, self._values_of_poses()
+
+    def _values_of_poses(self) -> gtsam.Values:
+        """``poses`` as GTSAM values, made anew only where they differ from the values held."""
+        ids = list(self.poses)
+        poses = np.stack([self.poses[node_id] for node_id in ids]) if ids else np.zeros((0, 4, 4))
+        held = len(self._value_ids)
+        if ids[:held] != self._value_ids:
+            self._values, held = gtsam.Values(), 0
+        bits = poses[:held].view(np.uint64).reshape(held, 16)
+        for changed in np.flatnonzero((bits != self._value_poses.view(np.uint64).reshape(held, 16)).any(axis=1)):
+            self._values.update(ids[changed], gtsam.Pose3(poses[changed]))
+        for added in range(held, len(ids)):
+            self._values.insert(ids[added], gtsam.Pose3(poses[added]))
+        self._value_ids, self._value_poses = ids, poses
+        return self._values
 
     def error(self) -> float:
         graph, values = self._build()
@@ -131,6 +150,8 @@ class PoseGraph:
         result = optimizer.optimize()
         for node_id in self.poses:
             self.poses[node_id] = result.atPose3(node_id).matrix()
+        self._values = gtsam.Values(result)
+        self._value_poses = np.stack([self.poses[node_id] for node_id in self._value_ids])
         return before, optimizer.error()
 
     def _pcg_parameters(self) -> gtsam.PCGSolverParameters:

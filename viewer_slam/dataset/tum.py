@@ -84,7 +84,7 @@ class TumSequence(TimedFrames):
                 depth_path,
                 f"depth image must be single-channel 16-bit, found {raw_depth.dtype} with shape {raw_depth.shape}",
             )
-        depth = metres_per_unit(self.camera.depth_factor)[raw_depth]
+        depth = np.take(metres_per_unit(self.camera.depth_factor), raw_depth)  # as [raw_depth], a third faster
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:

@@ -42,6 +42,10 @@ NO_INLIERS_ERROR = 1e9
 NO_HYPOTHESIS_ERROR = 1e6
 # Jacobi sweeps at most for the 4x4 eigenproblem of the fit (it converges in about six).
 JACOBI_SWEEPS = 30
+# Jacobi rotation angles beyond which theta² + 1 rounds to theta² (2^27), and beyond which
+# theta² overflows (2^512): see jacobi_rotation.
+LARGE_THETA = 2.0**27
+LARGE_THETA_OVERFLOWS = 2.0**512
 # Rows of pair_terms: source x, y, z; target x, y, z; the source's covariance diagonal; the
 # target's; the shortcut bound.
 PAIR_TERMS = 13
@@ -211,6 +215,30 @@ def _moved(old, new):
 
 
 @jit
+def jacobi_rotation(theta):
+    """The tangent ``t`` and cosine ``c`` of the Jacobi rotation for ``theta = (a_qq - a_pp) /
+    (2 a_pq)``: ``t = sign(theta) / (|theta| + sqrt(theta² + 1))``, ``c = 1 / sqrt(t² + 1)``,
+    the same to the bit, without the square roots where they cannot change the result.
+
+    Most rotations of a solve come after the matrix is diagonal to the last bit, to drive the
+    off-diagonal part to zero: there ``|theta|`` is huge. From 2^27, ``theta² + 1`` rounds to
+    ``theta²``, whose square root is ``|theta|`` exactly (it is so for every square that
+    neither overflows nor underflows), so ``t = sign / (2 |theta|)``; ``t²`` is then at most
+    2^-56, so ``t² + 1`` rounds to 1 and ``c`` is 1. From 2^512 (or an infinite ``theta``),
+    ``theta²`` overflows to inf and ``t`` is a zero of the sign of ``theta``. Between 2^511
+    and 2^512 the square may or may not overflow, and the formula is taken as it is.
+    """
+    sign = 1.0 if theta >= 0 else -1.0
+    size = abs(theta)
+    if size >= LARGE_THETA_OVERFLOWS:
+        return sign * 0.0, 1.0
+    if LARGE_THETA <= size < LARGE_THETA_OVERFLOWS / 2:
+        return sign / (size + size), 1.0
+    t = sign / (size + np.sqrt(theta * theta + 1.0))
+    return t, 1.0 / np.sqrt(t * t + 1.0)
+
+
+@jit
 def _largest_eigenvector(matrix):
     """Unit eigenvector of the largest eigenvalue of a symmetric 4x4 matrix (cyclic Jacobi
     rotations until the off-diagonal part vanishes; overwrites ``matrix``).
@@ -235,9 +263,7 @@ def _largest_eigenvector(matrix):
             for q in range(p + 1, 4):
                 if matrix[p, q] == 0.0:
                     continue
-                theta = (matrix[q, q] - matrix[p, p]) / (2.0 * matrix[p, q])
-                t = (1.0 if theta >= 0 else -1.0) / (abs(theta) + np.sqrt(theta * theta + 1.0))
-                c = 1.0 / np.sqrt(t * t + 1.0)
+                t, c = jacobi_rotation((matrix[q, q] - matrix[p, p]) / (2.0 * matrix[p, q]))
                 s = t * c
                 for k in range(4):
                     kp, kq = matrix[k, p], matrix[k, q]
@@ -329,6 +355,22 @@ def _inliers(transform, terms, threshold, distances):
     """computeInliersAndError: inlier indices and their RMS Mahalanobis distance
     (NO_INLIERS_ERROR below three inliers); ``distances`` is scratch space, one per pair."""
     _distances_into(_top_rows(transform), terms, distances)
+    return _within(distances, threshold)
+
+
+@jit
+def _count_within(distances, threshold):
+    """How many ``distances`` are at most ``threshold`` (a loop without branches)."""
+    count = 0
+    for n in range(distances.shape[0]):
+        count += distances[n] <= threshold
+    return count
+
+
+@jit
+def _within(distances, threshold):
+    """The indices of the ``distances`` at most ``threshold`` and their RMS (NO_INLIERS_ERROR
+    below three)."""
     members = np.empty(distances.shape[0], dtype=np.int64)
     count, total = 0, 0.0
     for n in range(distances.shape[0]):
@@ -348,9 +390,14 @@ def _refine(sample, source, target, weights, terms, distances, max_distance, min
     best_members = sample[:0]
     best_error = NO_HYPOTHESIS_ERROR
     members = sample
+    threshold = max_distance * max_distance
     for _ in range(MAX_REFINEMENTS):
         transform = _fit(source, target, weights, members)
-        members, error = _inliers(transform, terms, max_distance * max_distance, distances)
+        _distances_into(_top_rows(transform), terms, distances)
+        # Most hypotheses end here, on their count alone: their inliers need not be listed.
+        if _count_within(distances, threshold) < min_inliers:
+            break
+        members, error = _within(distances, threshold)
         if len(members) < min_inliers or error > max_distance:
             break
         if len(members) < len(best_members) or error > best_error:
