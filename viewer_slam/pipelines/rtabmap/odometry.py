@@ -27,7 +27,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from ...backend.local_bundle import BundleSettings, Link, adjust_frame
@@ -40,6 +39,7 @@ from .bundle import KeyFrames, Reference, bundle_observations
 from .correspondences import word_matches
 from .graph import Variance, registration_variance
 from .params import RtabmapParams
+from .window import has_neighbour_within
 
 MIN_DEPTH_OF_PROJECTION = 0.1
 # With bundle adjustment RTAB-Map scales each variance of the registration down by 10 where
@@ -95,13 +95,13 @@ class LocalMap:
         protected = np.zeros(len(self), bool)
         protected[kept] = True
         removed = candidates[~protected[candidates]][: len(self) - target]
-        for index in removed:
-            self.referenced.subtract(reference[0] for reference in self.references[index])
+        references = self.references
+        self.referenced.subtract(Counter(reference[0] for index in removed.tolist() for reference in references[index]))
         self.referenced = +self.referenced  # drop the key frames counted down to 0
         keep = np.setdiff1d(np.arange(len(self)), removed)
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.added_on = self.added_on[keep]
-        self.references = [self.references[i] for i in keep]
+        self.references = [references[i] for i in keep.tolist()]
 
 
 @dataclass
@@ -187,12 +187,7 @@ def guided_matches(
         & (projections[:, 1] <= camera.height - 1)
     )
     visible, projections = in_front[inside], projections[inside]
-    near_corner = (
-        cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
-        if len(corners) and len(projections)
-        else np.zeros(len(projections), bool)
-    )
-    projected = visible[near_corner]
+    projected = visible[has_neighbour_within(projections, corners, params.guess_window)]
     visible_descriptors = descriptors[visible]
     if params.guess_match_to_projection:
         picked = nearest_within_radius(
@@ -447,7 +442,8 @@ class FrameToMapOdometry:
     def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
         """This frame's observations of its features ``index``, for the bundle adjustment."""
         pixels = pinhole_pixels(self.camera, features.keypoints[index])
-        return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
+        frame = self.frame_count
+        return [(frame, u, v, z) for (u, v), z in zip(pixels.tolist(), features.points[index, 2].tolist())]
 
     def _update_map(self, features: Features, result: OdometryResult) -> bool:
         """On a key frame, move the inliers' map points to their adjusted positions, record
