@@ -24,6 +24,7 @@ is what makes RTAB-Map start a new graph session there.
 
 from collections import Counter
 from dataclasses import dataclass, field
+from itertools import chain, repeat
 
 import cv2
 import numpy as np
@@ -35,7 +36,7 @@ from ...frontend.hamming import nearest_within_radius
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
-from .bundle import KeyFrames, Reference, bundle_observations
+from .bundle import KeyFrames, Reference, bundle_observations, key_frame_of
 from .correspondences import word_matches
 from .graph import Variance, registration_variance
 from .params import RtabmapParams
@@ -72,12 +73,12 @@ class LocalMap:
         self.descriptors = np.concatenate([self.descriptors, descriptors])
         self.added_on = np.concatenate([self.added_on, np.full(len(points), frame)])
         self.references += [[reference] for reference in references]
-        self.referenced.update(reference[0] for reference in references)
+        self.referenced.update(map(key_frame_of, references))
 
     def refer(self, indices: np.ndarray, references: list[Reference]) -> None:
-        for index, reference in zip(indices, references):
+        for index, reference in zip(indices.tolist(), references):
             self.references[index].append(reference)
-        self.referenced.update(reference[0] for reference in references)
+        self.referenced.update(map(key_frame_of, references))
 
     def cap(self, max_size: int, first: np.ndarray, kept: np.ndarray, added: int) -> None:
         """OdometryF2M's removal beyond OdomF2M/MaxSize on a key frame: the points ``first``
@@ -96,7 +97,9 @@ class LocalMap:
         protected[kept] = True
         removed = candidates[~protected[candidates]][: len(self) - target]
         references = self.references
-        self.referenced.subtract(Counter(reference[0] for index in removed.tolist() for reference in references[index]))
+        self.referenced.subtract(
+            Counter(map(key_frame_of, chain.from_iterable(map(references.__getitem__, removed.tolist()))))
+        )
         self.referenced = +self.referenced  # drop the key frames counted down to 0
         keep = np.setdiff1d(np.arange(len(self)), removed)
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
@@ -442,8 +445,10 @@ class FrameToMapOdometry:
     def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
         """This frame's observations of its features ``index``, for the bundle adjustment."""
         pixels = pinhole_pixels(self.camera, features.keypoints[index])
-        frame = self.frame_count
-        return [(frame, u, v, z) for (u, v), z in zip(pixels.tolist(), features.points[index, 2].tolist())]
+        depth = features.points[index, 2]
+        return list(
+            zip(repeat(self.frame_count, len(index)), pixels[:, 0].tolist(), pixels[:, 1].tolist(), depth.tolist())
+        )
 
     def _update_map(self, features: Features, result: OdometryResult) -> bool:
         """On a key frame, move the inliers' map points to their adjusted positions, record
