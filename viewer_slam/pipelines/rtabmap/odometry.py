@@ -51,6 +51,14 @@ BUNDLE_TRANSLATION_VARIANCE_FLOOR = 1e-7
 BUNDLE_ROTATION_VARIANCE_FLOOR = 3e-7
 
 
+def all_but(indices: np.ndarray, count: int) -> np.ndarray:
+    """The indices below ``count`` that are not among ``indices``, ascending (``np.setdiff1d``
+    of ``arange(count)``, without its sort)."""
+    left = np.ones(count, bool)
+    left[indices] = False
+    return np.flatnonzero(left)
+
+
 class LocalMap:
     """3D features in the odometry frame, oldest first (RTAB-Map's word ids grow with each
     word added), with their descriptors, the key frame that added each and, per point, the
@@ -101,7 +109,7 @@ class LocalMap:
             Counter(map(key_frame_of, chain.from_iterable(map(references.__getitem__, removed.tolist()))))
         )
         self.referenced = +self.referenced  # drop the key frames counted down to 0
-        keep = np.setdiff1d(np.arange(len(self)), removed)
+        keep = all_but(removed, len(self))
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.added_on = self.added_on[keep]
         self.references = [references[i] for i in keep.tolist()]
@@ -470,7 +478,7 @@ class FrameToMapOdometry:
                 self.key_frames.add(self.frame_count, result.pose)
                 self.map.points[inlier_points] = result.map_points
                 self.map.refer(result.map_index, self._references(features, result.feature_index))
-            self._extend_map(features, result, np.setdiff1d(np.arange(len(features)), result.feature_index))
+            self._extend_map(features, result, all_but(result.feature_index, len(features)))
             return True
         return False
 
