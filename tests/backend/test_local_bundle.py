@@ -13,6 +13,7 @@ from viewer_slam.backend.local_bundle import (
     BundleSettings,
     Link,
     Observations,
+    _Problem,
     adjust_frame,
     edge_chi2,
     link_terms,
@@ -163,3 +164,20 @@ def test_an_adjustment_gives_the_pose_g2o_gives(bundle):
     assert np.linalg.norm(g2o_pose[:3, 3] - bundle["pose"][:3, 3]) > 0.02
     assert np.linalg.norm(result.pose[:3, 3] - g2o_pose[:3, 3]) < 1e-5
     assert Rotation.from_matrix(result.pose[:3, :3].T @ g2o_pose[:3, :3]).magnitude() < 1e-5
+
+
+def test_each_edge_carries_its_key_frames_world_to_camera_transform():
+    """The fixed key frames' transforms, looked up once per key frame, are on every edge of
+    theirs exactly as each edge's own inversion gives them; the adjusted frame's edges carry none."""
+    rng, world, held, truth, observations = scene(pixel_noise=0.5, seed=2)
+    shuffled = rng.permutation(len(observations))
+    observations = Observations(
+        *(getattr(observations, name)[shuffled] for name in ("point", "frame", "pixels", "depth"))
+    )
+    problem = _Problem(observations, held, None, K, BundleSettings())
+    frames = observations.frame[problem.order]
+    for edge, frame in enumerate(frames.tolist()):
+        expected = invert(held[frame]) if frame != FREE_FRAME else np.zeros((4, 4))
+        assert np.array_equal(problem.held_rotation[edge], expected[:3, :3])
+        assert np.array_equal(problem.held_translation[edge], expected[:3, 3])
+    assert np.array_equal(problem.free, frames == FREE_FRAME)

@@ -6,7 +6,16 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.frontend.pnp import Lens, distinct_samples, iterations_needed, reprojection_errors, solve_pnp_ransac
+from viewer_slam.frontend.pnp import (
+    RANSAC_CONFIDENCE,
+    SAMPLE_SIZE,
+    Lens,
+    _reprojection_errors,
+    distinct_samples,
+    iterations_needed,
+    reprojection_errors,
+    solve_pnp_ransac,
+)
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
 
 K = np.array([[500.0, 0, 320], [0, 500.0, 240], [0, 0, 1]])
@@ -158,3 +167,69 @@ def test_refinement_moves_the_samples_pose_onto_all_inliers_and_keeps_ransacs_in
     assert np.array_equal(refined.inliers, sample.inliers)
     error = [np.linalg.norm(result.pose[:3, 3] - pose[:3, 3]) for result in (sample, refined)]
     assert error[1] < 0.5 * error[0] and error[1] < 0.005
+
+
+FR1_DISTORTION = (0.2624, -0.9531, -0.0054, 0.0026, 1.1633)
+
+
+def test_counting_stops_only_where_the_hypothesis_can_no_longer_become_the_best():
+    """The errors RANSAC reads while it counts are every error's, to the bit, until the points
+    left could not take the count above the best: a count above it is the whole count."""
+    points, pixels, pose = scene(outliers=80, seed=4)
+    objects, seen = points.astype(np.float32), pixels.astype(np.float32)
+    lens, rng = Lens.of(K, np.array(FR1_DISTORTION)), np.random.default_rng(3)
+    for _ in range(200):
+        rotation = Rotation.from_rotvec(rng.normal(0, 0.02, 3)).as_matrix() @ invert(pose)[:3, :3]
+        translation = invert(pose)[:3, 3] + rng.normal(0, 0.02, 3)
+        threshold, to_beat = np.float32(rng.choice([2.0, 4.0, 16.0])), int(rng.integers(-1, 200))
+        args = (objects, seen, rotation, translation, lens.intrinsics, lens.coefficients, lens.tilt)
+        every, _ = _reprojection_errors(*args, np.float32(np.inf), -1)
+        errors, counted = _reprojection_errors(*args, threshold, to_beat)
+        within = int((every <= threshold).sum())
+        reached = len(every) if counted > to_beat else len(every) - (to_beat - counted)
+        assert counted == within if within > to_beat else counted <= to_beat
+        assert np.array_equal(errors[:reached].view(np.uint32), every[:reached].view(np.uint32))
+
+
+def every_error_ransac(objects, pixels, distortion, threshold, iterations):
+    """The RANSAC loop with every hypothesis' errors computed in full: the best sample's pose
+    and inliers, as RTAB-Map's copy chooses them."""
+    objects, pixels = objects.astype(np.float32), pixels.astype(np.float32)
+    lens, count = Lens.of(K, distortion), len(objects)
+    best, best_mask, best_count, budget, iteration = None, None, 0, iterations, 0
+    samples = distinct_samples(count, budget)
+    while iteration < budget:
+        sample = samples[iteration]
+        iteration += 1
+        try:
+            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, distortion, flags=cv2.SOLVEPNP_EPNP)
+        except cv2.error:
+            continue
+        if not solved:
+            continue
+        mask = reprojection_errors(objects, pixels, lens, rvec, tvec) <= np.float32(threshold)
+        if mask.sum() > max(best_count, SAMPLE_SIZE - 1):
+            best, best_mask, best_count = (rvec, tvec), mask, int(mask.sum())
+            budget = iterations_needed(RANSAC_CONFIDENCE, (count - best_count) / count, SAMPLE_SIZE, budget)
+    return best, best_mask
+
+
+@pytest.mark.parametrize("outliers", [0, 60, 110])
+def test_ransac_chooses_the_pose_and_inliers_that_counting_every_error_chooses(outliers):
+    """Stopping a hypothesis' count early changes nothing: on noisy scenes through the fr1
+    lens with no, some and many outliers, the pose and the inliers are those of the loop that
+    counts every error."""
+    distortion = np.array(FR1_DISTORTION)
+    for seed in range(6):
+        points, _, pose = scene(outliers=0, seed=seed)
+        in_camera = transform_points(invert(pose), points)
+        pixels = cv2.projectPoints(in_camera, np.zeros(3), np.zeros(3), K, distortion)[0].reshape(-1, 2)
+        rng = np.random.default_rng(seed)
+        pixels[:outliers] += rng.uniform(20, 60, (outliers, 2)) * rng.choice([-1, 1], (outliers, 2))
+        noisy = pixels + rng.normal(0, 1.0, pixels.shape)
+        (rvec, tvec), inliers = every_error_ransac(points, noisy, distortion, 4.0, 300)
+        result = solve_pnp_ransac(
+            points, noisy, K, reprojection_error=4.0, iterations=300, min_inliers=4, distortion=tuple(distortion)
+        )
+        assert np.array_equal(result.inliers, inliers)
+        assert np.array_equal(result.pose, invert(make_pose(cv2.Rodrigues(rvec)[0], tvec.ravel())))

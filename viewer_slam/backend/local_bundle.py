@@ -142,13 +142,12 @@ class _Problem:
         self.free = observations.frame[self.order] == FREE_FRAME
         self.stereo = observations.stereo[self.order]
         self.measured = measurements(observations, K[0, 0], settings.baseline)[self.order]
-        frames = observations.frame[self.order]
+        held_frames, held_edge = np.unique(observations.frame[self.order][~self.free], return_inverse=True)
+        to_camera = np.stack([invert(held[frame]) for frame in held_frames.tolist()] or [np.eye(4)])
         self.held_rotation = np.zeros((len(self.point), 3, 3))
         self.held_translation = np.zeros((len(self.point), 3))
-        for frame in np.unique(frames[~self.free]):
-            rows = frames == frame
-            to_camera = invert(held[frame])
-            self.held_rotation[rows], self.held_translation[rows] = to_camera[:3, :3], to_camera[:3, 3]
+        self.held_rotation[~self.free] = to_camera[held_edge, :3, :3]
+        self.held_translation[~self.free] = to_camera[held_edge, :3, 3]
         self.camera = np.array(
             [K[0, 0], K[1, 1], K[0, 2], K[1, 2], settings.baseline, settings.pixel_variance, settings.kernel_delta],
             dtype=np.float64,

@@ -40,6 +40,7 @@ RNG_MULTIPLIER = np.uint64(4164903690)  # cv::RNG's multiply-with-carry (CV_RNG_
 RNG_SEED = np.uint64((1 << 64) - 1)  # RNG((uint64)-1)
 LOW_32 = np.uint64((1 << 32) - 1)
 HIGH_SHIFT = np.uint64(32)
+EVERY_ERROR = np.float32(np.inf)  # a threshold no error exceeds: every point counted, none skipped
 DISTORTION_COEFFICIENTS = 14  # OpenCV's longest model: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 tau_x tau_y
 
 
@@ -137,14 +138,22 @@ def _matx_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @jit
-def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, tilt):
+def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, tilt, threshold, to_beat):
     """``cvProjectPoints2Internal`` for each point, operation for operation in float64, its
     pixel rounded to float32 (the caller's points are float32), then the distance to the
     observed pixel as RTAB-Map's copy takes it: the offset in float32, the distance in
-    float64 rounded to float32."""
+    float64 rounded to float32; and how many of those errors are within ``threshold``.
+
+    The points are taken in order until those left could no longer take that count above
+    ``to_beat``: RANSAC needs no more of a hypothesis that cannot become the best. The count is
+    then at most ``to_beat`` and the errors of the points not reached are left unset."""
     fx, fy, cx, cy = intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]
-    errors = np.empty(objects.shape[0], dtype=np.float32)
-    for n in range(objects.shape[0]):
+    count = objects.shape[0]
+    errors = np.empty(count, dtype=np.float32)
+    within = 0
+    for n in range(count):
+        if within + count - n <= to_beat:
+            break
         X, Y, Z = np.float64(objects[n, 0]), np.float64(objects[n, 1]), np.float64(objects[n, 2])
         x = rotation[0, 0] * X + rotation[0, 1] * Y + rotation[0, 2] * Z + translation[0]
         y = rotation[1, 0] * X + rotation[1, 1] * Y + rotation[1, 2] * Z + translation[1]
@@ -171,7 +180,9 @@ def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, 
         v = np.float32((inverse * tilted_y) * fy + cy)
         du, dv = np.float64(pixels[n, 0] - u), np.float64(pixels[n, 1] - v)
         errors[n] = np.float32(np.sqrt(du * du + dv * dv))
-    return errors
+        if errors[n] <= threshold:
+            within += 1
+    return errors, within
 
 
 def reprojection_errors(
@@ -179,7 +190,7 @@ def reprojection_errors(
 ) -> np.ndarray:
     """Each correspondence's reprojection distance in pixels, float32, the same to the bit as
     ``cv2.projectPoints`` and RTAB-Map's copy compute it (float32 ``objects`` and ``pixels``)."""
-    return _reprojection_errors(
+    errors, _ = _reprojection_errors(
         objects,
         pixels,
         cv2.Rodrigues(rvec)[0],
@@ -187,7 +198,10 @@ def reprojection_errors(
         lens.intrinsics,
         lens.coefficients,
         lens.tilt,
+        EVERY_ERROR,
+        -1,
     )
+    return errors
 
 
 def refine(
@@ -251,19 +265,30 @@ def solve_pnp_ransac(
     best: tuple[np.ndarray, np.ndarray] | None = None
     best_mask, best_count, budget, iteration = np.zeros(count, bool), 0, max(iterations, 1), 0
     samples = distinct_samples(count, budget)
+    sample_objects, sample_pixels = objects[samples], pixels[samples]
     while iteration < budget:
-        sample = samples[iteration]
+        drawn_objects, drawn_pixels = sample_objects[iteration], sample_pixels[iteration]
         iteration += 1
         try:
-            solved, rvec, tvec = cv2.solvePnP(objects[sample], pixels[sample], K, coefficients, flags=cv2.SOLVEPNP_EPNP)
+            solved, rvec, tvec = cv2.solvePnP(drawn_objects, drawn_pixels, K, coefficients, flags=cv2.SOLVEPNP_EPNP)
         except cv2.error:
             continue  # a degenerate sample: no model, as runKernel's 0
         if not solved:
             continue
-        mask = reprojection_errors(objects, pixels, lens, rvec, tvec) <= threshold
-        agreeing = int(mask.sum())
-        if agreeing > max(best_count, SAMPLE_SIZE - 1):
-            best, best_mask, best_count = (rvec, tvec), mask, agreeing
+        to_beat = max(best_count, SAMPLE_SIZE - 1)
+        errors, agreeing = _reprojection_errors(
+            objects,
+            pixels,
+            cv2.Rodrigues(rvec)[0],
+            tvec.ravel(),
+            lens.intrinsics,
+            lens.coefficients,
+            lens.tilt,
+            threshold,
+            to_beat,
+        )
+        if agreeing > to_beat:  # so every error was computed
+            best, best_mask, best_count = (rvec, tvec), errors <= threshold, agreeing
             budget = iterations_needed(RANSAC_CONFIDENCE, (count - agreeing) / count, SAMPLE_SIZE, budget)
     if best is None or best_count < max(min_inliers, 4):
         return None

@@ -14,12 +14,15 @@ depth where it has one, and the registration itself as the link between the two.
 """
 
 from collections.abc import Container
+from itertools import chain
+from operator import itemgetter
 
 import numpy as np
 
 from ...backend.local_bundle import FREE_FRAME, Observations
 
 Reference = tuple[int, float, float, float]  # key frame, undistorted u, v, depth (NaN: none)
+key_frame_of = itemgetter(0)  # a reference's key frame
 
 
 class KeyFrames:
@@ -55,14 +58,15 @@ def bundle_observations(
 ) -> Observations:
     """The observations of points ``0..n-1``: their sampled key-frame references, then the
     adjusted frame's own at ``pixels`` (n, 2) with ``depth`` (n,)."""
-    rows = [(index, *reference) for index, point in enumerate(references) for reference in sampled(point, max_frames)]
+    # A point seen by fewer than twice max_frames key frames keeps every reference (k = 1).
+    chosen = [point if len(point) < 2 * max_frames else sampled(point, max_frames) for point in references]
     count = len(pixels)
-    stored = np.array(rows, dtype=np.float64).reshape(-1, 5)
+    stored = np.array(list(chain.from_iterable(chosen)), dtype=np.float64).reshape(-1, 4)
     return Observations(
-        point=np.concatenate([stored[:, 0].astype(int), np.arange(count)]),
-        frame=np.concatenate([stored[:, 1].astype(int), np.full(count, FREE_FRAME)]),
-        pixels=np.concatenate([stored[:, 2:4], pixels]),
-        depth=np.concatenate([stored[:, 4], depth]),
+        point=np.concatenate([np.repeat(np.arange(len(chosen)), list(map(len, chosen))), np.arange(count)]),
+        frame=np.concatenate([stored[:, 0].astype(int), np.full(count, FREE_FRAME)]),
+        pixels=np.concatenate([stored[:, 1:3], pixels]),
+        depth=np.concatenate([stored[:, 3], depth]),
     )
 
 

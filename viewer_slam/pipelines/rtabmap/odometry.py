@@ -24,10 +24,10 @@ is what makes RTAB-Map start a new graph session there.
 
 from collections import Counter
 from dataclasses import dataclass, field
+from itertools import chain, repeat
 
 import cv2
 import numpy as np
-from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
 from ...backend.local_bundle import Link, adjust_frame
@@ -36,10 +36,11 @@ from ...frontend.hamming import nearest_within_radius
 from ...frontend.pnp import solve_pnp_ransac
 from ...geometry.camera import Camera
 from ...geometry.se3 import invert, transform_points
-from .bundle import KeyFrames, Reference, bundle_observations
+from .bundle import KeyFrames, Reference, bundle_observations, key_frame_of
 from .correspondences import TreeSeeds, word_matches
 from .graph import Variance, registration_variance
 from .params import RtabmapParams
+from .window import has_neighbour_within
 
 MIN_DEPTH_OF_PROJECTION = 0.1
 # With bundle adjustment RTAB-Map scales each variance of the registration down by 10 where
@@ -48,6 +49,14 @@ MIN_DEPTH_OF_PROJECTION = 0.1
 BUNDLE_VARIANCE_SCALE = 0.1
 BUNDLE_TRANSLATION_VARIANCE_FLOOR = 1e-7
 BUNDLE_ROTATION_VARIANCE_FLOOR = 3e-7
+
+
+def all_but(indices: np.ndarray, count: int) -> np.ndarray:
+    """The indices below ``count`` that are not among ``indices``, ascending (``np.setdiff1d``
+    of ``arange(count)``, without its sort)."""
+    left = np.ones(count, bool)
+    left[indices] = False
+    return np.flatnonzero(left)
 
 
 class LocalMap:
@@ -72,12 +81,12 @@ class LocalMap:
         self.descriptors = np.concatenate([self.descriptors, descriptors])
         self.added_on = np.concatenate([self.added_on, np.full(len(points), frame)])
         self.references += [[reference] for reference in references]
-        self.referenced.update(reference[0] for reference in references)
+        self.referenced.update(map(key_frame_of, references))
 
     def refer(self, indices: np.ndarray, references: list[Reference]) -> None:
-        for index, reference in zip(indices, references):
+        for index, reference in zip(indices.tolist(), references):
             self.references[index].append(reference)
-        self.referenced.update(reference[0] for reference in references)
+        self.referenced.update(map(key_frame_of, references))
 
     def cap(self, max_size: int, first: np.ndarray, kept: np.ndarray, added: int) -> None:
         """OdometryF2M's removal beyond OdomF2M/MaxSize on a key frame: the points ``first``
@@ -95,13 +104,15 @@ class LocalMap:
         protected = np.zeros(len(self), bool)
         protected[kept] = True
         removed = candidates[~protected[candidates]][: len(self) - target]
-        for index in removed:
-            self.referenced.subtract(reference[0] for reference in self.references[index])
+        references = self.references
+        self.referenced.subtract(
+            Counter(map(key_frame_of, chain.from_iterable(map(references.__getitem__, removed.tolist()))))
+        )
         self.referenced = +self.referenced  # drop the key frames counted down to 0
-        keep = np.setdiff1d(np.arange(len(self)), removed)
+        keep = all_but(removed, len(self))
         self.points, self.descriptors = self.points[keep], self.descriptors[keep]
         self.added_on = self.added_on[keep]
-        self.references = [self.references[i] for i in keep]
+        self.references = [references[i] for i in keep.tolist()]
 
 
 @dataclass
@@ -187,12 +198,7 @@ def guided_matches(
         & (projections[:, 1] <= camera.height - 1)
     )
     visible, projections = in_front[inside], projections[inside]
-    near_corner = (
-        cKDTree(corners).query_ball_point(projections, params.guess_window, return_length=True) > 0
-        if len(corners) and len(projections)
-        else np.zeros(len(projections), bool)
-    )
-    projected = visible[near_corner]
+    projected = visible[has_neighbour_within(projections, corners, params.guess_window)]
     visible_descriptors = descriptors[visible]
     if params.guess_match_to_projection:
         picked = nearest_within_radius(
@@ -443,7 +449,10 @@ class FrameToMapOdometry:
     def _references(self, features: Features, index: np.ndarray) -> list[Reference]:
         """This frame's observations of its features ``index``, for the bundle adjustment."""
         pixels = pinhole_pixels(self.camera, features.keypoints[index])
-        return [(self.frame_count, u, v, z) for (u, v), z in zip(pixels, features.points[index, 2])]
+        depth = features.points[index, 2]
+        return list(
+            zip(repeat(self.frame_count, len(index)), pixels[:, 0].tolist(), pixels[:, 1].tolist(), depth.tolist())
+        )
 
     def _update_map(self, features: Features, result: OdometryResult) -> bool:
         """On a key frame, move the inliers' map points to their adjusted positions, record
@@ -465,7 +474,7 @@ class FrameToMapOdometry:
                 self.key_frames.add(self.frame_count, result.pose)
                 self.map.points[inlier_points] = result.map_points
                 self.map.refer(result.map_index, self._references(features, result.feature_index))
-            self._extend_map(features, result, np.setdiff1d(np.arange(len(features)), result.feature_index))
+            self._extend_map(features, result, all_but(result.feature_index, len(features)))
             return True
         return False
 
