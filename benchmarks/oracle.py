@@ -284,14 +284,7 @@ def resumption_spread(originals: list[dict], k: int) -> str:
 def table(title: str, ours: list[dict], originals: list[dict]) -> str:
     """Ours (run with the seeds 0, 1, ...: the first is `viewslam record`'s default) beside the
     original's runs, each as its min–max."""
-    count = max(len(run["resumptions"]) for run in [*ours, *originals])
-    rows = [
-        (
-            "resumes at frame (inliers)",
-            " / ".join(resumption_spread(ours, k) for k in range(count)) or "never",
-            " / ".join(resumption_spread(originals, k) for k in range(count)) or "never",
-        )
-    ]
+    rows = [("resumes at frame (inliers)", resumptions_text(ours), resumptions_text(originals))]
     for key, label in (
         ("maps", "maps"),
         ("joining_links", "loop closures and proximity links between maps"),
@@ -308,11 +301,22 @@ def table(title: str, ours: list[dict], originals: list[dict]) -> str:
     lines = [
         f"**{title}**",
         "",
-        f"| | ours, {len(ours)} seeds (min–max; seed 0) | {ORIGINAL}, {len(originals)} runs (min–max) |",
+        f"| | ours, {counted(len(ours), 'seed')} (min–max; seed 0) | {ORIGINAL}, {counted(len(originals), 'run')} "
+        "(min–max) |",
         "|---|---|---|",
     ]
     lines += [f"| {label} | {mine} | {theirs} |" for label, mine, theirs in rows]
     return "\n".join(lines)
+
+
+def resumptions_text(runs: list[dict]) -> str:
+    """Each resumption's spread over the runs that have it, or "never"."""
+    count = max(len(run["resumptions"]) for run in runs)
+    return " / ".join(resumption_spread(runs, k) for k in range(count)) or "never"
+
+
+def counted(count: int, noun: str) -> str:
+    return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
 def with_default(ours: list[dict], key: str) -> str:
