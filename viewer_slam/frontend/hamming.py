@@ -119,7 +119,7 @@ def _nearest_matches(query, columns, max_distance):
 
 
 @jit
-def _grid(positions, cell):
+def grid_cells(positions, cell):
     """``positions`` bucketed on a grid of ``cell``-sized squares over their bounding box:
     (low x, low y, columns, rows, each cell's start in ``members``, the members)."""
     low_x, low_y = positions[:, 0].min(), positions[:, 1].min()
@@ -161,7 +161,7 @@ def _nearest_within_radius(positions, query, train_positions, train, radius, rat
     chosen = np.full(positions.shape[0], -1, dtype=np.int64)
     if train_positions.shape[0] == 0 or not radius > 0.0:
         return chosen
-    grid = _grid(train_positions, radius)
+    grid = grid_cells(train_positions, radius)
     near, within = (
         np.empty(train_positions.shape[0], dtype=np.int64),
         np.empty(train_positions.shape[0], dtype=np.int64),

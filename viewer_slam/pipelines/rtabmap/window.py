@@ -12,32 +12,12 @@ float64, is at most the radius squared, as the tree measures it.
 import numpy as np
 
 from ...compiled import jit
+from ...frontend.hamming import grid_cells
 
 # The cells searched span the window widened by this share of it, so that a corner whose
 # rounded distance is the radius is never in a cell left out.
 REACH_MARGIN = 1e-9
 MAX_CELLS_ACROSS = 256  # cells grow beyond the radius where it is this small a share of the extent
-
-
-@jit
-def _cells(positions, cell):
-    """``positions`` bucketed on ``cell``-sized squares over their bounding box: the low
-    corner, the columns and rows, each cell's start in ``members`` and the members."""
-    low_x, low_y = positions[:, 0].min(), positions[:, 1].min()
-    columns = int((positions[:, 0].max() - low_x) // cell) + 1
-    rows = int((positions[:, 1].max() - low_y) // cell) + 1
-    index = np.empty(positions.shape[0], dtype=np.int64)
-    starts = np.zeros(columns * rows + 1, dtype=np.int64)
-    for j in range(positions.shape[0]):
-        index[j] = int((positions[j, 1] - low_y) // cell) * columns + int((positions[j, 0] - low_x) // cell)
-        starts[index[j] + 1] += 1
-    starts = np.cumsum(starts)
-    members = np.empty(positions.shape[0], dtype=np.int64)
-    filled = starts[:-1].copy()
-    for j in range(positions.shape[0]):
-        members[filled[index[j]]] = j
-        filled[index[j]] += 1
-    return low_x, low_y, columns, rows, starts, members
 
 
 @jit
@@ -56,7 +36,7 @@ def _has_neighbour(points, others, radius):
         return found
     extent = max(others[:, 0].max() - others[:, 0].min(), others[:, 1].max() - others[:, 1].min())
     size = max(radius, extent / MAX_CELLS_ACROSS)
-    low_x, low_y, columns, rows, starts, members = _cells(others, size)
+    low_x, low_y, columns, rows, starts, members = grid_cells(others, size)
     limit, reach = radius * radius, radius * (1.0 + REACH_MARGIN)
     for i in range(points.shape[0]):
         x, y = points[i, 0], points[i, 1]
