@@ -301,9 +301,10 @@ class PipelineRecorder:
             seen = np.concatenate([self._seen, event.pose[None, :3, 3]])
             self._seen = np.stack([seen.min(axis=0), seen.max(axis=0)])
         self._log_state_and_frustum(event.status)
-        if event.pose is not None:
-            self._last_pose = event.pose
-            self._hold(layout.camera(self.name), self._held.transform, lambda: transform(event.pose), event.pose)
+        pose = event.pose
+        if pose is not None:
+            self._last_pose = pose
+            self._hold(layout.camera(self.name), self._held.transform, lambda: transform(pose), pose)
         if self._matched_frame != event.frame_index:
             self._hold(layout.matches(self.name), self._held.clear, lambda: rr.Clear(recursive=True), True)
         counts = {series: getattr(event, series) for series in TRACKER_COUNTS} if self.tracker_counts else {}
@@ -356,12 +357,15 @@ class PipelineRecorder:
             (layout.matches(self.name), segments[inliers]),
             (f"{layout.matches(self.name)}/outliers", segments[~inliers]),
         ):
-            drawn = subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)]
-            if len(drawn):
-                radius = rr.Radius.ui_points(MATCH_WIDTH)
-                self._hold(path, self._held.segments, lambda: rr.LineStrips2D(drawn, radii=radius), drawn, radius)
-            else:  # as _log_instances does
-                self._hold(path, self._held.clear, lambda: rr.Clear(recursive=False), False)
+            self._hold_segments(path, subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)])
+
+    def _hold_segments(self, path: str, segments: np.ndarray) -> None:
+        """2D line segments at ``path``, or a Clear when there are none (as :meth:`_log_instances`), held."""
+        radius = rr.Radius.ui_points(MATCH_WIDTH)
+        if len(segments):
+            self._hold(path, self._held.segments, lambda: rr.LineStrips2D(segments, radii=radius), segments, radius)
+        else:
+            self._hold(path, self._held.clear, lambda: rr.Clear(recursive=False), False)
 
     def _tracking_recovered(self, event: TrackingRecovered) -> None:
         self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.WARN)
