@@ -5,7 +5,14 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.dataset.frame import Frame
-from viewer_slam.diagnosis import DYNAMIC_SHARE_METRIC, DiagnosisThresholds, SignalRecorder, diagnose_losses
+from viewer_slam.diagnosis import (
+    DYNAMIC_SHARE_METRIC,
+    DiagnosisThresholds,
+    MeasuredImages,
+    SignalRecorder,
+    diagnose_losses,
+)
+from viewer_slam.diagnosis import signals as signals_module
 from viewer_slam.diagnosis.signals import groundtruth_motion, measure_image
 from viewer_slam.geometry.trajectory import Trajectory
 from viewer_slam.pipelines.events import FrameTracked, TrackingStatus
@@ -78,6 +85,28 @@ def test_the_recorder_keeps_one_row_per_frame_with_the_tracker_counts_and_residu
     assert signals.dynamic_share[0] == 0.4 and np.isnan(signals.dynamic_share[1])
     assert signals.tracked.tolist() == [True, False, False]
     assert signals.position(3) == 2
+
+
+def test_runs_over_the_same_frames_measure_each_frame_once_and_see_the_same_signals(monkeypatch):
+    measured = []
+    monkeypatch.setattr(
+        signals_module, "measure_image", lambda frame: measured.append(frame.index) or measure_image(frame)
+    )
+    blank = np.zeros_like(TEXTURED)
+    frames = [frame(0), frame(1, blank), frame(2)]
+    shared = MeasuredImages()
+    first, second = SignalRecorder(shared), SignalRecorder(shared)
+    for item in frames:
+        first.frame(item)
+    for item in frames:  # the same frames read again for the second run
+        second.frame(frame(item.index, item.rgb.copy(), item.depth.copy()))
+    assert measured == [0, 1, 2]
+    alone = recorded(frames, []).signals()
+    for recorder in (first, second):
+        shared_signals = recorder.signals()
+        for name in ("corners", "color_std", "uniform_share", "valid_depth_share"):
+            np.testing.assert_array_equal(getattr(shared_signals, name), getattr(alone, name))
+    assert alone.corners[1] == 0 < alone.corners[0]
 
 
 def test_the_window_stops_at_the_next_pose_and_the_medians_are_over_lost_frames_only():

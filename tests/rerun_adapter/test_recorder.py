@@ -17,9 +17,11 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 from rich.console import Console
-from scripted_circle import FRAMES, LOST, MAP_FROM_WORLD, NOISE_M
+from scripted_circle import FRAMES, LOST, MAP_FROM_WORLD, NOISE_M, ScriptedPipeline
 
 from viewer_slam.cli import main
+from viewer_slam.diagnosis import signals
+from viewer_slam.diagnosis.signals import measure_image
 from viewer_slam.geometry.se3 import invert
 from viewer_slam.geometry.trajectory import read_tum
 from viewer_slam.record.command import record
@@ -225,6 +227,35 @@ def test_ctrl_c_stops_the_run_and_keeps_what_was_recorded(scripted_pipelines, tu
     assert len(read_tum(result.trajectories["rgbdslam"])) == 26 - len(LOST)
     assert subprocess.run([RERUN, "rrd", "verify", out], capture_output=True).returncode == 0
     assert signal.getsignal(signal.SIGINT) is handler
+
+
+def test_the_runs_of_a_record_measure_what_each_frame_shows_once(scripted_pipelines, tum_folder, tmp_path, monkeypatch):
+    measured = []
+    monkeypatch.setattr(signals, "measure_image", lambda frame: measured.append(frame.index) or measure_image(frame))
+    result = record(str(tum_folder), out=tmp_path / "once.rrd", quiet=True)
+    assert list(result.report["pipelines"]) == ["rgbdslam", "rtabmap"]
+    assert measured == list(range(FRAMES))
+
+
+def test_a_pipeline_that_fails_mid_run_leaves_every_frame_before_it_in_the_recording(
+    scripted_pipelines, tum_folder, tmp_path, monkeypatch
+):
+    """The per-frame numbers and poses the recorder holds back to send as columns are sent when
+    a run fails, not lost with it."""
+    process = ScriptedPipeline.process
+
+    def failing(self, frame):
+        if frame.index == 25:
+            raise ZeroDivisionError("a bug")
+        return process(self, frame)
+
+    monkeypatch.setattr(ScriptedPipeline, "process", failing)
+    out = tmp_path / "failed.rrd"
+    with pytest.raises(ZeroDivisionError, match="a bug"):
+        record(str(tum_folder), out=out, quiet=True)
+    assert sorted(column(out, "/metrics/rgbdslam/features", "Scalars:scalars")) == list(range(25))
+    posed = sorted(column(out, "/world/rgbdslam/camera", "Transform3D:translation"))
+    assert posed == [index for index in range(25) if index not in LOST]
 
 
 def test_a_corrupt_frame_mid_run_exits_2_and_keeps_the_frames_before_it(

@@ -23,13 +23,17 @@ CAMERA = Camera(fx=50.0, fy=50.0, cx=31.5, cy=23.5, width=64, height=48)
 
 
 class CapturingStream:
-    """Stands in for a RecordingStream: keeps what is logged."""
+    """Stands in for a RecordingStream: keeps what is logged, and what is sent as columns."""
 
     def __init__(self):
         self.logged: list[tuple[str, object]] = []
+        self.sent: list[tuple[str, list]] = []
 
     def log(self, path, archetype, static=False):
         self.logged.append((path, archetype))
+
+    def send_columns(self, path, indexes, columns):
+        self.sent.append((path, list(columns)))
 
     def set_time(self, *args, **kwargs):
         pass
@@ -45,6 +49,19 @@ def empty_batches(archetype) -> list:
     return [batch for batch in archetype.as_component_batches() if len(batch.as_arrow_array()) == 0]
 
 
+def empty_rows(columns) -> list:
+    """The columns holding a row that is an empty batch (null where a row logs other components)."""
+    return [column for column in columns if 0 in column.as_arrow_array().value_lengths().drop_null().to_pylist()]
+
+
+def cleared_by_columns(stream: CapturingStream) -> set[str]:
+    return {
+        path
+        for path, columns in stream.sent
+        if any(column.component_descriptor().component == "Clear:is_recursive" for column in columns)
+    }
+
+
 def test_nothing_to_draw_is_sent_as_a_clear_never_as_an_empty_batch():
     stream = CapturingStream()
     recorder = PipelineRecorder(stream, "p", CAMERA, palette.run_colour("p"), scene_extent=1.0)
@@ -56,7 +73,10 @@ def test_nothing_to_draw_is_sent_as_a_clear_never_as_an_empty_batch():
     recorder(FrameTracked(0, 0.0, None, TrackingStatus.LOST))
     recorder(TrajectoryFinal(np.zeros(0, int), np.zeros(0), np.zeros((0, 4, 4)), np.zeros((0, 4, 4))))
     assert [(path, type(a).__name__, empty_batches(a)) for path, a in stream.logged if empty_batches(a)] == []
-    cleared = {path for path, archetype in stream.logged if isinstance(archetype, rr.Clear)}
+    assert [(path, empty_rows(columns)) for path, columns in stream.sent if empty_rows(columns)] == []
+    cleared = {path for path, archetype in stream.logged if isinstance(archetype, rr.Clear)} | cleared_by_columns(
+        stream
+    )
     assert {"p/matches/outliers", "world/p/map", "world/p/keyframes", "world/p/trajectory"} <= cleared
 
 

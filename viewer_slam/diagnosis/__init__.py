@@ -2,7 +2,7 @@
 
 from .causes import CAUSE_ORDER, Cause, DiagnosisThresholds, LossSignals, classify
 from .diagnose import diagnose_losses, diagnose_run
-from .signals import DYNAMIC_SHARE_METRIC, FrameSignals, SignalRecorder
+from .signals import DYNAMIC_SHARE_METRIC, FrameSignals, ImageSignals, MeasuredImages, SignalRecorder, measure_image
 
 __all__ = [
     "CAUSE_ORDER",
@@ -10,9 +10,12 @@ __all__ = [
     "DYNAMIC_SHARE_METRIC",
     "DiagnosisThresholds",
     "FrameSignals",
+    "ImageSignals",
     "LossSignals",
+    "MeasuredImages",
     "SignalRecorder",
     "classify",
     "diagnose_losses",
     "diagnose_run",
+    "measure_image",
 ]

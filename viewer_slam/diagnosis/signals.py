@@ -6,6 +6,7 @@ pipeline reports in :class:`FrameTracked`; a pipeline that can tell how many mat
 moved inconsistently with the camera reports that share as ``metrics[DYNAMIC_SHARE_METRIC]``.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -58,6 +59,26 @@ def measure_image(frame: Frame) -> ImageSignals:
     )
 
 
+class MeasuredImages:
+    """The image signals of a sequence's frames, each frame measured once however many runs see it.
+
+    The runs of one record go over the same frames, and what a frame shows does not depend on
+    the run that is shown it: measuring it again for each run would only take the same numbers
+    twice, on the frame loop. Give one to every run over the same frames of one sequence (a
+    frame is known by its index and timestamp).
+    """
+
+    def __init__(self) -> None:
+        self._measured: dict[tuple[int, float], ImageSignals] = {}
+
+    def __call__(self, frame: Frame) -> ImageSignals:
+        key = (frame.index, frame.timestamp)
+        measured = self._measured.get(key)
+        if measured is None:
+            measured = self._measured[key] = measure_image(frame)
+        return measured
+
+
 @dataclass
 class FrameSignals:
     """The signals of a run's processed frames, one row per frame in processing order.
@@ -88,14 +109,19 @@ class FrameSignals:
 
 
 class SignalRecorder:
-    """A run's signal sink: give it each frame (``frame``) and each event (call it)."""
+    """A run's signal sink: give it each frame (``frame``) and each event (call it).
 
-    def __init__(self):
+    ``measure`` gives a frame's image signals: :func:`measure_image`, or the
+    :class:`MeasuredImages` that the runs over the same frames share.
+    """
+
+    def __init__(self, measure: Callable[[Frame], ImageSignals] = measure_image):
+        self._measure = measure
         self._images: dict[int, tuple[float, ImageSignals]] = {}
         self._tracked: dict[int, FrameTracked] = {}
 
     def frame(self, frame: Frame) -> None:
-        self._images[frame.index] = (frame.timestamp, measure_image(frame))
+        self._images[frame.index] = (frame.timestamp, self._measure(frame))
 
     def __call__(self, event: Event) -> None:
         if isinstance(event, FrameTracked):

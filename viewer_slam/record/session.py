@@ -17,6 +17,7 @@ the same ``--out``. A recording the disk could not hold is removed (the previous
 any, stays) and the report says so.
 """
 
+import contextlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from functools import partial
@@ -26,6 +27,7 @@ from typing import Any
 from .. import palette
 from ..atomic import StagedFiles, exclusive
 from ..dataset.frame import Frame, Sequence, TimedFrames, closing_frames, frames_read, select_frames
+from ..diagnosis import MeasuredImages
 from ..errors import InputError
 from ..geometry.trajectory import write_tum
 from ..pipelines.base import Pipeline
@@ -202,6 +204,7 @@ def _record_runs(
     groundtruth = sequence.groundtruth
     scene_extent = None if groundtruth is None else extent(groundtruth.positions)
     total = len(select_frames(len(sequence), frames.max_frames, frames.stride))
+    measured = MeasuredImages()  # every run goes over the same frames: each is measured once
     with RecordProgress(total, quiet=quiet) as progress, RecordingThread() as background:
         log_world(stream, groundtruth)
         for position, name in enumerate(runs):
@@ -225,6 +228,7 @@ def _record_runs(
                     background,
                     progress.sink(name),
                     images=stream if position == 0 else None,
+                    image_signals=measured,
                     frames=frames,
                     stop=stop,
                 )
@@ -255,28 +259,36 @@ def _record_run(
     progress: Sink,
     *,
     images: Any,
+    image_signals: MeasuredImages,
     frames: FrameSelection,
     stop: SafePoints,
 ) -> ScoredRun:
     """Drive one run over the frames with ``recorder`` as a sink on the recording thread, and score
     it once all its events are recorded; ``images`` is the stream that gets each frame's image (the
-    first run's only: one copy serves every run's view)."""
+    first run's only: one copy serves every run's view); ``image_signals`` measures what each
+    frame shows, once for all the runs."""
 
     def on_frame(frame: Frame) -> None:
         background.submit(recorder.begin_frame, frame)
         if images is not None:
             background.submit(log_frame_image, images, frame)
 
-    scored = score_run(
-        sequence,
-        run,
-        name,
-        max_frames=frames.max_frames,
-        stride=frames.stride,
-        sinks=[background.sink(recorder), progress],
-        frame_sinks=[on_frame],
-        should_stop=stop,
-    )
+    try:
+        scored = score_run(
+            sequence,
+            run,
+            name,
+            max_frames=frames.max_frames,
+            stride=frames.stride,
+            sinks=[background.sink(recorder), progress],
+            frame_sinks=[on_frame],
+            should_stop=stop,
+            image_signals=image_signals,
+        )
+    except BaseException:
+        with contextlib.suppress(Exception):  # a recorder that failed has nothing more to send
+            background.submit(recorder.flush)  # the rows it held of the frames before the failure
+        raise
     background.drain()  # the run's events are recorded before its evaluation
     return scored
 

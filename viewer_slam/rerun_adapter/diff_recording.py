@@ -21,9 +21,10 @@ from ..errors import InputError
 from . import layout
 from .blueprint import LOST_BAND, hidden_legend, log_columns, lost_band_overrides, overview_eye
 from .fit import LEFT_SHARE, RIGHT_SHARE
+from .frame_columns import send_frame_columns
 from .recorder import log_world, lost_colour, transform
 from .rrd_file import RecordingFile
-from .timelines import gap_starts, log_lost_band, send_frame_columns, send_log_messages
+from .timelines import gap_starts, log_lost_band, send_log_messages
 
 SIDE_COLORS = {"A": (255, 140, 0), "B": (40, 150, 255)}
 DIFFERENCE_COLOR = (200, 80, 220)

@@ -31,9 +31,10 @@ from ..geometry.trajectory import Trajectory
 from ..runs.files_summary import summary_markdown
 from ..runs.trajectory_files import ScoredFile, ScoredFiles
 from . import layout
+from .frame_columns import send_frame_columns
 from .recorder import TRAJECTORY_WIDTH, log_run_styles, log_world, set_frame_time
 from .sizes import extent, scene_sizes
-from .timelines import log_evaluation, send_frame_columns
+from .timelines import log_evaluation
 
 POSE_RADIUS = 3.0  # ui points
 CORRESPONDENCE_WIDTH = 0.25  # ui points: a pose a frame makes a dense fan

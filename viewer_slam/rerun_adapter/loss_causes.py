@@ -14,7 +14,8 @@ import rerun as rr
 from .. import palette
 from ..diagnosis import Cause, FrameSignals
 from . import layout
-from .timelines import send_frame_columns, send_log_messages
+from .frame_columns import send_frame_columns
+from .timelines import send_log_messages
 
 TRACKING = "tracking"
 # The longest the run waits for its logged lines to reach the sinks before the causes follow:

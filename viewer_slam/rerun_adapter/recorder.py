@@ -36,6 +36,7 @@ from . import layout
 from .blueprint import LOST_BAND, LOST_BAND_WIDTH
 from .budget import SnapshotBudget
 from .fit import log_rows
+from .frame_columns import HeldRows
 from .images import depth_png, jpeg, jpeg_bytes
 from .sizes import SceneSizes, extent, scene_sizes
 from .voxel_map import VoxelMap
@@ -70,6 +71,7 @@ LOST_FRUSTUM_WIDTH = 1.0
 RECENT_LOOP_WIDTH = 1.5
 OLD_LOOP_WIDTH = 0.75
 EDGE_WIDTH = 0.5
+MATCH_WIDTH = 1.0
 MAP_POINT_RADIUS = 1.25
 
 
@@ -198,6 +200,7 @@ class PipelineRecorder:
         self._frustum_depth: float | None = None
         self._last_pose: np.ndarray | None = None
         self._frame: Frame | None = None
+        self._held = HeldRows(stream)  # the per-frame numbers, poses and matches, sent as columns
         self._matched_frame: int | None = None
         self._keyframes: dict[int, np.ndarray] = {}
         self._loops: list[GraphEdge] = []
@@ -226,8 +229,13 @@ class PipelineRecorder:
     def begin_frame(self, frame: Frame) -> None:
         """Called as ``frame`` is read: the events that follow belong to it."""
         self._log_loop_closure_lines()  # of the frame before, at its time
+        self._held.next_frame()
         self._frame = frame
         set_frame_time(self.stream, frame.index, frame.timestamp)
+
+    def flush(self) -> None:
+        """Send the rows still held; the session calls it when the run ends, however it ends."""
+        self._held.flush()
 
     def __call__(self, event: Event) -> None:
         """Record ``event``. A TrackingLost is not logged here: its one log line comes once the
@@ -248,6 +256,18 @@ class PipelineRecorder:
         """``make(instances)`` at ``path``, or a Clear of ``path`` when there are none: an empty
         batch would say nothing the Clear does not, and no chunk of the recording is empty."""
         self._log(path, make(instances) if len(instances) else rr.Clear(recursive=False), static=static)
+
+    def _hold(self, path: str, row: Callable[..., None], logged: Callable[[], Any], *values: Any) -> None:
+        """A row of the current frame at ``path``: ``row(path, frame, timestamp, *values)`` of
+        :class:`HeldRows`, sent later as a column; before any frame has begun (no frame to stamp
+        it with), the archetype ``logged()`` logged at once."""
+        if self._frame is None:
+            self._log(path, logged())
+        else:
+            row(path, self._frame.index, self._frame.timestamp, *values)
+
+    def _scalar(self, path: str, value: float) -> None:
+        self._hold(path, self._held.scalar, lambda: rr.Scalars(float(value)), value)
 
     def _text(self, message: str, level: rr.TextLogLevel) -> None:
         """A log message, in rows that the log view shows whole; the pipeline leads the text since
@@ -281,16 +301,17 @@ class PipelineRecorder:
             seen = np.concatenate([self._seen, event.pose[None, :3, 3]])
             self._seen = np.stack([seen.min(axis=0), seen.max(axis=0)])
         self._log_state_and_frustum(event.status)
-        if event.pose is not None:
-            self._last_pose = event.pose
-            self._log(layout.camera(self.name), transform(event.pose))
+        pose = event.pose
+        if pose is not None:
+            self._last_pose = pose
+            self._hold(layout.camera(self.name), self._held.transform, lambda: transform(pose), pose)
         if self._matched_frame != event.frame_index:
-            self._log(layout.matches(self.name), rr.Clear(recursive=True))
+            self._hold(layout.matches(self.name), self._held.clear, lambda: rr.Clear(recursive=True), True)
         counts = {series: getattr(event, series) for series in TRACKER_COUNTS} if self.tracker_counts else {}
         for series, value in {**counts, **event.metrics}.items():
-            self._log(layout.metric(self.name, series), rr.Scalars(float(value)))
+            self._scalar(layout.metric(self.name, series), value)
         for stage, ms in event.timings_ms.items():
-            self._log(layout.metric(self.name, f"time/{stage}"), rr.Scalars(float(ms)))
+            self._scalar(layout.metric(self.name, f"time/{stage}"), ms)
         self._log_due_snapshots(event.frame_index)
 
     def _log_state_and_frustum(self, status: TrackingStatus) -> None:
@@ -336,11 +357,15 @@ class PipelineRecorder:
             (layout.matches(self.name), segments[inliers]),
             (f"{layout.matches(self.name)}/outliers", segments[~inliers]),
         ):
-            self._log_instances(
-                path,
-                subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)],
-                lambda drawn: rr.LineStrips2D(drawn, radii=rr.Radius.ui_points(1.0)),
-            )
+            self._hold_segments(path, subset[evenly_spaced(len(subset), MAX_MATCHES_DRAWN // 2)])
+
+    def _hold_segments(self, path: str, segments: np.ndarray) -> None:
+        """2D line segments at ``path``, or a Clear when there are none (as :meth:`_log_instances`), held."""
+        radius = rr.Radius.ui_points(MATCH_WIDTH)
+        if len(segments):
+            self._hold(path, self._held.segments, lambda: rr.LineStrips2D(segments, radii=radius), segments, radius)
+        else:
+            self._hold(path, self._held.clear, lambda: rr.Clear(recursive=False), False)
 
     def _tracking_recovered(self, event: TrackingRecovered) -> None:
         self._text(f"tracking recovered ({event.reason})", rr.TextLogLevel.WARN)
@@ -416,7 +441,7 @@ class PipelineRecorder:
         self._keyframes_budget.dirty = True
         self._loops_budget.dirty |= bool(self._loops)  # their ends move with the keyframes
         self._edges_budget.dirty |= any(self._edges.values())
-        self._log(layout.metric(self.name, "graph_error"), rr.Scalars(float(event.error_after)))
+        self._scalar(layout.metric(self.name, "graph_error"), event.error_after)
 
     def _map_updated(self, event: MapUpdated) -> None:
         self._map.add(event)
@@ -532,6 +557,7 @@ class PipelineRecorder:
                 ),
                 static=True,
             )
+        self.flush()
 
     def _tracked_segments(self, posed_frames: np.ndarray) -> list[np.ndarray]:
         """Index runs of consecutively processed frames with a pose: no line bridges a loss."""

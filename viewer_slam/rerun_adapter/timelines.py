@@ -12,6 +12,7 @@ from ..evaluation import Evaluation
 from . import layout
 from .blueprint import LOST_BAND
 from .fit import log_rows
+from .frame_columns import send_frame_columns
 from .recorder import transform
 
 
@@ -46,23 +47,6 @@ def lost_frames(frame_timestamps: np.ndarray, lost_intervals: list[tuple[float, 
     for start, end in lost_intervals:
         lost |= (frame_timestamps >= start - 1e-6) & (frame_timestamps <= end + 1e-6)
     return lost
-
-
-def send_frame_columns(
-    stream: rr.RecordingStream, path: str, frame_indices: np.ndarray, frame_timestamps: np.ndarray, columns
-) -> None:
-    """Send rows stamped on both timelines; nothing at all when there are no rows.
-
-    Every column send of the recording goes through here: the Rerun viewer (0.41) panics
-    on a recording holding zero-row chunks (an empty time range), so none may be written.
-    """
-    if len(frame_indices) == 0:
-        return
-    stream.send_columns(
-        path,
-        indexes=[rr.TimeColumn("frame", sequence=frame_indices), rr.TimeColumn("time", timestamp=frame_timestamps)],
-        columns=columns,
-    )
 
 
 def _send_series(

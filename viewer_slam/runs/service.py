@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..dataset.frame import Frame, Sequence
-from ..diagnosis import FrameSignals, SignalRecorder, diagnose_run
+from ..diagnosis import FrameSignals, ImageSignals, SignalRecorder, diagnose_run, measure_image
 from ..evaluation.evaluation import Evaluation
 from ..pipelines.base import Pipeline, make_pipeline
 from ..pipelines.events import Event, FrameTracked
@@ -80,11 +80,14 @@ def score_run(
     sinks: Iterable[Sink] = (),
     frame_sinks: Iterable[Callable[[Frame], None]] = (),
     should_stop: Callable[[], bool] = lambda: False,
+    image_signals: Callable[[Frame], ImageSignals] = measure_image,
 ) -> ScoredRun:
     """Drive ``pipeline`` over ``sequence`` as the run called ``name`` (see
     :func:`~viewer_slam.pipelines.run.drive` for the frames, ``sinks`` and stopping), then
-    diagnose its losses and score it over the frames it processed."""
-    signals = SignalRecorder()
+    diagnose its losses and score it over the frames it processed; ``image_signals`` measures
+    what each frame shows (a :class:`~viewer_slam.diagnosis.MeasuredImages` shared by the runs
+    over the same frames measures each frame once)."""
+    signals = SignalRecorder(image_signals)
     processed = _ProcessedFrames()
     run = drive(
         pipeline,
