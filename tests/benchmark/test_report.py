@@ -14,7 +14,7 @@ from viewer_slam.benchmark.tables import COLUMNS
 from viewer_slam.cli import main
 from viewer_slam.pipelines import base
 
-ISSUE_COLUMNS = [
+DOCUMENTED_COLUMNS = [
     "sequence",
     "pipeline",
     "ate_rmse",
@@ -68,17 +68,17 @@ def written(results, tmp_path_factory):
 
 
 def test_csv_and_json_have_the_documented_columns(written):
-    assert list(COLUMNS) == ISSUE_COLUMNS
+    assert list(COLUMNS) == DOCUMENTED_COLUMNS
     with open(written / "results.csv", newline="") as handle:
         reader = csv.DictReader(handle)
         rows = list(reader)
-    assert reader.fieldnames == ISSUE_COLUMNS and len(rows) == 5
+    assert reader.fieldnames == DOCUMENTED_COLUMNS and len(rows) == 5
     assert [row["status"] for row in rows] == ["ok", "ok", "ok", "ok", "failed"]
     assert rows[4]["ate_rmse"] == "" and rows[4]["sequence"] == "broken"
     assert json.loads(rows[1]["lost_intervals"])[0][1] == pytest.approx(1000.0 + 29 / 30, abs=1e-6)
     assert int(rows[1]["frames_with_pose"]) == 10 and int(rows[1]["frames"]) == 30
     data = json.loads((written / "results.json").read_text())
-    assert [list(row) for row in data] == [ISSUE_COLUMNS] * 5
+    assert [list(row) for row in data] == [DOCUMENTED_COLUMNS] * 5
     assert data[0]["ate_rmse"] == pytest.approx(0.05 * 3**0.5, rel=1e-3)  # |(±.05, ±.05, ±.05)| every frame
     assert data[1]["coverage"] == pytest.approx(9 / 29, abs=1e-5)
     assert data[1]["penalized_ate_rmse"] > 10 * data[1]["ate_rmse"]
