@@ -5,7 +5,14 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
+from viewer_slam.frontend.features import (
+    SMOOTHING_DEPTH_ERROR_RATIO,
+    SMOOTHING_OFFSETS,
+    SMOOTHING_WEIGHTS,
+    FeatureExtractor,
+    Features,
+    smoothed_depth,
+)
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
 from viewer_slam.pipelines.params import apply_overrides, resolve_params
@@ -679,6 +686,35 @@ def test_a_keypoint_without_depth_at_its_pixel_stays_without_depth_and_the_borde
     smoothed = smoothed_depth(depth, np.array([1, 0]), np.array([1, 0]))
     assert smoothed[0] == 0.0
     assert smoothed[1] == pytest.approx((4 * 2.01 + 2 * 2.0 + 2 * 2.0) / 8, abs=1e-6)  # (0, 1), (1, 0); (1, 1) missing
+
+
+def numpy_smoothed_depth(depth, rows, cols):
+    """The smoothing written on the (N, 9) window with NumPy: the formula the compiled one keeps to the bit."""
+    neighbour_rows, neighbour_cols = rows[:, None] + SMOOTHING_OFFSETS[:, 0], cols[:, None] + SMOOTHING_OFFSETS[:, 1]
+    height, width = depth.shape
+    inside = (neighbour_rows >= 0) & (neighbour_rows < height) & (neighbour_cols >= 0) & (neighbour_cols < width)
+    window = depth[np.clip(neighbour_rows, 0, height - 1), np.clip(neighbour_cols, 0, width - 1)].astype(np.float64)
+    centre = window[:, 4:5]
+    with np.errstate(invalid="ignore"):
+        near = np.abs(window - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre
+    counted = inside & (window > 0) & np.isfinite(window) & near
+    weights = SMOOTHING_WEIGHTS * counted
+    mean = (weights * np.where(counted, window, 0.0)).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
+    return np.where(centre[:, 0] > 0, mean, 0.0)
+
+
+def test_the_smoothing_gives_the_numpy_formulas_bits_with_missing_infinite_and_negative_depths_and_at_borders():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        height, width = rng.integers(1, 12, 2)
+        depth = rng.uniform(0.5, 5.0, (height, width)) * rng.uniform(0.97, 1.03, (height, width))
+        for value, share in ((0.0, 0.2), (np.nan, 0.05), (np.inf, 0.05), (-1.0, 0.05)):
+            depth[rng.random((height, width)) < share] = value
+        depth = depth.astype(np.float32)
+        rows, cols = rng.integers(0, height, 40), rng.integers(0, width, 40)
+        np.testing.assert_array_equal(
+            smoothed_depth(depth, rows, cols), numpy_smoothed_depth(depth, rows, cols), strict=True
+        )
 
 
 def test_with_vis_depth_as_mask_corners_are_only_detected_where_the_depth_is_valid():

@@ -12,6 +12,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
+from ..compiled import jit
 from ..errors import InputError
 from ..geometry.camera import Camera
 from .adjuster import ADJUSTABLE, ORB_THRESHOLD, SIFT_THRESHOLD, GridDetector
@@ -127,7 +128,7 @@ class FeatureExtractor:
         if self.adjusted is not None:
             keypoints = self.adjusted.detect(gray)
             if keypoints:
-                with_depth = ~np.isnan(self.backproject(np.array([k.pt for k in keypoints], np.float32), depth)[:, 0])
+                with_depth = ~np.isnan(self.backproject(cv2.KeyPoint_convert(keypoints), depth)[:, 0])
                 keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
         else:
             keypoints = self.detector.detect(gray, self._in_range(depth) if self.depth_mask else None)
@@ -149,7 +150,7 @@ class FeatureExtractor:
                 np.zeros((0, 3)),
                 self.binary,
             )
-        xy = np.array([k.pt for k in keypoints], dtype=np.float32)
+        xy = cv2.KeyPoint_convert(keypoints)  # float32 (N, 2), as the keypoints hold them
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
@@ -177,28 +178,46 @@ class FeatureExtractor:
         return points
 
 
+@jit
+def _smoothed_depth(depth, rows, cols):
+    """:func:`smoothed_depth` a keypoint at a time, operation for operation as NumPy computes
+    it on the (N, 9) window: each sum over a row of nine is NumPy's pairwise one (eight partial
+    sums added in pairs, then the ninth term), so the result is the same to the bit."""
+    height, width = depth.shape
+    smoothed = np.zeros(rows.shape[0])
+    terms, weights = np.empty(9), np.empty(9)
+    for i in range(rows.shape[0]):
+        centre = np.float64(depth[rows[i], cols[i]])
+        for k in range(9):
+            row, col = rows[i] + SMOOTHING_OFFSETS[k, 0], cols[i] + SMOOTHING_OFFSETS[k, 1]
+            value = np.float64(depth[min(max(row, 0), height - 1), min(max(col, 0), width - 1)])
+            counted = (
+                0 <= row < height
+                and 0 <= col < width
+                and value > 0
+                and np.isfinite(value)
+                and abs(value - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre
+            )
+            weights[k] = SMOOTHING_WEIGHTS[k] * (1.0 if counted else 0.0)
+            terms[k] = weights[k] * (value if counted else 0.0)
+        if centre > 0:
+            smoothed[i] = _sum_of_nine(terms) / max(_sum_of_nine(weights), 1e-12)
+    return smoothed
+
+
+@jit
+def _sum_of_nine(values):
+    """NumPy's pairwise sum of nine values."""
+    return (
+        ((values[0] + values[1]) + (values[2] + values[3])) + ((values[4] + values[5]) + (values[6] + values[7]))
+    ) + values[8]
+
+
 def smoothed_depth(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Depth at pixels (rows, cols) smoothed as RTAB-Map's ``util2d::getDepth``: a weighted
     mean over the 3x3 neighbourhood (:data:`SMOOTHING_WEIGHTS`) of the measured depths closer
     to the centre's than :data:`SMOOTHING_DEPTH_ERROR_RATIO` times it; 0 where the centre has none."""
-    neighbour_rows = rows[:, None] + SMOOTHING_OFFSETS[:, 0]
-    neighbour_cols = cols[:, None] + SMOOTHING_OFFSETS[:, 1]
-    inside = (
-        (neighbour_rows >= 0)
-        & (neighbour_rows < depth.shape[0])
-        & (neighbour_cols >= 0)
-        & (neighbour_cols < depth.shape[1])
-    )
-    window = depth[
-        np.clip(neighbour_rows, 0, depth.shape[0] - 1), np.clip(neighbour_cols, 0, depth.shape[1] - 1)
-    ].astype(np.float64)
-    centre = window[:, 4:5]
-    counted = (
-        inside & (window > 0) & np.isfinite(window) & (np.abs(window - centre) < SMOOTHING_DEPTH_ERROR_RATIO * centre)
-    )
-    weights = SMOOTHING_WEIGHTS * counted
-    mean = (weights * np.where(counted, window, 0.0)).sum(axis=1) / np.maximum(weights.sum(axis=1), 1e-12)
-    return np.where(centre[:, 0] > 0, mean, 0.0)
+    return _smoothed_depth(depth, np.asarray(rows, np.int64), np.asarray(cols, np.int64))
 
 
 def match_descriptors(
