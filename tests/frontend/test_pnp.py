@@ -182,7 +182,7 @@ def test_counting_stops_only_where_the_hypothesis_can_no_longer_become_the_best(
         rotation = Rotation.from_rotvec(rng.normal(0, 0.02, 3)).as_matrix() @ invert(pose)[:3, :3]
         translation = invert(pose)[:3, 3] + rng.normal(0, 0.02, 3)
         threshold, to_beat = np.float32(rng.choice([2.0, 4.0, 16.0])), int(rng.integers(-1, 200))
-        args = (objects, seen, rotation, translation, lens.intrinsics, lens.coefficients, lens.tilt)
+        args = (objects, seen, rotation, translation, lens.intrinsics, lens.coefficients, lens.tilt, lens.plain)
         every, _ = _reprojection_errors(*args, np.float32(np.inf), -1)
         errors, counted = _reprojection_errors(*args, threshold, to_beat)
         within = int((every <= threshold).sum())

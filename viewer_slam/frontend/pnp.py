@@ -42,6 +42,7 @@ LOW_32 = np.uint64((1 << 32) - 1)
 HIGH_SHIFT = np.uint64(32)
 EVERY_ERROR = np.float32(np.inf)  # a threshold no error exceeds: every point counted, none skipped
 DISTORTION_COEFFICIENTS = 14  # OpenCV's longest model: k1 k2 p1 p2 k3 k4 k5 k6 s1..s4 tau_x tau_y
+PLAIN_COEFFICIENTS = 5  # k1 k2 p1 p2 k3
 
 
 @dataclass
@@ -95,11 +96,14 @@ def iterations_needed(confidence: float, outlier_ratio: float, sample_size: int,
 @dataclass(frozen=True)
 class Lens:
     """A camera as ``cv::projectPoints`` reads it: the intrinsics, the distortion coefficients
-    padded to OpenCV's fourteen, and the tilted-sensor matrix they imply."""
+    padded to OpenCV's fourteen, and the tilted-sensor matrix they imply. ``plain``: at most
+    the five-coefficient model (k1 k2 p1 p2 k3), whose pixels the projection reaches without
+    the rational, thin-prism and tilt terms, which add exact zeros and multiply by exact ones."""
 
     intrinsics: np.ndarray
     coefficients: np.ndarray
     tilt: np.ndarray
+    plain: bool
 
     @classmethod
     def of(cls, K: np.ndarray, distortion: np.ndarray | None) -> "Lens":
@@ -111,6 +115,7 @@ class Lens:
             np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2]], dtype=np.float64),
             coefficients,
             _tilt_matrix(coefficients[12], coefficients[13]) if tilted else np.eye(3),
+            not coefficients[PLAIN_COEFFICIENTS:].any(),
         )
 
 
@@ -138,11 +143,14 @@ def _matx_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @jit
-def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, tilt, threshold, to_beat):
+def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, tilt, plain, threshold, to_beat):
     """``cvProjectPoints2Internal`` for each point, operation for operation in float64, its
     pixel rounded to float32 (the caller's points are float32), then the distance to the
     observed pixel as RTAB-Map's copy takes it: the offset in float32, the distance in
     float64 rounded to float32; and how many of those errors are within ``threshold``.
+    With a ``plain`` lens (:class:`Lens`) the terms that add zeros and multiply by ones are
+    left out: the same errors wherever the projection is finite (where it overflows, an
+    infinite error instead of a NaN, neither within any threshold).
 
     The points are taken in order until those left could no longer take that count above
     ``to_beat``: RANSAC needs no more of a hypothesis that cannot become the best. The count is
@@ -168,16 +176,20 @@ def _reprojection_errors(objects, pixels, rotation, translation, intrinsics, k, 
         a2 = r2 + 2 * x * x
         a3 = r2 + 2 * y * y
         cdist = 1 + k[0] * r2 + k[1] * r4 + k[4] * r6
-        icdist2 = 1.0 / (1 + k[5] * r2 + k[6] * r4 + k[7] * r6)
-        xd0 = x * cdist * icdist2 + k[2] * a1 + k[3] * a2 + k[8] * r2 + k[9] * r4
-        yd0 = y * cdist * icdist2 + k[2] * a3 + k[3] * a1 + k[10] * r2 + k[11] * r4
-        # the tilt matrix times (xd0, yd0, 1), summed as Matx sums: from 0, in column order
-        tilted_x = 0.0 + tilt[0, 0] * xd0 + tilt[0, 1] * yd0 + tilt[0, 2] * 1.0
-        tilted_y = 0.0 + tilt[1, 0] * xd0 + tilt[1, 1] * yd0 + tilt[1, 2] * 1.0
-        tilted_z = 0.0 + tilt[2, 0] * xd0 + tilt[2, 1] * yd0 + tilt[2, 2] * 1.0
-        inverse = 1.0 / tilted_z if tilted_z != 0.0 else 1.0
-        u = np.float32((inverse * tilted_x) * fx + cx)
-        v = np.float32((inverse * tilted_y) * fy + cy)
+        if plain:
+            u = np.float32((x * cdist + k[2] * a1 + k[3] * a2) * fx + cx)
+            v = np.float32((y * cdist + k[2] * a3 + k[3] * a1) * fy + cy)
+        else:
+            icdist2 = 1.0 / (1 + k[5] * r2 + k[6] * r4 + k[7] * r6)
+            xd0 = x * cdist * icdist2 + k[2] * a1 + k[3] * a2 + k[8] * r2 + k[9] * r4
+            yd0 = y * cdist * icdist2 + k[2] * a3 + k[3] * a1 + k[10] * r2 + k[11] * r4
+            # the tilt matrix times (xd0, yd0, 1), summed as Matx sums: from 0, in column order
+            tilted_x = 0.0 + tilt[0, 0] * xd0 + tilt[0, 1] * yd0 + tilt[0, 2] * 1.0
+            tilted_y = 0.0 + tilt[1, 0] * xd0 + tilt[1, 1] * yd0 + tilt[1, 2] * 1.0
+            tilted_z = 0.0 + tilt[2, 0] * xd0 + tilt[2, 1] * yd0 + tilt[2, 2] * 1.0
+            inverse = 1.0 / tilted_z if tilted_z != 0.0 else 1.0
+            u = np.float32((inverse * tilted_x) * fx + cx)
+            v = np.float32((inverse * tilted_y) * fy + cy)
         du, dv = np.float64(pixels[n, 0] - u), np.float64(pixels[n, 1] - v)
         errors[n] = np.float32(np.sqrt(du * du + dv * dv))
         if errors[n] <= threshold:
@@ -198,6 +210,7 @@ def reprojection_errors(
         lens.intrinsics,
         lens.coefficients,
         lens.tilt,
+        lens.plain,
         EVERY_ERROR,
         -1,
     )
@@ -284,6 +297,7 @@ def solve_pnp_ransac(
             lens.intrinsics,
             lens.coefficients,
             lens.tilt,
+            lens.plain,
             threshold,
             to_beat,
         )
