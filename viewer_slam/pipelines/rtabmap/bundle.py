@@ -61,7 +61,8 @@ def bundle_observations(
     # A point seen by fewer than twice max_frames key frames keeps every reference (k = 1).
     chosen = [point if len(point) < 2 * max_frames else sampled(point, max_frames) for point in references]
     count = len(pixels)
-    stored = np.array(list(chain.from_iterable(chosen)), dtype=np.float64).reshape(-1, 4)
+    # the references' numbers in one flat run: no Python tuple per reference for NumPy to unpack
+    stored = np.fromiter(chain.from_iterable(chain.from_iterable(chosen)), dtype=np.float64).reshape(-1, 4)
     return Observations(
         point=np.concatenate([np.repeat(np.arange(len(chosen)), list(map(len, chosen))), np.arange(count)]),
         frame=np.concatenate([stored[:, 0].astype(int), np.full(count, FREE_FRAME)]),
