@@ -78,6 +78,11 @@ def _make_detector(kind: str, max_features: int):
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
 
 
+def _positions(keypoints: list) -> np.ndarray:
+    """The keypoints' pixel positions, float32 (N, 2) as they hold them, read in one OpenCV call."""
+    return np.asarray(cv2.KeyPoint.convert(keypoints), np.float32)
+
+
 def _strongest(responses: np.ndarray, limit: int) -> np.ndarray:
     """Indices of the ``limit`` strongest keypoints, strongest first."""
     return np.argsort(-responses, kind="stable")[:limit]
@@ -128,7 +133,7 @@ class FeatureExtractor:
         if self.adjusted is not None:
             keypoints = self.adjusted.detect(gray)
             if keypoints:
-                with_depth = ~np.isnan(self.backproject(cv2.KeyPoint_convert(keypoints), depth)[:, 0])
+                with_depth = ~np.isnan(self.backproject(_positions(keypoints), depth)[:, 0])
                 keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
         else:
             keypoints = self.detector.detect(gray, self._in_range(depth) if self.depth_mask else None)
@@ -150,7 +155,7 @@ class FeatureExtractor:
                 np.zeros((0, 3)),
                 self.binary,
             )
-        xy = cv2.KeyPoint_convert(keypoints)  # float32 (N, 2), as the keypoints hold them
+        xy = _positions(keypoints)
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
