@@ -144,12 +144,17 @@ def test_local_map_cap_keeps_every_new_point_of_a_key_frame_larger_than_the_map(
     assert local_map.points[:, 0].astype(int).tolist() == list(range(11, 50))
 
 
+def add_all(vocabulary: Vocabulary, location: int, rows: np.ndarray) -> np.ndarray:
+    """Add a location whose every feature is quantised to a word."""
+    return vocabulary.add_location(location, rows, np.arange(len(rows)))
+
+
 def test_vocabulary_reuses_words_and_creates_new_ones():
     vocabulary = Vocabulary(nndr=0.8)
     base = descriptors(300)
-    first = vocabulary.add_location(0, base)
+    first = add_all(vocabulary, 0, base)
     assert sorted(first.tolist()) == list(range(300)) and len(vocabulary) == 300
-    again = vocabulary.add_location(1, np.vstack([flip_bits(base[:200], 10), descriptors(50)]))
+    again = add_all(vocabulary, 1, np.vstack([flip_bits(base[:200], 10), descriptors(50)]))
     assert np.array_equal(again[:200], first[:200])
     assert set(again[200:].tolist()) == set(range(300, 350))
 
@@ -158,7 +163,7 @@ def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
     vocabulary = Vocabulary(nndr=0.8, seed=3)
     words = descriptors(3 * REBUILD_PENDING)
     ids = np.concatenate(
-        [vocabulary.add_location(location, chunk) for location, chunk in enumerate(np.split(words, 6))]
+        [add_all(vocabulary, location, chunk) for location, chunk in enumerate(np.split(words, 6))]
     )
     queries = flip_bits(words[::7], 12)
     # Oracle: brute-force ratio test over each word's creating descriptor.
@@ -171,8 +176,8 @@ def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
 def test_words_of_long_term_memory_are_not_searched_until_retrieved():
     vocabulary = Vocabulary(nndr=0.8)
     base = descriptors(100)
-    words = vocabulary.add_location(0, base)
-    vocabulary.add_location(1, descriptors(100))
+    words = add_all(vocabulary, 0, base)
+    add_all(vocabulary, 1, descriptors(100))
     vocabulary.unindex(0, words)
     assert (vocabulary.quantize(base) == -1).all() and len(vocabulary) == 100
     vocabulary.index(0, words)
@@ -182,7 +187,7 @@ def test_words_of_long_term_memory_are_not_searched_until_retrieved():
 def vocabulary_of(words: int) -> Vocabulary:
     """A vocabulary holding ``words`` words that no location holds yet."""
     vocabulary = Vocabulary(nndr=0.8)
-    vocabulary.unindex(-1, vocabulary.add_location(-1, descriptors(words)))
+    vocabulary.unindex(-1, add_all(vocabulary, -1, descriptors(words)))
     return vocabulary
 
 
@@ -203,7 +208,22 @@ def test_a_location_with_fewer_words_than_half_the_mean_is_a_bad_signature():
         pipeline.vocabulary.index(location_id, np.array(words))
     assert pipeline.vocabulary.mean_words_per_location() == 13 // 3  # 4: Kp/BadSignRatio 0.5 of it is 2
     keep = lambda count: len(pipeline._signature(view(scene(count), np.eye(4), descriptors(count))))  # noqa: E731
-    assert (keep(1), keep(2), keep(600)) == (0, 2, RtabmapParams().words_per_location)
+    assert (keep(1), keep(2), keep(600)) == (0, 2, 600)  # all of them kept, not only the words
+
+
+def test_only_the_strongest_features_become_words_but_every_feature_counts_in_tf_idf():
+    # Memory::createSignature quantises the Kp/MaxFeatures strongest features and keeps the
+    # rest with no word; Memory::computeLikelihood divides by every feature the location holds
+    # (getNi), and the mean words per location counts the dictionary's references only.
+    vocabulary = vocabulary_of(0)
+    rows = descriptors(6)
+    words = vocabulary.add_location(10, rows, np.array([0, 2, 4]))
+    assert (words[[1, 3, 5]] == -1).all() and len(set(words[[0, 2, 4]].tolist())) == 3
+    vocabulary.index(11, np.array([words[0], -1]))
+    assert vocabulary.mean_words_per_location() == 4 // 2
+    scores = vocabulary.scores(np.array([words[2], -1]), [10, 11])
+    assert scores == pytest.approx([1 / 6 * np.log10(2), 0.0])
+    assert (vocabulary.quantize(rows[[1, 3, 5]]) == -1).all()
 
 
 def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_gets_mean_over_std_plus_one():
@@ -212,6 +232,22 @@ def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_g
     std = np.sqrt(5.0)
     assert values == pytest.approx([1, 1, 1, 1, 1, 1, (6 - (std - 1e-4)) / 2])
     assert virtual == pytest.approx(2 / std + 1)
+
+
+def test_virtual_place_gets_mean_over_std_plus_one_even_when_no_score_stands_out():
+    # The original's debug log (rtabmap-rgbd_dataset --udebug, 360_kidnap seed 0 per frame, its
+    # second Bayes update): "mean=0.021662, stdDev=0.003616, max=0.024219", so the two scores
+    # are 0.024219 and 0.019105, neither above mean + std; then "Highest hypothesis=1,
+    # value=0.076489", which only a virtual place likelihood of mean / std + 1 gives.
+    scores = np.array([0.024219, 2 * 0.021662 - 0.024219])
+    values, virtual = adjusted_likelihood(scores)
+    assert values.tolist() == [1.0, 1.0]
+    assert virtual == pytest.approx(0.021662 / 0.003616 + 1, rel=1e-3)
+    bayes = BayesFilter()
+    bayes.update([1], lambda location: {1: 0}, np.ones(1), 2.0)  # its first: one score, std 0
+    chain = {1: {1: 0, 2: 1}, 2: {2: 0, 1: 1}}
+    posterior = bayes.update([1, 2], chain.__getitem__, values, virtual)
+    assert highest_hypothesis(posterior).value == pytest.approx(0.076489, rel=1e-3)
 
 
 @pytest.mark.parametrize("scores", [[0.0, 3.0, 3.0], [0.0, 0.0, 0.0]])
@@ -288,6 +324,8 @@ def test_graph_neighbours_count_margins_by_odometry_links_and_keep_loop_links_on
 def test_similarity_counts_shared_words_against_the_larger_location():
     assert similarity(np.array([1, 2, 2, 3]), np.array([2, 2, 3, 4, 5])) == pytest.approx(3 / 5)
     assert similarity(np.array([1]), np.array([], int)) == 0.0
+    # Features with no word (-1) count in neither location (Signature::compareTo's invalid words).
+    assert similarity(np.array([1, 2, -1, -1]), np.array([2, 3, -1])) == pytest.approx(1 / 2)
 
 
 def location(location_id: int, words: np.ndarray, weight: int = 0) -> Location:

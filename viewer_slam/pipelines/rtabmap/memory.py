@@ -51,7 +51,9 @@ class Location:
 
 def similarity(words_a: np.ndarray, words_b: np.ndarray) -> float:
     """Share of words two locations have in common (counted with multiplicity) relative to
-    the larger of the two, as RTAB-Map compares signatures."""
+    the larger of the two, as RTAB-Map compares signatures (Signature::compareTo: features
+    without a word, -1 here, count in neither)."""
+    words_a, words_b = words_a[words_a >= 0], words_b[words_b >= 0]
     if len(words_a) == 0 or len(words_b) == 0:
         return 0.0
     ids_a, counts_a = np.unique(words_a, return_counts=True)

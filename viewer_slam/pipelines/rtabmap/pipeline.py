@@ -232,23 +232,24 @@ class Rtabmap(Pipeline):
         """The camera stayed: a view similar to the last location strengthens it (weight)."""
         assert self.current_location is not None  # asked after the session's first location
         last = self.memory.locations[self.current_location]
-        words = self.vocabulary.quantize(self._strongest(features).descriptors)
+        words = self.vocabulary.quantize(features.descriptors[self._strongest(features)])
         if similarity(last.words, words) > self.params.rehearsal_similarity:
             last.weight += 1
 
-    def _strongest(self, features: Features) -> Features:
-        """The Kp/MaxFeatures strongest features, which a location keeps as its words."""
+    def _strongest(self, features: Features) -> np.ndarray:
+        """Rows of the Kp/MaxFeatures strongest features, the ones quantised to words."""
         order = np.argsort(-features.responses, kind="stable")[: self.params.words_per_location]
-        return features.subset(np.sort(order))
+        return np.sort(order)
 
     def _signature(self, features: Features) -> Features:
-        """The features a new location keeps: none when they are fewer than Kp/BadSignRatio of
-        the mean words per STM/WM location (Memory::createSignature), a bad signature that
-        takes no part in loop closure detection."""
-        kept = self._strongest(features)
-        if len(kept) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
-            return kept.subset(np.zeros(0, int))
-        return kept
+        """The features a new location keeps (Memory::createSignature with Mem/UseOdomFeatures):
+        all of odometry's, up to Vis/MaxFeatures, for its registrations, of which only the
+        Kp/MaxFeatures strongest become words; none when they are fewer than Kp/BadSignRatio
+        of the mean words per STM/WM location, a bad signature that takes no part in loop
+        closure detection."""
+        if len(features) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
+            return features.subset(np.zeros(0, int))
+        return features
 
     # -- per location ------------------------------------------------------------------
 
@@ -258,7 +259,7 @@ class Rtabmap(Pipeline):
         start = time.perf_counter()
         kept = self._signature(features)
         location_id = len(self.memory.locations)
-        words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
+        words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors, self._strongest(kept))
         location = Location(
             location_id,
             self.session,
