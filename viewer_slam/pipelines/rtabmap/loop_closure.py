@@ -154,37 +154,41 @@ class AppearanceDetector:
         )
 
 
+def nearby_locations(
+    memory: Memory, poses: dict[int, np.ndarray], location: int, same_map, params: RtabmapParams
+) -> set[int]:
+    """Memory::getNeighborsIdRadius: the locations of ``location``'s map within RGBD/LocalRadius
+    of it and at most RGBD/ProximityMaxGraphDepth links from it, STM included."""
+    here = poses[location][:3, 3]
+    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True, follow_proximity=True)
+    return {
+        i
+        for i in depth
+        if i != location and same_map(i) and np.linalg.norm(poses[i][:3, 3] - here) < params.local_radius
+    }
+
+
 def proximity_candidates(
     memory: Memory,
     poses: dict[int, np.ndarray],
     location: int,
-    same_map,
+    nearby: set[int],
     likelihood: dict[int, float],
     params: RtabmapParams,
 ) -> list[int]:
     """Rtabmap::process, proximity detection by space: one location per path to register with.
 
-    Candidates are WM locations of the same map within RGBD/LocalRadius of ``location`` and
-    at most RGBD/ProximityMaxGraphDepth links from it (Memory::getNeighborsIdRadius); they
-    are cut into paths of consecutive locations, compared from the path of highest
-    likelihood (then newest) for at most RGBD/ProximityMaxPaths paths. In a path, the
-    locations looking within RGBD/ProximityAngle of the camera are kept and the one of
-    highest likelihood is taken, or the nearest when none has any; it must lie within
-    RGBD/ProximityPathFilteringRadius and not be linked to ``location`` already.
+    Candidates are the ``nearby`` locations (:func:`nearby_locations`) off STM; they are cut
+    into paths of consecutive locations, compared from the path of highest likelihood (then
+    newest) for at most RGBD/ProximityMaxPaths paths. In a path, the locations looking within
+    RGBD/ProximityAngle of the camera are kept and the one of highest likelihood is taken, or
+    the nearest when none has any; it must lie within RGBD/ProximityPathFilteringRadius and
+    not be linked to ``location`` already.
     """
     here = poses[location]
-    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True, follow_proximity=True)
     stm = set(memory.stm)
-    nearby = sorted(
-        i
-        for i in depth
-        if i not in stm
-        and i != location
-        and same_map(i)
-        and np.linalg.norm(poses[i][:3, 3] - here[:3, 3]) < params.local_radius
-    )
     paths: list[list[int]] = []
-    for i in nearby:
+    for i in sorted(nearby - stm):
         if paths and memory.locations[paths[-1][-1]].links.get(i) is Link.NEIGHBOUR:
             paths[-1].append(i)
         else:
@@ -206,13 +210,19 @@ def proximity_candidates(
         best = max(facing, key=lambda i: (likelihood.get(i, 0.0), -i))
         if likelihood.get(best, 0.0) <= 0:
             best = min(facing, key=lambda i: np.linalg.norm(poses[i][:3, 3] - here[:3, 3]))
-        close = (
-            np.linalg.norm(poses[best][:3, 3] - here[:3, 3]) < params.proximity_filtering_radius
-            or params.proximity_filtering_radius <= 0
-        )
-        if close and best not in memory.locations[location].links:
+        if (
+            within_filtering_radius(poses[best][:3, 3] - here[:3, 3], params)
+            and best not in memory.locations[location].links
+        ):
             chosen.append(best)
     return chosen
+
+
+def within_filtering_radius(translation: np.ndarray, params: RtabmapParams) -> bool:
+    """RGBD/ProximityPathFilteringRadius (0: no limit): how far a proximity candidate, and the
+    registration that links it, may reach."""
+    radius = params.proximity_filtering_radius
+    return radius <= 0 or float(np.linalg.norm(translation)) < radius
 
 
 def view_angle(a: np.ndarray, b: np.ndarray) -> float:
