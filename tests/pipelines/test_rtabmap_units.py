@@ -5,25 +5,35 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from viewer_slam.dataset.frame import Frame
 from viewer_slam.frontend.features import FeatureExtractor, Features, smoothed_depth
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
+from viewer_slam.pipelines.events import GraphEdge
 from viewer_slam.pipelines.params import apply_overrides, resolve_params
 from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
+from viewer_slam.pipelines.rtabmap import pipeline as rtabmap_pipeline
 from viewer_slam.pipelines.rtabmap.bayes import (
     PREDICTION_LC,
     VIRTUAL_PLACE,
     BayesFilter,
+    Hypothesis,
     adjusted_likelihood,
     highest_hypothesis,
     prediction_matrix,
 )
 from viewer_slam.pipelines.rtabmap.correspondences import BRUTE_FORCE, KD_TREE, TreeSeeds, word_matches
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
-from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
+from viewer_slam.pipelines.rtabmap.loop_closure import (
+    Registration,
+    proximity_candidates,
+    proximity_paths,
+    too_large_rotation,
+)
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
+from viewer_slam.pipelines.stopwatch import Stopwatch
 
 RNG = np.random.default_rng(0)
 
@@ -162,9 +172,7 @@ def test_vocabulary_reuses_words_and_creates_new_ones():
 def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
     vocabulary = Vocabulary(nndr=0.8, seed=3)
     words = descriptors(3 * REBUILD_PENDING)
-    ids = np.concatenate(
-        [add_all(vocabulary, location, chunk) for location, chunk in enumerate(np.split(words, 6))]
-    )
+    ids = np.concatenate([add_all(vocabulary, location, chunk) for location, chunk in enumerate(np.split(words, 6))])
     queries = flip_bits(words[::7], 12)
     # Oracle: brute-force ratio test over each word's creating descriptor.
     word_ids, first = np.unique(ids, return_index=True)
@@ -761,3 +769,76 @@ def test_bad_rtabmap_parameters_are_one_line_cli_errors(assignment, message, tmp
     )
     error = capsys.readouterr().err.strip()
     assert code == 2 and error.startswith("viewslam: error:") and message in error and "\n" not in error
+
+
+def line_of_poses(count: int, step: float) -> dict[int, np.ndarray]:
+    """Locations ``0 .. count - 1`` looking the same way, ``step`` apart along x."""
+    return {i: make_pose(np.eye(3), [i * step, 0.0, 0.0]) for i in range(count)}
+
+
+def test_proximity_paths_cut_a_chain_by_graph_depth_from_its_nearest_location():
+    # Rtabmap::getPaths: from the nearest remaining candidate, its neighbours by odometry links
+    # at margins 0 .. RGBD/ProximityMaxGraphDepth - 1 through candidates only, in id order.
+    memory = chain_memory(121)
+    poses = line_of_poses(121, 0.01)  # the camera at location 120, beyond 99
+    assert proximity_paths(memory, poses, 120, set(range(100)), 50) == {99: list(range(50, 100)), 49: list(range(50))}
+    # A location that is no candidate (here 70, say in STM) cuts the chain.
+    candidates = set(range(100)) - {70}
+    assert proximity_paths(memory, poses, 120, candidates, 50) == {
+        99: list(range(71, 100)),
+        69: list(range(20, 70)),
+        19: list(range(20)),
+    }
+
+
+def test_a_path_proposes_its_first_location_of_highest_likelihood_or_else_its_nearest():
+    memory = chain_memory(121, stm_size=10)  # 111 .. 120 in STM
+    poses = line_of_poses(121, 0.004)  # 0.48 m in all, inside RGBD/ProximityPathFilteringRadius 1
+    params = RtabmapParams()
+    nearby = set(range(120))
+    # Adjusted likelihoods are 1 for every location that does not stand out: the key of each
+    # path is its lowest id (NearestPathKey keeps the first that beats the one before), and the
+    # path of the higher key is compared first.
+    ones = dict.fromkeys(range(111), 1.0)
+    assert proximity_candidates(memory, poses, 120, nearby, ones, params) == [61, 11, 0]
+    # No likelihood at all: each path's nearest location.
+    assert proximity_candidates(memory, poses, 120, nearby, {}, params) == [110, 60, 10]
+    # One standing out takes its path first, and is proposed itself.
+    assert proximity_candidates(memory, poses, 120, nearby, {**ones, 30: 3.0}, params)[0] == 30
+
+
+class _RegistersEverything:
+    """``register`` standing in for PnP: every pair registers 1 cm apart."""
+
+    def __call__(self, old, new, camera, params, tree_seeds):
+        return Registration(make_pose(np.eye(3), [0.01, 0.0, 0.0]), 100, 100)
+
+
+def proximity_pipeline(poses: dict[int, np.ndarray]):
+    """A pipeline whose memory chains the ``poses``' locations, the last ten in STM."""
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.memory = chain_memory(len(poses), stm_size=10)
+    for i, pose in poses.items():
+        pipeline.graph.add_location(i, 0, pose, Variance(1e-4, 1e-4))
+        pipeline.edges.add_node(i, float(i))
+    return pipeline
+
+
+@pytest.mark.parametrize(("hypothesis_away", "suppressed"), [(0.08, True), (12.0, False)])
+def test_a_proximity_link_near_the_hypothesis_takes_its_place(monkeypatch, hypothesis_away, suppressed):
+    # Rtabmap::process: proximity detection runs before the hypothesis is registered; once a
+    # proximity link is added, a hypothesis among the locations within RGBD/LocalRadius and
+    # RGBD/ProximityMaxGraphDepth is not registered ("Proximity detection on N is close to
+    # loop closure M, ignoring loop closure transform estimation"). The hypothesis, location
+    # 20, is 39 links away (within 50); 12 m away it is beyond the 10 m radius, and is kept.
+    monkeypatch.setattr(rtabmap_pipeline, "register", _RegistersEverything())
+    poses = line_of_poses(60, 0.004)
+    poses[20] = make_pose(np.eye(3), [poses[59][0, 3] - hypothesis_away, 0.0, 0.0])
+    pipeline = proximity_pipeline(poses)
+    frame = Frame(59, 59.0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
+    events: list = []
+    left = pipeline._proximity(frame, pipeline.memory.locations[59], {}, Hypothesis(20, 0.5), Stopwatch(), events)
+    edges = [e for e in events if isinstance(e, GraphEdge)]
+    assert any(e.accepted and e.detection == "proximity" for e in edges)
+    assert (left is None) == suppressed
+    assert any(not e.accepted and e.from_keyframe == 20 for e in edges) == suppressed
