@@ -842,3 +842,20 @@ def test_a_proximity_link_near_the_hypothesis_takes_its_place(monkeypatch, hypot
     assert any(e.accepted and e.detection == "proximity" for e in edges)
     assert (left is None) == suppressed
     assert any(not e.accepted and e.from_keyframe == 20 for e in edges) == suppressed
+
+
+@pytest.mark.parametrize(("hypothesis", "accepted"), [(0, True), (2, False)])
+def test_a_hypothesis_in_a_map_not_joined_yet_needs_only_the_aggressive_threshold(hypothesis, accepted):
+    # Rtabmap::process (0.23.8, RGBD/AggressiveLoopThr 0.05): a hypothesis "not linked to
+    # previous map of that hypothesis" (outside the current map's optimised graph) is verified
+    # from 0.05; one in the current map still needs Rtabmap/LoopThr 0.11. Value 0.08 here.
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.memory = chain_memory(4)
+    for i in range(4):
+        pipeline.graph.add_location(i, i // 2, make_pose(np.eye(3), [0.1 * i, 0.0, 0.0]), Variance(1e-4, 1e-4))
+        pipeline.edges.add_node(i, float(i))
+    frame = Frame(3, 3.0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
+    events: list = []
+    location = pipeline.memory.locations[3]
+    assert pipeline._accepts(frame, location, Hypothesis(hypothesis, 0.08), 5, events) == accepted
+    assert not events  # a value under the threshold that applies is no rejected hypothesis

@@ -371,12 +371,18 @@ class Rtabmap(Pipeline):
         self, frame: Frame, location: Location, hypothesis: Hypothesis, states: int, events: list[Event]
     ) -> bool:
         """Rtabmap::process: the hypothesis is to be verified when the sum of the loop closure
-        probabilities reaches Rtabmap/LoopThr, there is more than one location to choose from,
-        and (with Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
+        probabilities reaches Rtabmap/LoopThr (RGBD/AggressiveLoopThr, when lower, for a
+        hypothesis in a map not joined to the current one: "not linked to previous map of that
+        hypothesis"), there is more than one location to choose from, and (with
+        Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
         p, value, previous = self.params, hypothesis.value, self.last_hypothesis
+        threshold, name = p.loop_threshold, "Rtabmap/LoopThr"
+        joined = self.graph.map_of(hypothesis.location) == self.graph.map_of(location.id)
+        if not joined and p.aggressive_loop_threshold < threshold:
+            threshold, name = p.aggressive_loop_threshold, "RGBD/AggressiveLoopThr"
         reason = None
-        if value < p.loop_threshold:
-            reason = f"hypothesis {value:.2f} < Rtabmap/LoopThr {p.loop_threshold:g}"
+        if value < threshold:
+            reason = f"hypothesis {value:.2f} < {name} {threshold:g}"
         elif states <= 2:
             reason = "a single location to choose from"
         elif p.loop_ratio > 0 and previous and value < p.loop_ratio * previous:
@@ -385,7 +391,7 @@ class Rtabmap(Pipeline):
             reason = "no previous hypothesis (Rtabmap/LoopRatio is on)"
         if reason is None:
             return True
-        if value >= p.loop_threshold:
+        if value >= threshold:
             events.append(
                 GraphEdge(
                     frame.index,
