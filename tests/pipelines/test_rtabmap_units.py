@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from viewer_slam.dataset.frame import Frame
 from viewer_slam.frontend.features import (
     SMOOTHING_DEPTH_ERROR_RATIO,
     SMOOTHING_OFFSETS,
@@ -15,22 +16,31 @@ from viewer_slam.frontend.features import (
 )
 from viewer_slam.geometry.camera import Camera
 from viewer_slam.geometry.se3 import invert, make_pose, transform_points
+from viewer_slam.pipelines.events import GraphEdge
 from viewer_slam.pipelines.params import apply_overrides, resolve_params
 from viewer_slam.pipelines.rtabmap import PIPELINE, RtabmapParams
+from viewer_slam.pipelines.rtabmap import pipeline as rtabmap_pipeline
 from viewer_slam.pipelines.rtabmap.bayes import (
     PREDICTION_LC,
     VIRTUAL_PLACE,
     BayesFilter,
+    Hypothesis,
     adjusted_likelihood,
     highest_hypothesis,
     prediction_matrix,
 )
 from viewer_slam.pipelines.rtabmap.correspondences import BRUTE_FORCE, KD_TREE, TreeSeeds, word_matches
 from viewer_slam.pipelines.rtabmap.graph import LocationGraph, Variance, registration_variance
-from viewer_slam.pipelines.rtabmap.loop_closure import too_large_rotation
+from viewer_slam.pipelines.rtabmap.loop_closure import (
+    Registration,
+    proximity_candidates,
+    proximity_paths,
+    too_large_rotation,
+)
 from viewer_slam.pipelines.rtabmap.memory import Link, Location, Memory, similarity
 from viewer_slam.pipelines.rtabmap.odometry import FrameToMapOdometry, LocalMap, motion_over, velocity_of
 from viewer_slam.pipelines.rtabmap.vocabulary import REBUILD_PENDING, Vocabulary
+from viewer_slam.pipelines.stopwatch import Stopwatch
 
 RNG = np.random.default_rng(0)
 
@@ -151,12 +161,17 @@ def test_local_map_cap_keeps_every_new_point_of_a_key_frame_larger_than_the_map(
     assert local_map.points[:, 0].astype(int).tolist() == list(range(11, 50))
 
 
+def add_all(vocabulary: Vocabulary, location: int, rows: np.ndarray) -> np.ndarray:
+    """Add a location whose every feature is quantised to a word."""
+    return vocabulary.add_location(location, rows, np.arange(len(rows)))
+
+
 def test_vocabulary_reuses_words_and_creates_new_ones():
     vocabulary = Vocabulary(nndr=0.8)
     base = descriptors(300)
-    first = vocabulary.add_location(0, base)
+    first = add_all(vocabulary, 0, base)
     assert sorted(first.tolist()) == list(range(300)) and len(vocabulary) == 300
-    again = vocabulary.add_location(1, np.vstack([flip_bits(base[:200], 10), descriptors(50)]))
+    again = add_all(vocabulary, 1, np.vstack([flip_bits(base[:200], 10), descriptors(50)]))
     assert np.array_equal(again[:200], first[:200])
     assert set(again[200:].tolist()) == set(range(300, 350))
 
@@ -164,9 +179,7 @@ def test_vocabulary_reuses_words_and_creates_new_ones():
 def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
     vocabulary = Vocabulary(nndr=0.8, seed=3)
     words = descriptors(3 * REBUILD_PENDING)
-    ids = np.concatenate(
-        [vocabulary.add_location(location, chunk) for location, chunk in enumerate(np.split(words, 6))]
-    )
+    ids = np.concatenate([add_all(vocabulary, location, chunk) for location, chunk in enumerate(np.split(words, 6))])
     queries = flip_bits(words[::7], 12)
     # Oracle: brute-force ratio test over each word's creating descriptor.
     word_ids, first = np.unique(ids, return_index=True)
@@ -178,8 +191,8 @@ def test_vocabulary_search_after_index_rebuilds_agrees_with_exhaustive_search():
 def test_words_of_long_term_memory_are_not_searched_until_retrieved():
     vocabulary = Vocabulary(nndr=0.8)
     base = descriptors(100)
-    words = vocabulary.add_location(0, base)
-    vocabulary.add_location(1, descriptors(100))
+    words = add_all(vocabulary, 0, base)
+    add_all(vocabulary, 1, descriptors(100))
     vocabulary.unindex(0, words)
     assert (vocabulary.quantize(base) == -1).all() and len(vocabulary) == 100
     vocabulary.index(0, words)
@@ -189,7 +202,7 @@ def test_words_of_long_term_memory_are_not_searched_until_retrieved():
 def vocabulary_of(words: int) -> Vocabulary:
     """A vocabulary holding ``words`` words that no location holds yet."""
     vocabulary = Vocabulary(nndr=0.8)
-    vocabulary.unindex(-1, vocabulary.add_location(-1, descriptors(words)))
+    vocabulary.unindex(-1, add_all(vocabulary, -1, descriptors(words)))
     return vocabulary
 
 
@@ -210,7 +223,22 @@ def test_a_location_with_fewer_words_than_half_the_mean_is_a_bad_signature():
         pipeline.vocabulary.index(location_id, np.array(words))
     assert pipeline.vocabulary.mean_words_per_location() == 13 // 3  # 4: Kp/BadSignRatio 0.5 of it is 2
     keep = lambda count: len(pipeline._signature(view(scene(count), np.eye(4), descriptors(count))))  # noqa: E731
-    assert (keep(1), keep(2), keep(600)) == (0, 2, RtabmapParams().words_per_location)
+    assert (keep(1), keep(2), keep(600)) == (0, 2, 600)  # all of them kept, not only the words
+
+
+def test_only_the_strongest_features_become_words_but_every_feature_counts_in_tf_idf():
+    # Memory::createSignature quantises the Kp/MaxFeatures strongest features and keeps the
+    # rest with no word; Memory::computeLikelihood divides by every feature the location holds
+    # (getNi), and the mean words per location counts the dictionary's references only.
+    vocabulary = vocabulary_of(0)
+    rows = descriptors(6)
+    words = vocabulary.add_location(10, rows, np.array([0, 2, 4]))
+    assert (words[[1, 3, 5]] == -1).all() and len(set(words[[0, 2, 4]].tolist())) == 3
+    vocabulary.index(11, np.array([words[0], -1]))
+    assert vocabulary.mean_words_per_location() == 4 // 2
+    scores = vocabulary.scores(np.array([words[2], -1]), [10, 11])
+    assert scores == pytest.approx([1 / 6 * np.log10(2), 0.0])
+    assert (vocabulary.quantize(rows[[1, 3, 5]]) == -1).all()
 
 
 def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_gets_mean_over_std_plus_one():
@@ -219,6 +247,22 @@ def test_likelihood_is_normalised_by_the_non_zero_scores_and_the_virtual_place_g
     std = np.sqrt(5.0)
     assert values == pytest.approx([1, 1, 1, 1, 1, 1, (6 - (std - 1e-4)) / 2])
     assert virtual == pytest.approx(2 / std + 1)
+
+
+def test_virtual_place_gets_mean_over_std_plus_one_even_when_no_score_stands_out():
+    # The original's debug log (rtabmap-rgbd_dataset --udebug, 360_kidnap seed 0 per frame, its
+    # second Bayes update): "mean=0.021662, stdDev=0.003616, max=0.024219", so the two scores
+    # are 0.024219 and 0.019105, neither above mean + std; then "Highest hypothesis=1,
+    # value=0.076489", which only a virtual place likelihood of mean / std + 1 gives.
+    scores = np.array([0.024219, 2 * 0.021662 - 0.024219])
+    values, virtual = adjusted_likelihood(scores)
+    assert values.tolist() == [1.0, 1.0]
+    assert virtual == pytest.approx(0.021662 / 0.003616 + 1, rel=1e-3)
+    bayes = BayesFilter()
+    bayes.update([1], lambda location: {1: 0}, np.ones(1), 2.0)  # its first: one score, std 0
+    chain = {1: {1: 0, 2: 1}, 2: {2: 0, 1: 1}}
+    posterior = bayes.update([1, 2], chain.__getitem__, values, virtual)
+    assert highest_hypothesis(posterior).value == pytest.approx(0.076489, rel=1e-3)
 
 
 @pytest.mark.parametrize("scores", [[0.0, 3.0, 3.0], [0.0, 0.0, 0.0]])
@@ -295,6 +339,8 @@ def test_graph_neighbours_count_margins_by_odometry_links_and_keep_loop_links_on
 def test_similarity_counts_shared_words_against_the_larger_location():
     assert similarity(np.array([1, 2, 2, 3]), np.array([2, 2, 3, 4, 5])) == pytest.approx(3 / 5)
     assert similarity(np.array([1]), np.array([], int)) == 0.0
+    # Features with no word (-1) count in neither location (Signature::compareTo's invalid words).
+    assert similarity(np.array([1, 2, -1, -1]), np.array([2, 3, -1])) == pytest.approx(1 / 2)
 
 
 def location(location_id: int, words: np.ndarray, weight: int = 0) -> Location:
@@ -759,3 +805,93 @@ def test_bad_rtabmap_parameters_are_one_line_cli_errors(assignment, message, tmp
     )
     error = capsys.readouterr().err.strip()
     assert code == 2 and error.startswith("viewslam: error:") and message in error and "\n" not in error
+
+
+def line_of_poses(count: int, step: float) -> dict[int, np.ndarray]:
+    """Locations ``0 .. count - 1`` looking the same way, ``step`` apart along x."""
+    return {i: make_pose(np.eye(3), [i * step, 0.0, 0.0]) for i in range(count)}
+
+
+def test_proximity_paths_cut_a_chain_by_graph_depth_from_its_nearest_location():
+    # Rtabmap::getPaths: from the nearest remaining candidate, its neighbours by odometry links
+    # at margins 0 .. RGBD/ProximityMaxGraphDepth - 1 through candidates only, in id order.
+    memory = chain_memory(121)
+    poses = line_of_poses(121, 0.01)  # the camera at location 120, beyond 99
+    assert proximity_paths(memory, poses, 120, set(range(100)), 50) == {99: list(range(50, 100)), 49: list(range(50))}
+    # A location that is no candidate (here 70, say in STM) cuts the chain.
+    candidates = set(range(100)) - {70}
+    assert proximity_paths(memory, poses, 120, candidates, 50) == {
+        99: list(range(71, 100)),
+        69: list(range(20, 70)),
+        19: list(range(20)),
+    }
+
+
+def test_a_path_proposes_its_first_location_of_highest_likelihood_or_else_its_nearest():
+    memory = chain_memory(121, stm_size=10)  # 111 .. 120 in STM
+    poses = line_of_poses(121, 0.004)  # 0.48 m in all, inside RGBD/ProximityPathFilteringRadius 1
+    params = RtabmapParams()
+    nearby = set(range(120))
+    # Adjusted likelihoods are 1 for every location that does not stand out: the key of each
+    # path is its lowest id (NearestPathKey keeps the first that beats the one before), and the
+    # path of the higher key is compared first.
+    ones = dict.fromkeys(range(111), 1.0)
+    assert proximity_candidates(memory, poses, 120, nearby, ones, params) == [61, 11, 0]
+    # No likelihood at all: each path's nearest location.
+    assert proximity_candidates(memory, poses, 120, nearby, {}, params) == [110, 60, 10]
+    # One standing out takes its path first, and is proposed itself.
+    assert proximity_candidates(memory, poses, 120, nearby, {**ones, 30: 3.0}, params)[0] == 30
+
+
+class _RegistersEverything:
+    """``register`` standing in for PnP: every pair registers 1 cm apart."""
+
+    def __call__(self, old, new, camera, params, tree_seeds):
+        return Registration(make_pose(np.eye(3), [0.01, 0.0, 0.0]), 100, 100)
+
+
+def proximity_pipeline(poses: dict[int, np.ndarray]):
+    """A pipeline whose memory chains the ``poses``' locations, the last ten in STM."""
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.memory = chain_memory(len(poses), stm_size=10)
+    for i, pose in poses.items():
+        pipeline.graph.add_location(i, 0, pose, Variance(1e-4, 1e-4))
+        pipeline.edges.add_node(i, float(i))
+    return pipeline
+
+
+@pytest.mark.parametrize(("hypothesis_away", "suppressed"), [(0.08, True), (12.0, False)])
+def test_a_proximity_link_near_the_hypothesis_takes_its_place(monkeypatch, hypothesis_away, suppressed):
+    # Rtabmap::process: proximity detection runs before the hypothesis is registered; once a
+    # proximity link is added, a hypothesis among the locations within RGBD/LocalRadius and
+    # RGBD/ProximityMaxGraphDepth is not registered ("Proximity detection on N is close to
+    # loop closure M, ignoring loop closure transform estimation"). The hypothesis, location
+    # 20, is 39 links away (within 50); 12 m away it is beyond the 10 m radius, and is kept.
+    monkeypatch.setattr(rtabmap_pipeline, "register", _RegistersEverything())
+    poses = line_of_poses(60, 0.004)
+    poses[20] = make_pose(np.eye(3), [poses[59][0, 3] - hypothesis_away, 0.0, 0.0])
+    pipeline = proximity_pipeline(poses)
+    frame = Frame(59, 59.0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
+    events: list = []
+    left = pipeline._proximity(frame, pipeline.memory.locations[59], {}, Hypothesis(20, 0.5), Stopwatch(), events)
+    edges = [e for e in events if isinstance(e, GraphEdge)]
+    assert any(e.accepted and e.detection == "proximity" for e in edges)
+    assert (left is None) == suppressed
+    assert any(not e.accepted and e.from_keyframe == 20 for e in edges) == suppressed
+
+
+@pytest.mark.parametrize(("hypothesis", "accepted"), [(0, True), (2, False)])
+def test_a_hypothesis_in_a_map_not_joined_yet_needs_only_the_aggressive_threshold(hypothesis, accepted):
+    # Rtabmap::process (0.23.8, RGBD/AggressiveLoopThr 0.05): a hypothesis "not linked to
+    # previous map of that hypothesis" (outside the current map's optimised graph) is verified
+    # from 0.05; one in the current map still needs Rtabmap/LoopThr 0.11. Value 0.08 here.
+    pipeline = PIPELINE(CAMERA, RtabmapParams())
+    pipeline.memory = chain_memory(4)
+    for i in range(4):
+        pipeline.graph.add_location(i, i // 2, make_pose(np.eye(3), [0.1 * i, 0.0, 0.0]), Variance(1e-4, 1e-4))
+        pipeline.edges.add_node(i, float(i))
+    frame = Frame(3, 3.0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
+    events: list = []
+    location = pipeline.memory.locations[3]
+    assert pipeline._accepts(frame, location, Hypothesis(hypothesis, 0.08), 5, events) == accepted
+    assert not events  # a value under the threshold that applies is no rejected hypothesis

@@ -51,9 +51,10 @@ def adjusted_likelihood(scores: np.ndarray) -> tuple[np.ndarray, float]:
     """Rtabmap::adjustLikelihood: each location's likelihood and the virtual place's.
 
     With ``mean`` and ``std`` (sample standard deviation) of the non-zero scores, a score
-    above ``mean + std`` becomes ``(score - (std - 1e-4)) / mean`` and every other one 1;
-    the virtual place gets ``mean / std + 1``, or 2 when no score stands out or ``std`` is
-    about zero.
+    above ``mean + std`` becomes ``(score - (std - 1e-4)) / mean`` and every other one 1.
+    The virtual place gets ``mean / std + 1`` whenever some score is non-zero and ``std`` is
+    above 1e-4, whether or not a score stands out (0.23.8 takes the maximum over every
+    location, as its debug line "mean=…, stdDev=…, max=…" shows), and 2 otherwise.
     """
     scores = np.asarray(scores, float)
     nonzero = scores[scores > 0]
@@ -61,7 +62,7 @@ def adjusted_likelihood(scores: np.ndarray) -> tuple[np.ndarray, float]:
     std = float(nonzero.std(ddof=1)) if len(nonzero) > 1 else 0.0
     high = (scores > mean + std) & (mean != 0)
     location = np.where(high, (scores - (std - LIKELIHOOD_EPSILON)) / (mean or 1.0), 1.0)
-    virtual = mean / std + 1.0 if std > LIKELIHOOD_EPSILON and high.any() else 2.0
+    virtual = mean / std + 1.0 if std > LIKELIHOOD_EPSILON and len(nonzero) else 2.0
     return location, virtual
 
 

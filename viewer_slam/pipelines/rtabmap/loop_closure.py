@@ -154,65 +154,100 @@ class AppearanceDetector:
         )
 
 
+def nearby_locations(
+    memory: Memory, poses: dict[int, np.ndarray], location: int, same_map, params: RtabmapParams
+) -> set[int]:
+    """Memory::getNeighborsIdRadius: the locations of ``location``'s map within RGBD/LocalRadius
+    of it and at most RGBD/ProximityMaxGraphDepth links from it, STM included."""
+    here = poses[location][:3, 3]
+    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True, follow_proximity=True)
+    return {
+        i
+        for i in depth
+        if i != location and same_map(i) and np.linalg.norm(poses[i][:3, 3] - here) < params.local_radius
+    }
+
+
+def proximity_paths(
+    memory: Memory, poses: dict[int, np.ndarray], location: int, candidates: set[int], max_graph_depth: int
+) -> dict[int, list[int]]:
+    """Rtabmap::getPaths: the candidates cut into paths, each keyed by the candidate nearest
+    the camera that starts it. From the nearest remaining candidate, its neighbours by
+    odometry links within ``max_graph_depth``, through candidates only, in id order, each
+    joining the path when it is linked to one already in it; so a long chain of candidates
+    makes several paths, at most ``2 * max_graph_depth - 1`` locations each."""
+    here = poses[location][:3, 3]
+    remaining = set(candidates)
+    paths: dict[int, list[int]] = {}
+    while remaining:
+        nearest = min(sorted(remaining), key=lambda i: float(np.linalg.norm(poses[i][:3, 3] - here)))
+        reached = memory.neighbours(nearest, max_graph_depth, follow_loops=False, within=candidates)
+        path: list[int] = []
+        for i in sorted(reached):
+            if i in remaining and (not path or any(memory.locations[i].links.get(j) is Link.NEIGHBOUR for j in path)):
+                path.append(i)
+                remaining.discard(i)
+        paths[nearest] = path
+    return paths
+
+
 def proximity_candidates(
     memory: Memory,
     poses: dict[int, np.ndarray],
     location: int,
-    same_map,
+    nearby: set[int],
     likelihood: dict[int, float],
     params: RtabmapParams,
 ) -> list[int]:
     """Rtabmap::process, proximity detection by space: one location per path to register with.
 
-    Candidates are WM locations of the same map within RGBD/LocalRadius of ``location`` and
-    at most RGBD/ProximityMaxGraphDepth links from it (Memory::getNeighborsIdRadius); they
-    are cut into paths of consecutive locations, compared from the path of highest
-    likelihood (then newest) for at most RGBD/ProximityMaxPaths paths. In a path, the
-    locations looking within RGBD/ProximityAngle of the camera are kept and the one of
-    highest likelihood is taken, or the nearest when none has any; it must lie within
+    Candidates are the ``nearby`` locations (:func:`nearby_locations`) off STM, cut into
+    :func:`proximity_paths`. Paths are compared from the one of highest likelihood (keyed by
+    its first location holding it, or by its nearest location when none has any; higher id
+    first among equals) for at most RGBD/ProximityMaxPaths paths. In a path, of the locations
+    looking within RGBD/ProximityAngle of the camera, the path's location of highest likelihood
+    is taken if it is among them, else the nearest of them; it must lie within
     RGBD/ProximityPathFilteringRadius and not be linked to ``location`` already.
     """
     here = poses[location]
-    depth = memory.neighbours(location, params.proximity_max_graph_depth, loops_add_margin=True, follow_proximity=True)
-    stm = set(memory.stm)
-    nearby = sorted(
-        i
-        for i in depth
-        if i not in stm
-        and i != location
-        and same_map(i)
-        and np.linalg.norm(poses[i][:3, 3] - here[:3, 3]) < params.local_radius
-    )
-    paths: list[list[int]] = []
-    for i in nearby:
-        if paths and memory.locations[paths[-1][-1]].links.get(i) is Link.NEIGHBOUR:
-            paths[-1].append(i)
-        else:
-            paths.append([i])
+    paths = proximity_paths(memory, poses, location, nearby - set(memory.stm), params.proximity_max_graph_depth)
 
-    def path_key(path: list[int]) -> tuple[float, int]:
-        # NearestPathKey: the path's highest likelihood and the first location holding it.
-        value, first = max((likelihood.get(i, 0.0), -i) for i in path)
-        return value, -first
+    def path_key(item: tuple[int, list[int]]) -> tuple[float, int]:
+        # NearestPathKey(highest likelihood, its first location or the path's nearest).
+        nearest, path = item
+        value, key = 0.0, nearest
+        for i in path:
+            if likelihood.get(i, 0.0) > value:
+                value, key = likelihood[i], i
+        return value, key
 
-    ranked = sorted(paths, key=path_key, reverse=True)
+    ranked = sorted(paths.items(), key=path_key, reverse=True)
     if params.proximity_max_paths > 0:
         ranked = ranked[: params.proximity_max_paths]
     chosen = []
-    for path in ranked:
-        facing = [i for i in path if view_angle(poses[i], here) <= params.proximity_angle]
+    for item in ranked:
+        facing = [i for i in item[1] if view_angle(poses[i], here) <= params.proximity_angle]
         if not facing:
             continue
-        best = max(facing, key=lambda i: (likelihood.get(i, 0.0), -i))
-        if likelihood.get(best, 0.0) <= 0:
-            best = min(facing, key=lambda i: np.linalg.norm(poses[i][:3, 3] - here[:3, 3]))
-        close = (
-            np.linalg.norm(poses[best][:3, 3] - here[:3, 3]) < params.proximity_filtering_radius
-            or params.proximity_filtering_radius <= 0
+        value, key = path_key(item)
+        best = (
+            key
+            if value > 0 and key in facing
+            else min(facing, key=lambda i: float(np.linalg.norm(poses[i][:3, 3] - here[:3, 3])))
         )
-        if close and best not in memory.locations[location].links:
+        if (
+            within_filtering_radius(poses[best][:3, 3] - here[:3, 3], params)
+            and best not in memory.locations[location].links
+        ):
             chosen.append(best)
     return chosen
+
+
+def within_filtering_radius(translation: np.ndarray, params: RtabmapParams) -> bool:
+    """RGBD/ProximityPathFilteringRadius (0: no limit): how far a proximity candidate, and the
+    registration that links it, may reach."""
+    radius = params.proximity_filtering_radius
+    return radius <= 0 or float(np.linalg.norm(translation)) < radius
 
 
 def view_angle(a: np.ndarray, b: np.ndarray) -> float:

@@ -51,7 +51,9 @@ class Location:
 
 def similarity(words_a: np.ndarray, words_b: np.ndarray) -> float:
     """Share of words two locations have in common (counted with multiplicity) relative to
-    the larger of the two, as RTAB-Map compares signatures."""
+    the larger of the two, as RTAB-Map compares signatures (Signature::compareTo: features
+    without a word, -1 here, count in neither)."""
+    words_a, words_b = words_a[words_a >= 0], words_b[words_b >= 0]
     if len(words_a) == 0 or len(words_b) == 0:
         return 0.0
     ids_a, counts_a = np.unique(words_a, return_counts=True)
@@ -117,12 +119,13 @@ class Memory:
         follow_loops: bool = True,
         follow_proximity: bool = False,
         ltm_budget: int = 0,
+        within: set[int] | None = None,
     ) -> dict[int, int]:
         """Memory::getNeighborsId: locations within ``max_margin`` (0: any) neighbour links of
         ``start``, with their margin. Loop links are followed when ``follow_loops`` (proximity
         links too with ``follow_proximity``) and keep the margin unless ``loops_add_margin``.
         Up to ``ltm_budget`` LTM locations (-1: all) are entered, as the original loads them
-        from its database."""
+        from its database; with ``within`` (its ``nodesSet``), only those locations are."""
         found: dict[int, int] = {}
         same_margin: set[int] = set()
         frontier, margin, loaded = {start}, 0, 0
@@ -133,7 +136,7 @@ class Memory:
             while position < len(current):
                 location_id = current[position]
                 position += 1
-                if location_id in found:
+                if location_id in found or (within is not None and location_id not in within):
                     continue
                 if location_id in self.ltm:
                     if ltm_budget != -1 and loaded >= ltm_budget:

@@ -158,6 +158,13 @@ class RtabmapParams(PipelineParams):
     loop_threshold: float = Field(
         0.11, alias="Rtabmap/LoopThr", ge=0, le=1, description="posterior a loop hypothesis must exceed"
     )
+    aggressive_loop_threshold: float = Field(
+        0.05,
+        alias="RGBD/AggressiveLoopThr",
+        ge=0,
+        le=1,
+        description="Rtabmap/LoopThr's place for a hypothesis in a map not joined to the current one",
+    )
     loop_ratio: float = Field(
         0.0, alias="Rtabmap/LoopRatio", ge=0, description="a hypothesis must also exceed this ratio of the previous one"
     )

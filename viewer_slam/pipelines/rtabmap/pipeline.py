@@ -31,7 +31,14 @@ from ..thumbnails import thumbnail
 from .bayes import Hypothesis
 from .correspondences import TreeSeeds
 from .graph import LocationGraph, Variance
-from .loop_closure import AppearanceDetector, proximity_candidates, register
+from .loop_closure import (
+    AppearanceDetector,
+    Registration,
+    nearby_locations,
+    proximity_candidates,
+    register,
+    within_filtering_radius,
+)
 from .memory import Link, Location, Memory, similarity
 from .odometry import FrameToMapOdometry, OdometryResult
 from .params import RtabmapParams
@@ -232,23 +239,24 @@ class Rtabmap(Pipeline):
         """The camera stayed: a view similar to the last location strengthens it (weight)."""
         assert self.current_location is not None  # asked after the session's first location
         last = self.memory.locations[self.current_location]
-        words = self.vocabulary.quantize(self._strongest(features).descriptors)
+        words = self.vocabulary.quantize(features.descriptors[self._strongest(features)])
         if similarity(last.words, words) > self.params.rehearsal_similarity:
             last.weight += 1
 
-    def _strongest(self, features: Features) -> Features:
-        """The Kp/MaxFeatures strongest features, which a location keeps as its words."""
+    def _strongest(self, features: Features) -> np.ndarray:
+        """Rows of the Kp/MaxFeatures strongest features, the ones quantised to words."""
         order = np.argsort(-features.responses, kind="stable")[: self.params.words_per_location]
-        return features.subset(np.sort(order))
+        return np.sort(order)
 
     def _signature(self, features: Features) -> Features:
-        """The features a new location keeps: none when they are fewer than Kp/BadSignRatio of
-        the mean words per STM/WM location (Memory::createSignature), a bad signature that
-        takes no part in loop closure detection."""
-        kept = self._strongest(features)
-        if len(kept) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
-            return kept.subset(np.zeros(0, int))
-        return kept
+        """The features a new location keeps (Memory::createSignature with Mem/UseOdomFeatures):
+        all of odometry's, up to Vis/MaxFeatures, for its registrations, of which only the
+        Kp/MaxFeatures strongest become words; none when they are fewer than Kp/BadSignRatio
+        of the mean words per STM/WM location, a bad signature that takes no part in loop
+        closure detection."""
+        if len(features) < self.params.bad_signature_ratio * self.vocabulary.mean_words_per_location():
+            return features.subset(np.zeros(0, int))
+        return features
 
     # -- per location ------------------------------------------------------------------
 
@@ -258,7 +266,7 @@ class Rtabmap(Pipeline):
         start = time.perf_counter()
         kept = self._signature(features)
         location_id = len(self.memory.locations)
-        words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors)
+        words = watch("vocabulary", self.vocabulary.add_location, location_id, kept.descriptors, self._strongest(kept))
         location = Location(
             location_id,
             self.session,
@@ -313,14 +321,22 @@ class Rtabmap(Pipeline):
                 order, immune = watch("memory", self.memory.retrieval_order, hypothesis.location, p.max_retrieved)
                 retrieved = watch("memory", self.memory.retrieve, order, p.max_retrieved)
                 protected |= immune | set(retrieved)
-        closed = (
-            hypothesis is not None
+        pending = (
+            hypothesis
+            if hypothesis is not None
             and detection is not None
-            and self._consider(frame, location, hypothesis, detection.states, watch, events)
+            and self._accepts(frame, location, hypothesis, detection.states, events)
+            else None
         )
         self.last_hypothesis = hypothesis.value if hypothesis is not None else 0.0
-        if p.proximity_by_space and p.local_radius > 0 and not closed:
-            self._proximity(frame, location, detection.likelihood if detection else {}, watch, events)
+        if p.proximity_by_space and p.local_radius > 0:
+            pending = self._proximity(
+                frame, location, detection.likelihood if detection else {}, pending, watch, events
+            )
+        if pending is not None:
+            self._close(
+                frame, self.memory.locations[pending.location], location, Link.LOOP, pending.value, watch, events
+            )
         watch("memory", self._keep_budget, protected, 1 + len(retrieved), (time.perf_counter() - start) * 1e3)
         return events
 
@@ -351,22 +367,22 @@ class Rtabmap(Pipeline):
             location.weight = previous.weight + 1
             previous.weight = 0
 
-    def _consider(
-        self,
-        frame: Frame,
-        location: Location,
-        hypothesis: Hypothesis,
-        states: int,
-        watch: Stopwatch,
-        events: list[Event],
+    def _accepts(
+        self, frame: Frame, location: Location, hypothesis: Hypothesis, states: int, events: list[Event]
     ) -> bool:
-        """Rtabmap::process: verify the hypothesis when the sum of the loop closure
-        probabilities reaches Rtabmap/LoopThr, there is more than one location to choose
-        from, and (with Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
+        """Rtabmap::process: the hypothesis is to be verified when the sum of the loop closure
+        probabilities reaches Rtabmap/LoopThr (RGBD/AggressiveLoopThr, when lower, for a
+        hypothesis in a map not joined to the current one: "not linked to previous map of that
+        hypothesis"), there is more than one location to choose from, and (with
+        Rtabmap/LoopRatio) it has not fallen below that share of the previous one."""
         p, value, previous = self.params, hypothesis.value, self.last_hypothesis
+        threshold, name = p.loop_threshold, "Rtabmap/LoopThr"
+        joined = self.graph.map_of(hypothesis.location) == self.graph.map_of(location.id)
+        if not joined and p.aggressive_loop_threshold < threshold:
+            threshold, name = p.aggressive_loop_threshold, "RGBD/AggressiveLoopThr"
         reason = None
-        if value < p.loop_threshold:
-            reason = f"hypothesis {value:.2f} < Rtabmap/LoopThr {p.loop_threshold:g}"
+        if value < threshold:
+            reason = f"hypothesis {value:.2f} < {name} {threshold:g}"
         elif states <= 2:
             reason = "a single location to choose from"
         elif p.loop_ratio > 0 and previous and value < p.loop_ratio * previous:
@@ -374,10 +390,8 @@ class Rtabmap(Pipeline):
         elif p.loop_ratio > 0 and not previous:
             reason = "no previous hypothesis (Rtabmap/LoopRatio is on)"
         if reason is None:
-            return self._close(
-                frame, self.memory.locations[hypothesis.location], location, Link.LOOP, value, watch, events
-            )
-        if value >= p.loop_threshold:
+            return True
+        if value >= threshold:
             events.append(
                 GraphEdge(
                     frame.index,
@@ -392,19 +406,65 @@ class Rtabmap(Pipeline):
         return False
 
     def _proximity(
-        self, frame: Frame, location: Location, likelihood: dict[int, float], watch: Stopwatch, events: list[Event]
-    ) -> None:
-        """RGBD/ProximityBySpace: register with nearby locations of the same map off STM."""
+        self,
+        frame: Frame,
+        location: Location,
+        likelihood: dict[int, float],
+        hypothesis: Hypothesis | None,
+        watch: Stopwatch,
+        events: list[Event],
+    ) -> Hypothesis | None:
+        """RGBD/ProximityBySpace: register with nearby locations of the same map off STM, before
+        the loop closure hypothesis is, as Rtabmap::process does. A registration within
+        RGBD/ProximityPathFilteringRadius links the two; once one does, a hypothesis among the
+        nearby locations is not registered itself ("Proximity detection on N is close to loop
+        closure M, ignoring loop closure transform estimation"), and a link to the hypothesis
+        itself is a loop closure. Returns the hypothesis still to verify."""
         map_id = self.graph.map_of(location.id)
+        nearby = nearby_locations(
+            self.memory, self.graph.poses, location.id, lambda i: self.graph.map_of(i) == map_id, self.params
+        )
         for candidate in proximity_candidates(
-            self.memory,
-            self.graph.poses,
-            location.id,
-            lambda i: self.graph.map_of(i) == map_id,
-            likelihood,
-            self.params,
+            self.memory, self.graph.poses, location.id, nearby, likelihood, self.params
         ):
-            self._close(frame, self.memory.locations[candidate], location, Link.PROXIMITY, 0.0, watch, events)
+            old = self.memory.locations[candidate]
+            is_hypothesis = hypothesis is not None and candidate == hypothesis.location
+            link = Link.LOOP if is_hypothesis else Link.PROXIMITY
+            score = hypothesis.value if hypothesis is not None and is_hypothesis else 0.0
+            registration = self._register(frame, old, location, link, score, watch, events)
+            if registration is None:
+                continue
+            assert registration.relative is not None  # a registration that found no pose is None here
+            if not within_filtering_radius(registration.relative[:3, 3], self.params):
+                events.append(
+                    self._edge(
+                        frame,
+                        old,
+                        location,
+                        False,
+                        "registration reaches beyond RGBD/ProximityPathFilteringRadius",
+                        link,
+                        score,
+                        registration.inliers,
+                    )
+                )
+                continue
+            if hypothesis is not None and hypothesis.location in nearby:
+                if not is_hypothesis:
+                    events.append(
+                        self._edge(
+                            frame,
+                            self.memory.locations[hypothesis.location],
+                            location,
+                            False,
+                            f"proximity link to {candidate} nearby takes its place",
+                            Link.LOOP,
+                            hypothesis.value,
+                        )
+                    )
+                hypothesis = None
+            self._link(frame, old, location, link, score, registration, watch, events)
+        return hypothesis
 
     def _close(
         self,
@@ -417,38 +477,43 @@ class Rtabmap(Pipeline):
         events: list[Event],
     ) -> bool:
         """Register two locations by PnP and, if the optimised graph agrees, link them."""
+        registration = self._register(frame, old, new, link, score, watch, events)
+        return registration is not None and self._link(frame, old, new, link, score, registration, watch, events)
+
+    def _register(
+        self,
+        frame: Frame,
+        old: Location,
+        new: Location,
+        link: Link,
+        score: float,
+        watch: Stopwatch,
+        events: list[Event],
+    ) -> Registration | None:
+        """The PnP registration of two locations; None (and the reason, as an event) when it fails."""
         registration = watch("verification", register, old, new, self.camera, self.params, self.tree_seeds)
         if registration.relative is None:
-            events.append(
-                GraphEdge(
-                    frame.index,
-                    old.id,
-                    new.id,
-                    False,
-                    registration.rejected,
-                    self.edges.kind(old.id, new.id),
-                    score,
-                    registration.inliers,
-                    DETECTION[link],
-                )
-            )
-            return False
+            events.append(self._edge(frame, old, new, False, registration.rejected, link, score, registration.inliers))
+            return None
+        return registration
+
+    def _link(
+        self,
+        frame: Frame,
+        old: Location,
+        new: Location,
+        link: Link,
+        score: float,
+        registration: Registration,
+        watch: Stopwatch,
+        events: list[Event],
+    ) -> bool:
+        """Add a registered link to the graph and keep it if the optimised graph agrees."""
+        assert registration.relative is not None
         outcome = watch(
             "optimisation", self.graph.close_loop, old.id, new.id, registration.relative, registration.variance
         )
-        events.append(
-            GraphEdge(
-                frame.index,
-                old.id,
-                new.id,
-                outcome.accepted,
-                outcome.reason,
-                self.edges.kind(old.id, new.id),
-                score,
-                registration.inliers,
-                DETECTION[link],
-            )
-        )
+        events.append(self._edge(frame, old, new, outcome.accepted, outcome.reason, link, score, registration.inliers))
         if not outcome.accepted:
             return False
         self.memory.link(old.id, new.id, link)
@@ -464,6 +529,29 @@ class Rtabmap(Pipeline):
         )
         events.append(watch("optimisation", self._rebuilt_map, frame.index))
         return True
+
+    def _edge(
+        self,
+        frame: Frame,
+        old: Location,
+        new: Location,
+        accepted: bool,
+        reason: str,
+        link: Link,
+        score: float,
+        inliers: int = 0,
+    ) -> GraphEdge:
+        return GraphEdge(
+            frame.index,
+            old.id,
+            new.id,
+            accepted,
+            reason,
+            self.edges.kind(old.id, new.id),
+            score,
+            inliers,
+            DETECTION[link],
+        )
 
     def _keep_budget(self, protected: set[int], added: int, elapsed_ms: float) -> None:
         """Rtabmap/TimeThr and Rtabmap/MemoryThr: when the update took too long or WM holds too

@@ -50,7 +50,8 @@ class Vocabulary:
         self.seed = seed
         self._descriptors = np.zeros((0, 32), np.uint8)
         self._postings: dict[int, dict[int, int]] = defaultdict(dict)  # word -> {location: count}
-        self._sizes: dict[int, int] = {}  # location -> words held
+        self._sizes: dict[int, int] = {}  # location -> features held, quantised or not (Memory::getNi)
+        self._references: dict[int, int] = {}  # location -> features quantised to a word
         self._active = np.zeros(0, bool)  # held by an indexed location
         self._in_lsh = np.zeros(0, bool)
         self._index: cv2.flann.Index | None = None
@@ -62,8 +63,9 @@ class Vocabulary:
         return len(self._postings)
 
     def mean_words_per_location(self) -> int:
-        """Word references per indexed location, rounded down (Memory's meanWordsPerLocation)."""
-        return sum(self._sizes.values()) // len(self._sizes) if self._sizes else 0
+        """Word references per indexed location, rounded down (Memory's meanWordsPerLocation:
+        the dictionary's active references over the STM and WM locations)."""
+        return sum(self._references.values()) // len(self._references) if self._references else 0
 
     def quantize(self, descriptors: np.ndarray) -> np.ndarray:
         """Word id of each descriptor, -1 where no active word passes the ratio test."""
@@ -90,21 +92,26 @@ class Vocabulary:
         words[passes] = np.take_along_axis(ids, order, axis=1)[passes, 0]
         return words
 
-    def add_location(self, location: int, descriptors: np.ndarray) -> np.ndarray:
-        """Quantise a new location's descriptors, creating words for the unmatched ones, and
-        index it; returns the word id of each descriptor."""
-        words = self.quantize(descriptors)
-        new = np.flatnonzero(words < 0)
-        words[new] = len(self._descriptors) + np.arange(len(new))
-        self._descriptors = np.concatenate([self._descriptors, descriptors[new]])
+    def add_location(self, location: int, descriptors: np.ndarray, quantized: np.ndarray) -> np.ndarray:
+        """Quantise the ``quantized`` rows of a new location's descriptors, creating words for
+        the unmatched ones, and index the location; returns the word id of each descriptor,
+        -1 for the rows left out (Memory::createSignature quantises the Kp/MaxFeatures
+        strongest of the features a location keeps)."""
+        words = np.full(len(descriptors), -1)
+        chosen = descriptors[quantized]
+        found = self.quantize(chosen)
+        new = np.flatnonzero(found < 0)
+        found[new] = len(self._descriptors) + np.arange(len(new))
+        words[quantized] = found
+        self._descriptors = np.concatenate([self._descriptors, chosen[new]])
         self._active = np.concatenate([self._active, np.zeros(len(new), bool)])
         self._in_lsh = np.concatenate([self._in_lsh, np.zeros(len(new), bool)])
         self.index(location, words)
         return words
 
     def index(self, location: int, words: np.ndarray) -> None:
-        """Make ``location`` (and its words) searchable."""
-        ids, counts = np.unique(words, return_counts=True)
+        """Make ``location`` (and its words; -1 marks a feature with none) searchable."""
+        ids, counts = np.unique(words[words >= 0], return_counts=True)
         for word, count in zip(ids.tolist(), counts.tolist()):
             if not self._active[word]:
                 self._active[word] = True
@@ -112,10 +119,11 @@ class Vocabulary:
                     self._pending.add(word)
             self._postings[word][location] = count
         self._sizes[location] = len(words)
+        self._references[location] = int(counts.sum())
 
     def unindex(self, location: int, words: np.ndarray) -> None:
         """Remove ``location`` from the index; words no indexed location holds go inactive."""
-        for word in np.unique(words).tolist():
+        for word in np.unique(words[words >= 0]).tolist():
             postings = self._postings[word]
             postings.pop(location, None)
             if not postings:
@@ -123,6 +131,7 @@ class Vocabulary:
                 self._active[word] = False
                 self._pending.discard(word)
         self._sizes.pop(location, None)
+        self._references.pop(location, None)
 
     def _rebuild(self) -> None:
         self._indexed = np.flatnonzero(self._active)
