@@ -127,7 +127,7 @@ class FeatureExtractor:
         if self.adjusted is not None:
             keypoints = self.adjusted.detect(gray)
             if keypoints:
-                with_depth = ~np.isnan(self.backproject(np.array([k.pt for k in keypoints], np.float32), depth)[:, 0])
+                with_depth = ~np.isnan(self.backproject(cv2.KeyPoint_convert(keypoints), depth)[:, 0])
                 keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
         else:
             keypoints = self.detector.detect(gray, self._in_range(depth) if self.depth_mask else None)
@@ -149,7 +149,7 @@ class FeatureExtractor:
                 np.zeros((0, 3)),
                 self.binary,
             )
-        xy = np.array([k.pt for k in keypoints], dtype=np.float32)
+        xy = cv2.KeyPoint_convert(keypoints).reshape(-1, 2)  # float32, each keypoint's pt
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
