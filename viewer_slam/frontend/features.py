@@ -77,6 +77,11 @@ def _make_detector(kind: str, max_features: int):
     raise InputError(f"unknown feature detector {kind!r}; valid: {', '.join(DETECTORS)}")
 
 
+def _positions(keypoints: list) -> np.ndarray:
+    """The keypoints' ``pt`` as ``(N, 2)`` float32, gathered by OpenCV rather than one by one."""
+    return np.asarray(cv2.KeyPoint.convert(keypoints), dtype=np.float32).reshape(-1, 2)
+
+
 def _strongest(responses: np.ndarray, limit: int) -> np.ndarray:
     """Indices of the ``limit`` strongest keypoints, strongest first."""
     return np.argsort(-responses, kind="stable")[:limit]
@@ -127,7 +132,7 @@ class FeatureExtractor:
         if self.adjusted is not None:
             keypoints = self.adjusted.detect(gray)
             if keypoints:
-                with_depth = ~np.isnan(self.backproject(cv2.KeyPoint_convert(keypoints), depth)[:, 0])
+                with_depth = ~np.isnan(self.backproject(_positions(keypoints), depth)[:, 0])
                 keypoints = [k for k, keep in zip(keypoints, with_depth) if keep]
         else:
             keypoints = self.detector.detect(gray, self._in_range(depth) if self.depth_mask else None)
@@ -149,7 +154,7 @@ class FeatureExtractor:
                 np.zeros((0, 3)),
                 self.binary,
             )
-        xy = cv2.KeyPoint_convert(keypoints).reshape(-1, 2)  # float32, each keypoint's pt
+        xy = _positions(keypoints)
         responses = np.array([k.response for k in keypoints], dtype=np.float32)
         return Features(xy, descriptors, responses, self.backproject(xy, depth), self.binary)
 
