@@ -48,11 +48,10 @@ _CORNERS = cv2.FastFeatureDetector.create(threshold=CORNER_CONTRAST, nonmaxSuppr
 
 
 def measure_image(frame: Frame) -> ImageSignals:
-    full_grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
-    grey = full_grey[::IMAGE_STEP, ::IMAGE_STEP]
+    grey = frame.grey[::IMAGE_STEP, ::IMAGE_STEP]
     depth = frame.depth[::IMAGE_STEP, ::IMAGE_STEP]
     return ImageSignals(
-        corners=len(_CORNERS.detect(full_grey)),
+        corners=len(_CORNERS.detect(frame.grey)),
         color_std=float(grey.astype(np.float32).std()),
         uniform_share=_uniform_share(grey),
         valid_depth_share=int(np.count_nonzero((depth > 0) & (depth < np.inf))) / depth.size,

@@ -140,8 +140,10 @@ class FeatureExtractor:
             return keypoints
         return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
 
-    def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
-        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    def extract(self, rgb: np.ndarray, depth: np.ndarray, grey: np.ndarray | None = None) -> Features:
+        """The features of one RGB-D frame; ``grey``, when given, is ``rgb`` already in grey
+        levels (:attr:`~viewer_slam.dataset.frame.Frame.grey`), not converted again."""
+        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if grey is None else grey
         keypoints = self._detect(gray, depth)
         describer = self.describer or self.detector
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ([], None)
