@@ -1,8 +1,9 @@
+import gtsam
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from viewer_slam.backend.pose_graph import LINEAR_SOLVERS, Edge, PoseGraph, information_from_sigmas
+from viewer_slam.backend.pose_graph import LINEAR_SOLVERS, Edge, PoseGraph, information_from_sigmas, pose_matrices
 from viewer_slam.geometry.se3 import invert, make_pose
 
 
@@ -177,3 +178,18 @@ def test_poses_changed_between_optimisations_count_as_in_a_graph_built_anew(line
     assert grown.optimize() == fresh.optimize()
     for node_id, pose in fresh.poses.items():
         assert grown.poses[node_id].tobytes() == pose.tobytes()
+
+
+def test_pose_matrices_read_in_one_call_are_atpose3_s_to_the_bit_in_the_order_asked():
+    rng = np.random.default_rng(3)
+    ids = [7, 2, 40, 0, 13]
+    values = gtsam.Values()
+    for node_id in ids:
+        pose = np.eye(4)
+        pose[:3, :3] = Rotation.random(random_state=node_id).as_matrix()
+        pose[:3, 3] = rng.normal(scale=5.0, size=3)
+        values.insert(node_id, gtsam.Pose3(pose))
+    matrices = pose_matrices(values, ids)
+    assert matrices.shape == (len(ids), 4, 4)
+    for node_id, matrix in zip(ids, matrices):
+        assert matrix.tobytes() == values.atPose3(node_id).matrix().tobytes()

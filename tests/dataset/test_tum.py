@@ -160,10 +160,10 @@ def test_depth_factor_comes_from_the_camera(tmp_path):
     assert float(frame.depth[0, 0]) == 5.0
 
 
-@pytest.mark.parametrize("depth_factor", [5000.0, 1000.0, 5208.0, 1.0])
+@pytest.mark.parametrize("depth_factor", [5000.0, 1000.0, 5208.0, 1.0, 5000.1, 1000 / 3])  # the last two: not float32
 def test_every_16_bit_depth_reads_as_dividing_by_the_factor_gives_it(tmp_path, depth_factor):
-    """Depth images are converted by a table: to the bit what dividing and rounding to
-    float32 gives, for every value a PNG can hold."""
+    """Depth images are converted (in float32, or by a table for a factor float32 cannot
+    hold) to the bit as dividing and rounding to float32 gives, for every value a PNG can hold."""
     every = np.arange(1 << 16, dtype=np.uint16).reshape(256, 256)
     folder = tmp_path / "seq"
     (folder / "rgb").mkdir(parents=True)

@@ -40,6 +40,18 @@ def test_a_textured_frame_has_corners_spread_and_the_depth_share_it_holds():
     assert signals.valid_depth_share == pytest.approx(1 - 0.25 - 0.25 * 0.75)
 
 
+@pytest.mark.parametrize("levels", [(0, 255), (3, 250, 128, 137), tuple(range(256)), (9, 10), (100,)])
+@pytest.mark.parametrize("shape", [(6, 8), (5, 7), (1, 1), (2, 1)])
+def test_the_uniform_share_counted_on_the_histogram_is_the_sorted_median_s_to_the_bit(levels, shape):
+    """Even and odd counts, a median halfway between two levels, levels at the range's ends."""
+    rng = np.random.default_rng(len(levels) * 100 + shape[0])
+    for _ in range(50):
+        grey = rng.choice(np.array(levels, dtype=np.uint8), shape)
+        as_float = grey.astype(np.float32)
+        sorted_median = float(np.mean(np.abs(as_float - np.median(as_float)) <= signals_module.UNIFORM_TOLERANCE))
+        assert signals_module._uniform_share(grey) == sorted_median
+
+
 def test_groundtruth_motion_is_speed_and_rotation_rate_between_frames():
     stamps = np.arange(5) / 10.0
     poses = np.tile(np.eye(4), (5, 1, 1))

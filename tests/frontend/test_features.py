@@ -2,6 +2,7 @@ import cv2
 import numpy as np
 import pytest
 
+from viewer_slam.dataset.frame import Frame
 from viewer_slam.errors import InputError
 from viewer_slam.frontend.adjuster import AdjustedDetector, GridDetector, cell_ranges
 from viewer_slam.frontend.features import DETECTORS, FeatureExtractor, match_descriptors
@@ -29,6 +30,20 @@ def test_detectors_find_the_known_shift(kind):
     shift = second.keypoints[train] - first.keypoints[query]
     np.testing.assert_allclose(np.median(shift, axis=0), [4, 0], atol=0.5)
     assert len(np.unique(train)) == len(train)
+
+
+def test_the_frame_s_grey_is_converted_once_and_extracts_the_features_its_colour_does():
+    rng = np.random.default_rng(5)
+    rgb = cv2.GaussianBlur((rng.random((240, 320, 3)) * 255).astype(np.uint8), (5, 5), 1.5)  # colour, not grey
+    depth = np.full((240, 320), 1.5, np.float32)
+    frame = Frame(0, 0.0, rgb, depth)
+    assert frame.grey is frame.grey
+    assert np.array_equal(frame.grey, cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY))
+    from_colour = FeatureExtractor("ORB", 300, CAMERA, grid=3, adjuster_iterations=3).extract(rgb, depth)
+    from_grey = FeatureExtractor("ORB", 300, CAMERA, grid=3, adjuster_iterations=3).extract(rgb, depth, frame.grey)
+    assert len(from_colour) > 50
+    for field in ("keypoints", "descriptors", "responses", "points"):
+        assert getattr(from_grey, field).tobytes() == getattr(from_colour, field).tobytes()
 
 
 def test_points_are_nan_without_depth_and_backprojected_with_it():

@@ -6,8 +6,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from viewer_slam.frontend.ransac import (
+    JACOBI_SWEEPS,
     LARGE_THETA,
     LARGE_THETA_OVERFLOWS,
+    _largest_eigenvector,
+    _settled,
     jacobi_rotation,
     mahalanobis_squared,
     preferred_samples,
@@ -180,3 +183,109 @@ def test_jacobi_rotation_skips_the_square_roots_only_where_they_do_not_count():
     assert jacobi_rotation(LARGE_THETA) == (1 / 2**28, 1.0)
     t, c = jacobi_rotation(-np.inf)
     assert (t, c) == (0.0, 1.0) and np.signbit(t)
+
+
+@numba.njit(error_model="numpy")
+def _eigenvector_after_every_sweep(matrix):
+    """The Jacobi solve as it ran before it stopped at _settled: every sweep until the
+    off-diagonal part is zero or a sweep changes no bit."""
+    vectors = np.eye(4)
+    for _ in range(JACOBI_SWEEPS):
+        off = 0.0
+        for p in range(3):
+            for q in range(p + 1, 4):
+                off += matrix[p, q] * matrix[p, q]
+        if off == 0.0:
+            break
+        matrix_before, vectors_before = matrix.copy(), vectors.copy()
+        for p in range(3):
+            for q in range(p + 1, 4):
+                if matrix[p, q] == 0.0:
+                    continue
+                t, c = jacobi_rotation((matrix[q, q] - matrix[p, p]) / (2.0 * matrix[p, q]))
+                s = t * c
+                for k in range(4):
+                    kp, kq = matrix[k, p], matrix[k, q]
+                    matrix[k, p], matrix[k, q] = c * kp - s * kq, s * kp + c * kq
+                for k in range(4):
+                    pk, qk = matrix[p, k], matrix[q, k]
+                    matrix[p, k], matrix[q, k] = c * pk - s * qk, s * pk + c * qk
+                for k in range(4):
+                    kp, kq = vectors[k, p], vectors[k, q]
+                    vectors[k, p], vectors[k, q] = c * kp - s * kq, s * kp + c * kq
+        same = True
+        for i in range(4):
+            for j in range(4):
+                for old, new in ((matrix_before[i, j], matrix[i, j]), (vectors_before[i, j], vectors[i, j])):
+                    if not (old == new and np.copysign(1.0, old) == np.copysign(1.0, new)):
+                        same = False
+        if same:
+            break
+    best = 0
+    for k in range(1, 4):
+        if matrix[k, k] > matrix[best, best]:
+            best = k
+    return vectors[:, best].copy()
+
+
+def _horn(source: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Horn's symmetric 4x4 matrix of the correlation of two centred point sets."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = (source - source.mean(0)).T @ (target - target.mean(0))
+    return np.array(
+        [
+            [m00 + m11 + m22, m12 - m21, m20 - m02, m01 - m10],
+            [m12 - m21, m00 - m11 - m22, m01 + m10, m20 + m02],
+            [m20 - m02, m01 + m10, m11 - m00 - m22, m12 + m21],
+            [m01 - m10, m20 + m02, m12 + m21, m22 - m00 - m11],
+        ]
+    )
+
+
+def _symmetric_matrices(rng: np.random.Generator, count: int) -> list[np.ndarray]:
+    """Horn matrices of four-point fits at scales from micrometres to kilometres, symmetric
+    matrices with eigenvalues as close as 1e-13 of their size, repeated or zero, diagonal
+    ones, and one with NaN and infinity, also at a subnormal scale."""
+    matrices = []
+    for _ in range(count):
+        scale = 10.0 ** rng.uniform(-6, 3)
+        source = rng.normal(size=(4, 3)) * scale
+        rotation = Rotation.from_rotvec(rng.normal(size=3) * rng.uniform(0, 0.3)).as_matrix()
+        target = source @ rotation.T + rng.normal(size=(4, 3)) * scale * rng.choice([0.0, 1e-9, 1e-3, 0.3])
+        matrices.append(_horn(source, target))
+        basis = Rotation.random(random_state=rng).as_matrix()
+        quaternion_basis = np.linalg.qr(rng.normal(size=(4, 4)))[0]
+        eigenvalues = rng.normal(size=4) * 10.0 ** rng.uniform(-5, 5)
+        eigenvalues[1] = eigenvalues[0] * (1 + rng.choice([0.0, 1e-13, 1e-10, 1e-6]))
+        eigenvalues[2] = rng.choice([eigenvalues[2], 0.0])
+        near = quaternion_basis @ np.diag(eigenvalues) @ quaternion_basis.T
+        matrices.append((near + near.T) / 2)
+        matrices.append(np.diag(np.append(np.diag(basis), 1.0)))
+    broken = matrices[-2].copy()
+    broken[0, 2], broken[3, 1] = np.nan, np.inf
+    return [*matrices, broken, broken * 1e-300]
+
+
+def test_the_jacobi_solve_ends_early_with_the_same_vector_to_the_bit():
+    rng = np.random.default_rng(7)
+    for matrix in _symmetric_matrices(rng, 2000):
+        expected = _eigenvector_after_every_sweep(matrix.copy())
+        assert [_bits(v) for v in _largest_eigenvector(matrix.copy())] == [_bits(v) for v in expected], matrix
+
+
+def test_a_solve_settles_only_once_the_off_diagonal_part_is_below_the_last_bits():
+    vectors = np.linalg.qr(np.random.default_rng(0).normal(size=(4, 4)))[0]  # no entry near zero
+    horn = np.diag([0.3, -0.1, 0.05, -0.25])
+    horn[0, 1] = horn[1, 0] = 1e-30
+    assert _settled(horn, vectors)
+    assert not _settled(horn, np.eye(4))  # a rotation to come would move a zero entry of the vectors
+    horn[0, 1] = horn[1, 0] = 1e-9  # the rotation to come still moves the vectors' last bits
+    assert not _settled(horn, vectors)
+    horn[0, 1] = horn[1, 0] = 1e-30
+    for value in (np.nan, np.inf):
+        broken = horn.copy()
+        broken[2, 3] = value
+        assert not _settled(broken, vectors)
+    assert not _settled(horn, np.where(vectors > 0.8, np.nan, vectors))
+    twin = np.diag([0.3, 0.3, 0.05, -0.25])  # equal eigenvalues: rotations of any size to come
+    twin[0, 1] = twin[1, 0] = 1e-300
+    assert not _settled(twin, vectors)

@@ -52,6 +52,20 @@ def information_from_sigmas(rotation_sigma: float, translation_sigma: float) -> 
     return np.diag([rotation_sigma**-2] * 3 + [translation_sigma**-2] * 3)
 
 
+def pose_matrices(values: gtsam.Values, ids: list[int]) -> np.ndarray:
+    """The ``(N, 4, 4)`` matrices of the poses ``ids`` in ``values``, read in one call rather
+    than one ``atPose3`` each: GTSAM gives every pose's rotation (row by row) and translation
+    as a row, in key order, the same doubles ``Pose3.matrix`` holds."""
+    rows = gtsam.utilities.extractPose3(values)
+    position = {key: row for row, key in enumerate(values.keys())}
+    rows = rows[[position[node_id] for node_id in ids]]
+    matrices = np.zeros((len(ids), 4, 4))
+    matrices[:, :3, :3] = rows[:, :9].reshape(-1, 3, 3)
+    matrices[:, :3, 3] = rows[:, 9:]
+    matrices[:, 3, 3] = 1.0
+    return matrices
+
+
 class PoseGraph:
     """Nodes with initial guesses, between-edges and priors; optimised on demand."""
 
@@ -148,10 +162,10 @@ class PoseGraph:
         optimizer = gtsam.LevenbergMarquardtOptimizer(graph, values, parameters)
         before = optimizer.error()  # the optimiser's own graph.error of the values, before and after
         result = optimizer.optimize()
-        for node_id in self.poses:
-            self.poses[node_id] = result.atPose3(node_id).matrix()
+        optimised = pose_matrices(result, self._value_ids)
+        self.poses.update(zip(self._value_ids, optimised))
         self._values = gtsam.Values(result)
-        self._value_poses = np.stack([self.poses[node_id] for node_id in self._value_ids])
+        self._value_poses = optimised.copy()
         return before, optimizer.error()
 
     def _pcg_parameters(self) -> gtsam.PCGSolverParameters:

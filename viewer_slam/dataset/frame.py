@@ -3,6 +3,7 @@
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Protocol
 
@@ -27,6 +28,14 @@ class Frame:
     timestamp: float
     rgb: np.ndarray
     depth: np.ndarray
+
+    @cached_property
+    def grey(self) -> np.ndarray:
+        """``rgb`` in grey levels, ``(H, W)`` uint8 (OpenCV's RGB to grey), converted once for
+        all who read it: the image signals and the feature extraction of the same frame."""
+        import cv2  # OpenCV loads only when pixels are read, not for listings and groundtruth
+
+        return cv2.cvtColor(self.rgb, cv2.COLOR_RGB2GRAY)
 
 
 def select_frames(length: int, max_frames: int | None = None, stride: int = 1) -> range:

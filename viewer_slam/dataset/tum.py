@@ -84,7 +84,7 @@ class TumSequence(TimedFrames):
                 depth_path,
                 f"depth image must be single-channel 16-bit, found {raw_depth.dtype} with shape {raw_depth.shape}",
             )
-        depth = np.take(metres_per_unit(self.camera.depth_factor), raw_depth)  # as [raw_depth], a third faster
+        depth = depth_in_metres(raw_depth, self.camera.depth_factor)
         return Frame(index=index, timestamp=float(self.timestamps[index]), rgb=rgb, depth=depth)
 
     def frames(self, max_frames: int | None = None, stride: int = 1) -> Iterator[Frame]:
@@ -143,11 +143,24 @@ class TumSequence(TimedFrames):
         return cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if colour else image
 
 
+def depth_in_metres(raw: np.ndarray, depth_factor: float) -> np.ndarray:
+    """16-bit depth values in metres, float32, to the bit as ``(raw / depth_factor).astype(np.float32)``
+    gives them, without the float64 image that this makes.
+
+    Where float32 holds the factor exactly, dividing in float32 is that to the bit: a float32
+    quotient rounded through float64 first is the same, as float64 has more than twice
+    float32's digits and two more (Figueroa 1995). For other factors, a table of all 65,536
+    values; it takes three times as long.
+    """
+    if float(np.float32(depth_factor)) == depth_factor:
+        return np.divide(raw, np.float32(depth_factor), dtype=np.float32)
+    return np.take(metres_per_unit(depth_factor), raw)
+
+
 @cache
 def metres_per_unit(depth_factor: float) -> np.ndarray:
     """Every 16-bit depth value in metres, float32, as ``(value / depth_factor).astype(np.float32)``
-    gives it: a depth image is converted by one look-up per pixel, without the float64 image
-    that dividing it would make."""
+    gives it: a depth image is converted by one look-up per pixel."""
     return (np.arange(1 << 16) / depth_factor).astype(np.float32)
 
 

@@ -48,15 +48,32 @@ _CORNERS = cv2.FastFeatureDetector.create(threshold=CORNER_CONTRAST, nonmaxSuppr
 
 
 def measure_image(frame: Frame) -> ImageSignals:
-    full_grey = cv2.cvtColor(frame.rgb, cv2.COLOR_RGB2GRAY)
-    grey = full_grey[::IMAGE_STEP, ::IMAGE_STEP].astype(np.float32)
+    grey = frame.grey[::IMAGE_STEP, ::IMAGE_STEP]
     depth = frame.depth[::IMAGE_STEP, ::IMAGE_STEP]
     return ImageSignals(
-        corners=len(_CORNERS.detect(full_grey)),
-        color_std=float(grey.std()),
-        uniform_share=float(np.mean(np.abs(grey - np.median(grey)) <= UNIFORM_TOLERANCE)),
-        valid_depth_share=float(np.mean(np.isfinite(depth) & (depth > 0))),
+        corners=len(_CORNERS.detect(frame.grey)),
+        color_std=float(grey.astype(np.float32).std()),
+        uniform_share=_uniform_share(grey),
+        valid_depth_share=int(np.count_nonzero((depth > 0) & (depth < np.inf))) / depth.size,
     )
+
+
+def _uniform_share(grey: np.ndarray) -> float:
+    """The share of ``grey`` (uint8) within ``UNIFORM_TOLERANCE`` of its median, counted on its
+    256-bin histogram rather than by sorting: a grey level's pixels are all in or all out.
+
+    The median of an even count is the mean of the two middle levels, so it may fall halfway;
+    the levels within the tolerance are then those from ``ceil(median - tolerance)`` to
+    ``floor(median + tolerance)``. The quotient is the one the mean of a boolean mask gives,
+    a count divided by the size.
+    """
+    counts = np.bincount(grey.ravel(), minlength=256)
+    cumulative = np.cumsum(counts)
+    middle = (grey.size - 1) // 2
+    low = int(np.searchsorted(cumulative, middle, side="right"))
+    high = low if grey.size % 2 else int(np.searchsorted(cumulative, middle + 1, side="right"))
+    first, last = -(-(low + high - 2 * UNIFORM_TOLERANCE) // 2), (low + high + 2 * UNIFORM_TOLERANCE) // 2
+    return int(counts[max(first, 0) : last + 1].sum()) / grey.size
 
 
 class MeasuredImages:

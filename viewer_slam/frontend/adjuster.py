@@ -102,7 +102,9 @@ class GridDetector:
         """The cell's strongest keypoints, in image coordinates."""
         (top, bottom), (left, right) = rows, cols
         found = self.detectors[cell].detect(np.ascontiguousarray(gray[top:bottom, left:right]))
-        found = sorted(found, key=lambda k: -abs(k.response))[: self.per_cell]
+        # The order of a stable sort by -|response|, by NumPy rather than a Python key per keypoint.
+        strongest = np.argsort(-np.abs([k.response for k in found]), kind="stable")[: self.per_cell]
+        found = [found[i] for i in strongest]
         for keypoint in found:
             keypoint.pt = (keypoint.pt[0] + left, keypoint.pt[1] + top)
         return found

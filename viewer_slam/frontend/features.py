@@ -80,7 +80,7 @@ def _make_detector(kind: str, max_features: int):
 
 def _positions(keypoints: list) -> np.ndarray:
     """The keypoints' pixel positions, float32 (N, 2) as they hold them, read in one OpenCV call."""
-    return np.asarray(cv2.KeyPoint.convert(keypoints), np.float32)
+    return np.asarray(cv2.KeyPoint.convert(keypoints), np.float32).reshape(-1, 2)
 
 
 def _strongest(responses: np.ndarray, limit: int) -> np.ndarray:
@@ -141,8 +141,10 @@ class FeatureExtractor:
             return keypoints
         return [keypoints[i] for i in _strongest(np.array([k.response for k in keypoints]), self.max_features)]
 
-    def extract(self, rgb: np.ndarray, depth: np.ndarray) -> Features:
-        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
+    def extract(self, rgb: np.ndarray, depth: np.ndarray, grey: np.ndarray | None = None) -> Features:
+        """The features of one RGB-D frame; ``grey``, when given, is ``rgb`` already in grey
+        levels (:attr:`~viewer_slam.dataset.frame.Frame.grey`), not converted again."""
+        gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY) if grey is None else grey
         keypoints = self._detect(gray, depth)
         describer = self.describer or self.detector
         keypoints, descriptors = describer.compute(gray, keypoints) if keypoints else ([], None)

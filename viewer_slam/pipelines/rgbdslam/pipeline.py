@@ -166,7 +166,7 @@ class RgbdSlam(Pipeline):
         """The frame's features, those with a 3D point, and the milliseconds they took."""
         watch = Stopwatch()
         with watch("features"):
-            features = self.extractor.extract(frame.rgb, frame.depth)
+            features = self.extractor.extract(frame.rgb, frame.depth, frame.grey)
             measured = MeasuredFeatures.from_features(features)
         return features, measured, watch.ms["features"]
 
