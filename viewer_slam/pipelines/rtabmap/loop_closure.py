@@ -182,10 +182,13 @@ def proximity_paths(
     while remaining:
         nearest = min(sorted(remaining), key=lambda i: float(np.linalg.norm(poses[i][:3, 3] - here)))
         reached = memory.neighbours(nearest, max_graph_depth, follow_loops=False, within=candidates)
+        path_set: set[int] = set()
         path: list[int] = []
         for i in sorted(reached):
-            if i in remaining and (not path or any(memory.locations[i].links.get(j) is Link.NEIGHBOUR for j in path)):
+            linked = (j for j, kind in memory.locations[i].links.items() if kind is Link.NEIGHBOUR)
+            if i in remaining and (not path or any(j in path_set for j in linked)):
                 path.append(i)
+                path_set.add(i)
                 remaining.discard(i)
         paths[nearest] = path
     return paths
@@ -212,24 +215,23 @@ def proximity_candidates(
     here = poses[location]
     paths = proximity_paths(memory, poses, location, nearby - set(memory.stm), params.proximity_max_graph_depth)
 
-    def path_key(item: tuple[int, list[int]]) -> tuple[float, int]:
+    def path_key(nearest: int, path: list[int]) -> tuple[float, int]:
         # NearestPathKey(highest likelihood, its first location or the path's nearest).
-        nearest, path = item
         value, key = 0.0, nearest
         for i in path:
             if likelihood.get(i, 0.0) > value:
                 value, key = likelihood[i], i
         return value, key
 
-    ranked = sorted(paths.items(), key=path_key, reverse=True)
+    # A path's key location lies on it, so no two paths share a key.
+    ranked = sorted(((path_key(nearest, path), path) for nearest, path in paths.items()), reverse=True)
     if params.proximity_max_paths > 0:
         ranked = ranked[: params.proximity_max_paths]
     chosen = []
-    for item in ranked:
-        facing = [i for i in item[1] if view_angle(poses[i], here) <= params.proximity_angle]
+    for (value, key), path in ranked:
+        facing = [i for i in path if view_angle(poses[i], here) <= params.proximity_angle]
         if not facing:
             continue
-        value, key = path_key(item)
         best = (
             key
             if value > 0 and key in facing
