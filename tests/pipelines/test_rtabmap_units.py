@@ -631,6 +631,26 @@ def test_bundle_adjustment_drops_inliers_whose_depth_disagrees_and_key_frames_re
     assert [len(r) for r in odometry.map.references[:300]] == [1 + (i in matched) for i in range(300)]
 
 
+@pytest.mark.parametrize(("repeat_once", "guided_registrations"), [(True, 1), (False, 0)])
+def test_a_registration_repeated_once_is_bundle_adjusted_once_after_its_repeat(
+    monkeypatch, repeat_once, guided_registrations
+):
+    """Registration::computeTransformationMod makes the Reg/RepeatOnce repeat of a registration
+    without a guess before it returns, and OdometryF2M bundle-adjusts only what it returns: the
+    map's second frame (no velocity yet) is adjusted once, whether repeated or not."""
+    world, words = scene(), descriptors(300, np.random.default_rng(2))
+    moved = make_pose(Rotation.from_rotvec([0, np.radians(2), 0]).as_matrix(), [0.02, 0, 0.01])
+    odometry = FrameToMapOdometry(CAMERA, apply_overrides(RtabmapParams(), {"Reg/RepeatOnce": repeat_once}, "test"))
+    adjusted, guides = [], []
+    bundle, guided = odometry._bundle_adjust, odometry.guided_matches
+    monkeypatch.setattr(odometry, "_bundle_adjust", lambda *args: adjusted.append(args) or bundle(*args))
+    monkeypatch.setattr(odometry, "guided_matches", lambda f, pose: guides.append(pose) or guided(f, pose))
+    odometry.process(view(world, np.eye(4), words), 0 / 30)
+    result = odometry.process(view(world, moved, words), 1 / 30)
+    assert np.allclose(result.pose, moved, atol=1e-3)
+    assert len(guides) == guided_registrations and len(adjusted) == 1
+
+
 def test_a_key_frame_observes_every_matched_map_point_and_adds_only_the_features_that_matched_none():
     """OdometryF2M: a matched feature carries its map word's id, inlier or not."""
     world, words = scene(), descriptors(300, np.random.default_rng(2))

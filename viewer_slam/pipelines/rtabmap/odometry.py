@@ -327,8 +327,9 @@ class FrameToMapOdometry:
                 self.params.correspondence_nn_type,
                 self.tree_seeds,
             )
-            result = self._solve(features, matches.query, matches.train, self.pose)
-            if result.pose is not None and self.params.repeat_once and self.params.guess_window > 0:
+            repeats = self.params.repeat_once and self.params.guess_window > 0
+            result = self._solve(features, matches.query, matches.train, self.pose, adjust=not repeats)
+            if result.pose is not None and repeats:
                 features = features.subset(matches.kept)
                 result = self._solve_guided(features, result.pose)
                 result.kept = matches.kept
@@ -360,11 +361,18 @@ class FrameToMapOdometry:
         )
 
     def _solve(
-        self, features: Features, feature_index: np.ndarray, map_index: np.ndarray, shown_without_pose: np.ndarray
+        self,
+        features: Features,
+        feature_index: np.ndarray,
+        map_index: np.ndarray,
+        shown_without_pose: np.ndarray,
+        adjust: bool = True,
     ) -> OdometryResult:
-        """PnP RANSAC on the matches, then (OdomF2M/BundleAdjustment) the local bundle
-        adjustment; the matched map points are shown projected with the estimated pose, or
-        ``shown_without_pose`` when registration failed."""
+        """PnP RANSAC on the matches, then, when ``adjust``, (OdomF2M/BundleAdjustment) the
+        local bundle adjustment; the matched map points are shown projected with the estimated
+        pose, or ``shown_without_pose`` when registration failed. A registration Reg/RepeatOnce
+        makes again is not adjusted: RTAB-Map repeats it inside the registration
+        (``Registration::computeTransformationMod``), and OdometryF2M adjusts only what that returns."""
         params = self.params
         solution = solve_pnp_ransac(
             self.map.points[map_index],
@@ -386,7 +394,7 @@ class FrameToMapOdometry:
                 features.points[feature_index[inliers]],
             )
             map_points = self.map.points[map_index[inliers]]
-            if params.bundle_adjustment:
+            if adjust and params.bundle_adjustment:
                 pose, inliers, map_points, variance = self._bundle_adjust(
                     features, feature_index, map_index, inliers, pose, variance
                 )
