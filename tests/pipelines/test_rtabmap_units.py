@@ -847,20 +847,27 @@ def test_proximity_paths_cut_a_chain_by_graph_depth_from_its_nearest_location():
     }
 
 
-def test_a_path_proposes_its_first_location_of_highest_likelihood_or_else_its_nearest():
+def test_a_path_proposes_its_location_nearest_the_camera_among_those_facing_it():
+    """RTAB-Map 0.23.8 keys a path by the highest likelihood on it and its nearest location
+    (``NearestPathKey``) and proposes that nearest location when it faces the camera, else the
+    nearest of those that do: on 360_kidnap per frame its debug log shows, at location 87, the
+    revisited start as a path of 27 locations all within RGBD/ProximityAngle, and the link goes
+    to 27, its nearest, not to 1, the first of likelihood 1 (every location's adjusted
+    likelihood is at least 1)."""
     memory = chain_memory(121, stm_size=10)  # 111 .. 120 in STM
     poses = line_of_poses(121, 0.004)  # 0.48 m in all, inside RGBD/ProximityPathFilteringRadius 1
     params = RtabmapParams()
     nearby = set(range(120))
-    # Adjusted likelihoods are 1 for every location that does not stand out: the key of each
-    # path is its lowest id (NearestPathKey keeps the first that beats the one before), and the
-    # path of the higher key is compared first.
     ones = dict.fromkeys(range(111), 1.0)
-    assert proximity_candidates(memory, poses, 120, nearby, ones, params) == [61, 11, 0]
-    # No likelihood at all: each path's nearest location.
+    # Equal likelihoods: the path whose nearest location has the higher id first.
+    assert proximity_candidates(memory, poses, 120, nearby, ones, params) == [110, 60, 10]
     assert proximity_candidates(memory, poses, 120, nearby, {}, params) == [110, 60, 10]
-    # One standing out takes its path first, and is proposed itself.
-    assert proximity_candidates(memory, poses, 120, nearby, {**ones, 30: 3.0}, params)[0] == 30
+    # A location standing out takes its path first; the path still proposes its nearest.
+    assert proximity_candidates(memory, poses, 120, nearby, {**ones, 30: 3.0}, params) == [60, 110, 10]
+    # A nearest location turned away (60 degrees, over RGBD/ProximityAngle 45) gives way to the
+    # nearest of those facing the camera.
+    poses[110] = poses[110] @ make_pose(Rotation.from_rotvec([0, np.radians(60), 0]).as_matrix(), [0, 0, 0])
+    assert proximity_candidates(memory, poses, 120, nearby, ones, params) == [109, 60, 10]
 
 
 class _RegistersEverything:

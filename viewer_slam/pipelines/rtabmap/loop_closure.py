@@ -202,41 +202,35 @@ def proximity_candidates(
     likelihood: dict[int, float],
     params: RtabmapParams,
 ) -> list[int]:
-    """Rtabmap::process, proximity detection by space: one location per path to register with.
+    """Rtabmap::process, proximity detection by space (RTAB-Map 0.23.8): one location per path
+    to register with.
 
     Candidates are the ``nearby`` locations (:func:`nearby_locations`) off STM, cut into
-    :func:`proximity_paths`. Paths are compared from the one of highest likelihood (keyed by
-    its first location holding it, or by its nearest location when none has any; higher id
-    first among equals) for at most RGBD/ProximityMaxPaths paths. In a path, of the locations
-    looking within RGBD/ProximityAngle of the camera, the path's location of highest likelihood
-    is taken if it is among them, else the nearest of them; it must lie within
-    RGBD/ProximityPathFilteringRadius and not be linked to ``location`` already.
+    :func:`proximity_paths`. Paths are compared from the one of highest likelihood (the highest
+    any of its locations holds; among equals the one whose nearest location has the higher id)
+    for at most RGBD/ProximityMaxPaths paths: ``NearestPathKey(highest likelihood, nearest id)``.
+    Of a path's locations looking within RGBD/ProximityAngle of the camera, the nearest is
+    proposed (its key's location when that one faces the camera, else the nearest of those
+    that do); it must lie within RGBD/ProximityPathFilteringRadius and not be linked to
+    ``location`` already.
     """
     here = poses[location]
     paths = proximity_paths(memory, poses, location, nearby - set(memory.stm), params.proximity_max_graph_depth)
-
-    def path_key(nearest: int, path: list[int]) -> tuple[float, int]:
-        # NearestPathKey(highest likelihood, its first location or the path's nearest).
-        value, key = 0.0, nearest
-        for i in path:
-            if likelihood.get(i, 0.0) > value:
-                value, key = likelihood[i], i
-        return value, key
-
-    # A path's key location lies on it, so no two paths share a key.
-    ranked = sorted(((path_key(nearest, path), path) for nearest, path in paths.items()), reverse=True)
+    ranked = sorted(
+        (
+            ((max((likelihood.get(i, 0.0) for i in path), default=0.0), nearest), path)
+            for nearest, path in paths.items()
+        ),
+        reverse=True,
+    )
     if params.proximity_max_paths > 0:
         ranked = ranked[: params.proximity_max_paths]
     chosen = []
-    for (value, key), path in ranked:
+    for _, path in ranked:
         facing = [i for i in path if view_angle(poses[i], here) <= params.proximity_angle]
         if not facing:
             continue
-        best = (
-            key
-            if value > 0 and key in facing
-            else min(facing, key=lambda i: float(np.linalg.norm(poses[i][:3, 3] - here[:3, 3])))
-        )
+        best = min(facing, key=lambda i: float(np.linalg.norm(poses[i][:3, 3] - here[:3, 3])))
         if (
             within_filtering_radius(poses[best][:3, 3] - here[:3, 3], params)
             and best not in memory.locations[location].links
