@@ -700,6 +700,24 @@ def test_a_loop_closure_the_graph_cannot_absorb_is_rejected_and_undone():
     assert all(np.array_equal(graph.poses[i], poses[i]) for i in poses)
 
 
+@pytest.mark.parametrize("with_wrong", [False, True])
+def test_an_updates_links_are_kept_or_rejected_together(with_wrong):
+    """Rtabmap::process optimises once with all the links of an update and, when a link of the
+    graph then disagrees by more than RGBD/OptimizeMaxError, rejects all of them ("Rejecting all
+    added loop closures ... in this iteration"): a consistent link goes with a wrong one."""
+    graph = chain_graph(drift=0.0)
+    poses = {i: p.copy() for i, p in graph.poses.items()}
+    right = invert(poses[0]) @ poses[9]
+    links = [(0, 9, right, Variance(1e-4, 1e-4))]
+    if with_wrong:
+        links.append((0, 5, make_pose(np.eye(3), [1.0, 0, 0]), Variance(1e-4, 1e-4)))
+    outcome = graph.close_loops(links)
+    assert outcome.accepted != with_wrong
+    assert len(graph.pose_graph.edges) == 9 + (0 if with_wrong else 1)
+    if with_wrong:
+        assert all(np.array_equal(graph.poses[i], poses[i]) for i in poses)
+
+
 def test_a_closure_between_sessions_joins_the_newer_map_to_the_older():
     graph = LocationGraph(iterations=20, max_error=3.0)
     graph.add_location(0, 0, np.eye(4), Variance(1e-4, 1e-4))
@@ -900,7 +918,9 @@ def test_a_proximity_link_near_the_hypothesis_takes_its_place(monkeypatch, hypot
     pipeline = proximity_pipeline(poses)
     frame = Frame(59, 59.0, np.zeros((1, 1, 3), np.uint8), np.zeros((1, 1), np.float32))
     events: list = []
-    left = pipeline._proximity(frame, pipeline.memory.locations[59], {}, Hypothesis(20, 0.5), Stopwatch(), events)
+    location, registered = pipeline.memory.locations[59], []
+    left = pipeline._proximity(frame, location, {}, Hypothesis(20, 0.5), registered, Stopwatch(), events)
+    pipeline._link(frame, location, registered, Stopwatch(), events)
     edges = [e for e in events if isinstance(e, GraphEdge)]
     assert any(e.accepted and e.detection == "proximity" for e in edges)
     assert (left is None) == suppressed

@@ -117,17 +117,26 @@ class LocationGraph:
 
     def close_loop(self, old: int, new: int, relative: np.ndarray, variance: Variance) -> ClosureOutcome:
         """Add the link ``relative = T_old^-1 T_new``, optimise, and keep it if consistent."""
-        edge = Edge(old, new, relative, link_information(variance))
         if self.map_of(old) != self.map_of(new):
             self._join_maps(old, new, relative)
-            self.pose_graph.add_edge(edge)
+            self.pose_graph.add_edge(Edge(old, new, relative, link_information(variance)))
             return ClosureOutcome(True, "maps joined")
+        return self.close_loops([(old, new, relative, variance)])
+
+    def close_loops(self, links: list[tuple[int, int, np.ndarray, Variance]]) -> ClosureOutcome:
+        """Add the links ``(old, new, T_old^-1 T_new, variance)`` of one map together, optimise
+        once, and keep them all if no link of the graph then disagrees by more than
+        RGBD/OptimizeMaxError of its standard deviation, else none: ``Rtabmap::process`` checks
+        an update's links together ("Rejecting all added loop closures ... in this iteration")."""
+        edges = [Edge(old, new, relative, link_information(variance)) for old, new, relative, variance in links]
         saved = dict(self.poses)
-        self.pose_graph.add_edge(edge)
+        for edge in edges:
+            self.pose_graph.add_edge(edge)
         before, after = self.pose_graph.optimize(self.iterations)
         error = self.largest_link_error()
         if self.max_error > 0 and error > self.max_error:
-            self.pose_graph.remove_edge(edge)
+            for edge in edges:
+                self.pose_graph.remove_edge(edge)
             self.pose_graph.poses.update(saved)
             return ClosureOutcome(False, f"optimisation error {error:.1f} > {self.max_error:g}", before, after)
         return ClosureOutcome(True, "accepted", before, after)

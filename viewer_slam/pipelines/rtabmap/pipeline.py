@@ -30,7 +30,7 @@ from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from .bayes import Hypothesis
 from .correspondences import TreeSeeds
-from .graph import LocationGraph, Variance
+from .graph import ClosureOutcome, LocationGraph, Variance
 from .loop_closure import (
     AppearanceDetector,
     Registration,
@@ -51,6 +51,26 @@ MAP_POINTS_LIMIT = 200_000  # a rebuilt map is subsampled to at most this many p
 # Vis/MinDepth 0 means no limit, but a zero depth is a missing one (a TUM depth image's 0),
 # so the nearest usable depth is just above it.
 NEAREST_MEASURED_DEPTH = 1e-3
+
+
+@dataclass
+class Registered:
+    """A verified registration of the update, to be linked with the update's others."""
+
+    old: Location
+    kind: Link
+    score: float
+    registration: Registration
+
+    @property
+    def inliers(self) -> int:
+        return self.registration.inliers
+
+    @property
+    def relation(self) -> tuple[np.ndarray, Variance]:
+        """``T_old^-1 T_new`` and its variance, as the graph takes a link."""
+        assert self.registration.relative is not None  # only a registration with a pose is kept
+        return self.registration.relative, self.registration.variance
 
 
 @dataclass
@@ -329,14 +349,18 @@ class Rtabmap(Pipeline):
             else None
         )
         self.last_hypothesis = hypothesis.value if hypothesis is not None else 0.0
+        registered: list[Registered] = []
         if p.proximity_by_space and p.local_radius > 0:
             pending = self._proximity(
-                frame, location, detection.likelihood if detection else {}, pending, watch, events
+                frame, location, detection.likelihood if detection else {}, pending, registered, watch, events
             )
         if pending is not None:
-            self._close(
-                frame, self.memory.locations[pending.location], location, Link.LOOP, pending.value, watch, events
-            )
+            old = self.memory.locations[pending.location]
+            registration = self._register(frame, old, location, Link.LOOP, pending.value, watch, events)
+            if registration is not None:
+                registered.append(Registered(old, Link.LOOP, pending.value, registration))
+        if registered:
+            self._link(frame, location, registered, watch, events)
         watch("memory", self._keep_budget, protected, 1 + len(retrieved), (time.perf_counter() - start) * 1e3)
         return events
 
@@ -411,6 +435,7 @@ class Rtabmap(Pipeline):
         location: Location,
         likelihood: dict[int, float],
         hypothesis: Hypothesis | None,
+        registered: list[Registered],
         watch: Stopwatch,
         events: list[Event],
     ) -> Hypothesis | None:
@@ -419,7 +444,8 @@ class Rtabmap(Pipeline):
         RGBD/ProximityPathFilteringRadius links the two; once one does, a hypothesis among the
         nearby locations is not registered itself ("Proximity detection on N is close to loop
         closure M, ignoring loop closure transform estimation"), and a link to the hypothesis
-        itself is a loop closure. Returns the hypothesis still to verify."""
+        itself is a loop closure. The registrations go to ``registered``, to be linked with the
+        update's others; returns the hypothesis still to verify."""
         map_id = self.graph.map_of(location.id)
         nearby = nearby_locations(
             self.memory, self.graph.poses, location.id, lambda i: self.graph.map_of(i) == map_id, self.params
@@ -463,22 +489,8 @@ class Rtabmap(Pipeline):
                         )
                     )
                 hypothesis = None
-            self._link(frame, old, location, link, score, registration, watch, events)
+            registered.append(Registered(old, link, score, registration))
         return hypothesis
-
-    def _close(
-        self,
-        frame: Frame,
-        old: Location,
-        new: Location,
-        link: Link,
-        score: float,
-        watch: Stopwatch,
-        events: list[Event],
-    ) -> bool:
-        """Register two locations by PnP and, if the optimised graph agrees, link them."""
-        registration = self._register(frame, old, new, link, score, watch, events)
-        return registration is not None and self._link(frame, old, new, link, score, registration, watch, events)
 
     def _register(
         self,
@@ -498,25 +510,40 @@ class Rtabmap(Pipeline):
         return registration
 
     def _link(
-        self,
-        frame: Frame,
-        old: Location,
-        new: Location,
-        link: Link,
-        score: float,
-        registration: Registration,
-        watch: Stopwatch,
-        events: list[Event],
-    ) -> bool:
-        """Add a registered link to the graph and keep it if the optimised graph agrees."""
-        assert registration.relative is not None
-        outcome = watch(
-            "optimisation", self.graph.close_loop, old.id, new.id, registration.relative, registration.variance
-        )
-        events.append(self._edge(frame, old, new, outcome.accepted, outcome.reason, link, score, registration.inliers))
-        if not outcome.accepted:
-            return False
-        self.memory.link(old.id, new.id, link)
+        self, frame: Frame, new: Location, registered: list[Registered], watch: Stopwatch, events: list[Event]
+    ) -> None:
+        """Add the update's registered links to the graph (Rtabmap::process): a link to another
+        map joins it; the others are optimised together and kept only if the graph then agrees
+        with every link, else all of them are rejected."""
+        accepted = []
+        within: list[Registered] = []
+        for link in registered:
+            if self.graph.map_of(link.old.id) != self.graph.map_of(new.id):
+                outcome = watch("optimisation", self.graph.close_loop, link.old.id, new.id, *link.relation)
+                events.append(
+                    self._edge(frame, link.old, new, True, outcome.reason, link.kind, link.score, link.inliers)
+                )
+                accepted.append(link)
+            else:
+                within.append(link)
+        outcome = ClosureOutcome(True, "maps joined")
+        if within:
+            outcome = watch(
+                "optimisation", self.graph.close_loops, [(link.old.id, new.id, *link.relation) for link in within]
+            )
+            reason = outcome.reason
+            if not outcome.accepted and len(within) > 1:
+                reason += f" (with the update's {len(within)} links)"
+            for link in within:
+                events.append(
+                    self._edge(frame, link.old, new, outcome.accepted, reason, link.kind, link.score, link.inliers)
+                )
+            if outcome.accepted:
+                accepted += within
+        if not accepted:
+            return
+        for link in accepted:
+            self.memory.link(link.old.id, new.id, link.kind)
         ids = np.array(sorted(self.graph.poses))
         events.append(
             GraphOptimized(
@@ -528,7 +555,6 @@ class Rtabmap(Pipeline):
             )
         )
         events.append(watch("optimisation", self._rebuilt_map, frame.index))
-        return True
 
     def _edge(
         self,
