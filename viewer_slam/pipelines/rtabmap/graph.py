@@ -73,6 +73,7 @@ class ClosureOutcome:
     reason: str
     error_before: float = 0.0
     error_after: float = 0.0
+    joined_maps: bool = False  # a link to another map: it moved that map, optimising nothing
 
 
 class LocationGraph:
@@ -115,20 +116,29 @@ class LocationGraph:
             Edge(previous, location, invert(self.odometry[previous]) @ odometry_pose, link_information(variance))
         )
 
-    def close_loop(self, old: int, new: int, relative: np.ndarray, variance: Variance) -> ClosureOutcome:
-        """Add the link ``relative = T_old^-1 T_new``, optimise, and keep it if consistent."""
-        if self.map_of(old) != self.map_of(new):
-            self._join_maps(old, new, relative)
-            self.pose_graph.add_edge(Edge(old, new, relative, link_information(variance)))
-            return ClosureOutcome(True, "maps joined")
-        return self.close_loops([(old, new, relative, variance)])
+    def close_loops(self, links: list[tuple[int, int, np.ndarray, Variance]]) -> list[ClosureOutcome]:
+        """Add the links ``(old, new, T_old^-1 T_new, variance)`` of one update, each with its
+        outcome. A link to another map joins it as it comes. The others are optimised together
+        and kept only if no link of the graph then disagrees by more than RGBD/OptimizeMaxError
+        of its standard deviation, else none of them: ``Rtabmap::process`` checks an update's
+        links together ("Rejecting all added loop closures ... in this iteration")."""
+        outcomes: dict[int, ClosureOutcome] = {}
+        within: dict[int, Edge] = {}
+        for i, (old, new, relative, variance) in enumerate(links):
+            edge = Edge(old, new, relative, link_information(variance))
+            if self.map_of(old) != self.map_of(new):
+                self._join_maps(old, new, relative)
+                self.pose_graph.add_edge(edge)
+                outcomes[i] = ClosureOutcome(True, "maps joined", joined_maps=True)
+            else:
+                within[i] = edge
+        if within:
+            together = self._close_together(list(within.values()))
+            outcomes.update(dict.fromkeys(within, together))
+        return [outcomes[i] for i in range(len(links))]
 
-    def close_loops(self, links: list[tuple[int, int, np.ndarray, Variance]]) -> ClosureOutcome:
-        """Add the links ``(old, new, T_old^-1 T_new, variance)`` of one map together, optimise
-        once, and keep them all if no link of the graph then disagrees by more than
-        RGBD/OptimizeMaxError of its standard deviation, else none: ``Rtabmap::process`` checks
-        an update's links together ("Rejecting all added loop closures ... in this iteration")."""
-        edges = [Edge(old, new, relative, link_information(variance)) for old, new, relative, variance in links]
+    def _close_together(self, edges: list[Edge]) -> ClosureOutcome:
+        """Add ``edges``, optimise once, and keep them all if consistent, else remove them all."""
         saved = dict(self.poses)
         for edge in edges:
             self.pose_graph.add_edge(edge)
@@ -138,7 +148,10 @@ class LocationGraph:
             for edge in edges:
                 self.pose_graph.remove_edge(edge)
             self.pose_graph.poses.update(saved)
-            return ClosureOutcome(False, f"optimisation error {error:.1f} > {self.max_error:g}", before, after)
+            reason = f"optimisation error {error:.1f} > {self.max_error:g}"
+            if len(edges) > 1:
+                reason += f" (with the update's {len(edges)} links)"
+            return ClosureOutcome(False, reason, before, after)
         return ClosureOutcome(True, "accepted", before, after)
 
     def largest_link_error(self) -> float:

@@ -221,6 +221,7 @@ def proximity_candidates(
             ((max((likelihood.get(i, 0.0) for i in path), default=0.0), nearest), path)
             for nearest, path in paths.items()
         ),
+        key=lambda ranked_path: ranked_path[0],
         reverse=True,
     )
     if params.proximity_max_paths > 0:

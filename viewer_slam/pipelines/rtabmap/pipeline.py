@@ -30,7 +30,7 @@ from ..stopwatch import Stopwatch
 from ..thumbnails import thumbnail
 from .bayes import Hypothesis
 from .correspondences import TreeSeeds
-from .graph import ClosureOutcome, LocationGraph, Variance
+from .graph import LocationGraph, Variance
 from .loop_closure import (
     AppearanceDetector,
     Registration,
@@ -441,7 +441,7 @@ class Rtabmap(Pipeline):
     ) -> Hypothesis | None:
         """RGBD/ProximityBySpace: register with nearby locations of the same map off STM, before
         the loop closure hypothesis is, as Rtabmap::process does. A registration within
-        RGBD/ProximityPathFilteringRadius links the two; once one does, a hypothesis among the
+        RGBD/ProximityPathFilteringRadius is kept to link; once one is, a hypothesis among the
         nearby locations is not registered itself ("Proximity detection on N is close to loop
         closure M, ignoring loop closure transform estimation"), and a link to the hypothesis
         itself is a loop closure. The registrations go to ``registered``, to be linked with the
@@ -512,46 +512,29 @@ class Rtabmap(Pipeline):
     def _link(
         self, frame: Frame, new: Location, registered: list[Registered], watch: Stopwatch, events: list[Event]
     ) -> None:
-        """Add the update's registered links to the graph (Rtabmap::process): a link to another
-        map joins it; the others are optimised together and kept only if the graph then agrees
-        with every link, else all of them are rejected."""
-        accepted = []
-        within: list[Registered] = []
-        for link in registered:
-            if self.graph.map_of(link.old.id) != self.graph.map_of(new.id):
-                outcome = watch("optimisation", self.graph.close_loop, link.old.id, new.id, *link.relation)
-                events.append(
-                    self._edge(frame, link.old, new, True, outcome.reason, link.kind, link.score, link.inliers)
-                )
-                accepted.append(link)
-            else:
-                within.append(link)
-        outcome = ClosureOutcome(True, "maps joined")
-        if within:
-            outcome = watch(
-                "optimisation", self.graph.close_loops, [(link.old.id, new.id, *link.relation) for link in within]
+        """Add the update's registered links to the graph, which joins maps and keeps or rejects
+        the others together (:meth:`LocationGraph.close_loops`)."""
+        outcomes = watch(
+            "optimisation", self.graph.close_loops, [(link.old.id, new.id, *link.relation) for link in registered]
+        )
+        for link, outcome in zip(registered, outcomes, strict=True):
+            events.append(
+                self._edge(frame, link.old, new, outcome.accepted, outcome.reason, link.kind, link.score, link.inliers)
             )
-            reason = outcome.reason
-            if not outcome.accepted and len(within) > 1:
-                reason += f" (with the update's {len(within)} links)"
-            for link in within:
-                events.append(
-                    self._edge(frame, link.old, new, outcome.accepted, reason, link.kind, link.score, link.inliers)
-                )
-            if outcome.accepted:
-                accepted += within
+        accepted = [link for link, outcome in zip(registered, outcomes, strict=True) if outcome.accepted]
         if not accepted:
             return
         for link in accepted:
             self.memory.link(link.old.id, new.id, link.kind)
+        optimised = next((outcome for outcome in outcomes if not outcome.joined_maps), outcomes[0])
         ids = np.array(sorted(self.graph.poses))
         events.append(
             GraphOptimized(
                 frame.index,
                 ids,
                 np.stack([self.graph.poses[i] for i in ids]),
-                outcome.error_before,
-                outcome.error_after,
+                optimised.error_before,
+                optimised.error_after,
             )
         )
         events.append(watch("optimisation", self._rebuilt_map, frame.index))
