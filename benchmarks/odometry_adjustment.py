@@ -28,16 +28,14 @@ import viewer_slam.code_paths  # noqa: F401  (before NumPy loads: holds it to on
 
 import numpy as np
 
-from viewer_slam.dataset.sources import open_source
+from viewer_slam.dataset.sources import RgbdSequence, open_source
 from viewer_slam.errors import InputError
 from viewer_slam.evaluation import evaluate
 from viewer_slam.evaluation.rpe import DeltaUnit
-from viewer_slam.geometry.trajectory import Trajectory
-from viewer_slam.pipelines.events import Event, TrajectoryFinal
 
 from . import lab
 from .figures import REPO, invocation, stamp, write_block
-from .oracle import render
+from .oracle import render, spread
 
 DOCUMENT = REPO / "docs" / "pipelines" / "rtabmap.md"
 BLOCK = "odometry-adjustment"
@@ -49,45 +47,36 @@ CONFIGURATIONS: dict[str, dict[str, float]] = {
 DEPTH_SAMPLES = 10  # depth images read for the median depth, spread over the frames
 
 
-def median_depth(folder: Path, frames: int) -> float:
+def median_depth(sequence: RgbdSequence, frames: int) -> float:
     """Median of the valid depth (m) over DEPTH_SAMPLES images among the first ``frames``."""
-    sequence = open_source(folder)
     stride = max(1, min(frames, len(sequence)) // DEPTH_SAMPLES)
     depth = [frame.depth[frame.depth > 0] for frame in sequence.frames(max_frames=frames, stride=stride)]
     return float(np.median(np.concatenate(depth)))
 
 
-def odometry_errors(folder: Path, configuration: dict[str, float], seed: int, frames: int) -> tuple[int, float, float]:
+def odometry_errors(
+    sequence: RgbdSequence, configuration: dict[str, float], seed: int, frames: int
+) -> tuple[int, float, float]:
     """Frames with an odometry pose, the odometry's RPE over one frame (mm, RMSE) and its ATE
-    (cm, RMSE) over the first ``frames`` frames of ``folder``."""
-    sequence = open_source(folder)
-    if sequence.groundtruth is None:
-        raise InputError(f"{folder}: no groundtruth.txt, so no error to measure")
-    events: list[Event] = []
+    (cm, RMSE) over the first ``frames`` frames of ``sequence`` (which has a groundtruth)."""
+    assert sequence.groundtruth is not None  # opened by with_groundtruth
     spec = lab.pipeline_spec("rtabmap", preset=configuration, seed=seed)
-    lab.run(sequence, spec, "rtabmap", max_frames=frames, sinks=[events.append])
-    final = next(event for event in reversed(events) if isinstance(event, TrajectoryFinal))
-    assert final.odometry_poses is not None  # rtabmap keeps its odometry poses
-    odometry = Trajectory(final.timestamps, final.odometry_poses)
+    odometry = lab.run(sequence, spec, "rtabmap", max_frames=frames).run.odometry
+    assert odometry is not None  # rtabmap keeps its odometry poses
     scored = evaluate(sequence.groundtruth, odometry, delta=1, delta_unit=DeltaUnit.FRAMES)
     return len(odometry), 1000 * lab.rmse(scored.rpe_trans), 100 * lab.rmse(scored.ate)
 
 
-def measure(folders: dict[str, Path], frames: int, seeds: int) -> list[dict]:
-    """One row per folder (by label): its median depth, and per configuration the frames
+def measure(sequences: dict[str, RgbdSequence], frames: int, seeds: int) -> list[dict]:
+    """One row per sequence (by label): its median depth, and per configuration the frames
     tracked and the errors over the seeds."""
     rows = []
-    for label, folder in folders.items():
-        row: dict = {"folder": label, "depth": median_depth(folder, frames), "runs": {}}
+    for label, sequence in sequences.items():
+        row: dict = {"folder": label, "depth": median_depth(sequence, frames), "runs": {}}
         for name, configuration in CONFIGURATIONS.items():
-            row["runs"][name] = [odometry_errors(folder, configuration, seed, frames) for seed in range(seeds)]
+            row["runs"][name] = [odometry_errors(sequence, configuration, seed, frames) for seed in range(seeds)]
         rows.append(row)
     return rows
-
-
-def _span(values: list[float], digits: int) -> str:
-    low, high = min(values), max(values)
-    return f"{low:.{digits}f}" if round(low, digits) == round(high, digits) else f"{low:.{digits}f}–{high:.{digits}f}"
 
 
 def table(rows: list[dict]) -> str:
@@ -102,7 +91,7 @@ def table(rows: list[dict]) -> str:
             runs = row["runs"][name]
             tracked = statistics.median(run[0] for run in runs)
             cells.append(
-                f"{_span([run[1] for run in runs], 1)} / {_span([run[2] for run in runs], 2)} ({tracked:.0f} frames)"
+                f"{spread([run[1] for run in runs], 1)} / {spread([run[2] for run in runs])} ({tracked:.0f} frames)"
             )
         lines.append(f"| {row['folder']} | {row['depth']:.2f} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
@@ -133,15 +122,24 @@ def main(argv: list[str] | None = None) -> int:
     options = parser.parse_args(arguments)
     if options.frames < 2 or options.seeds < 1:
         raise InputError("--frames must be at least 2 and --seeds at least 1")
-    folders = {scene: _rendered(scene, options.out) for scene in options.render}
-    folders.update((folder.name, folder) for folder in options.folders)
-    if not folders:
+    folders = {folder.name: with_groundtruth(folder) for folder in options.folders}
+    if not folders and not options.render:
         raise InputError("no frames: give a TUM folder or --render SCENE:SEED")
-    text = f"{stamp(invocation(parser.prog, arguments))}\n\n{table(measure(folders, options.frames, options.seeds))}"
+    rendered = {scene: with_groundtruth(_rendered(scene, options.out)) for scene in options.render}
+    sequences = {**rendered, **folders}
+    text = f"{stamp(invocation(parser.prog, arguments))}\n\n{table(measure(sequences, options.frames, options.seeds))}"
     if options.docs:
         write_block(DOCUMENT, BLOCK, text)
     print(text)
     return 0
+
+
+def with_groundtruth(folder: Path) -> RgbdSequence:
+    """The frames of ``folder``, refused without a groundtruth to measure against."""
+    sequence = open_source(folder)
+    if sequence.groundtruth is None:
+        raise InputError(f"{folder}: no groundtruth.txt, so no error to measure")
+    return sequence
 
 
 def _rendered(scene: str, out: Path) -> Path:

@@ -261,13 +261,15 @@ def ate_cm(sequence: RgbdSequence, trajectory: Trajectory) -> float | None:
     return None if math.isnan(rmse) else 100 * rmse
 
 
-def spread(values: list) -> str:
+def spread(values: list, digits: int = 2) -> str:
+    """The min–max of ``values`` (None left out, "–" for none), a float to ``digits`` decimals;
+    one value where both ends read the same."""
     values = [value for value in values if value is not None]
     if not values:
         return "–"
-    low, high = min(values), max(values)
-    text = (lambda v: f"{v:.2f}") if isinstance(low, float) else str
-    return text(low) if low == high else f"{text(low)}–{text(high)}"
+    text = (lambda v: f"{v:.{digits}f}") if isinstance(min(values), float) else str
+    low, high = text(min(values)), text(max(values))
+    return low if low == high else f"{low}–{high}"
 
 
 def resumption_text(resumed: list[tuple[int, int]]) -> str:
